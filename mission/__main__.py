@@ -1,0 +1,5 @@
+import sys
+
+from mission.cli import main
+
+sys.exit(main())

@@ -1,0 +1,108 @@
+"""The `mission` command line: one parser, one module per verb under mission/commands/.
+
+Exit codes: 0 success, 1 the mission / detection failed, 2 usage or config error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+from mission.core.errors import MissionError
+
+VERBS = {
+    "run": "run a mission in the pybullet simulation (the embedded default world)",
+    "detect": "run a perception source on image files",
+    "viz": "draw a tree file (unicode, ascii, dot, svg, png, html) or a recorded tick",
+    "plugins": "list installed perception plugins",
+    "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
+    "replay": "run the tree on a recorded rosbag2",
+    "bench": "run the benchmarks and write their figures",
+}
+
+
+def _add_run(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", default=None, help="scenario name under sim/scenarios/ or a YAML path")
+    p.add_argument("--config", default=None, help="mission config YAML (defaults built in)")
+    p.add_argument("--tree", default=None, help="tree XML file (overrides the config's `tree`)")
+    p.add_argument("--seed", type=int, default=0, help="randomisation seed (default 0)")
+    p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR")
+    p.add_argument("--max-duration", type=float, default=None, help="simulated seconds before giving up")
+    p.add_argument("--record", default=None, metavar="FILE", help="record the camera + map view (.gif/.mp4)")
+    p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
+    p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
+    p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
+    p.add_argument("--port", type=int, default=8765, help="port for --serve (127.0.0.1 only)")
+    p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
+
+
+def _add_detect(p: argparse.ArgumentParser) -> None:
+    p.add_argument("images", nargs="+", metavar="IMAGE")
+    p.add_argument("--source", default="aruco", help="perception plugin name (default aruco)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="plugin param, YAML value (repeatable), e.g. --set marker_size_m=0.15")
+    p.add_argument("--intrinsics", default=None, metavar="FX,FY,CX,CY",
+                   help="camera intrinsics; without them the fallback pinhole is used (fx=fy=0.9·W)")
+    p.add_argument("--json", action="store_true", help="one JSON object per image on stdout")
+
+
+def _add_viz(p: argparse.ArgumentParser) -> None:
+    p.add_argument("tree", nargs="?", default=None, metavar="TREE.xml")
+    p.add_argument("--format", default="unicode", choices=["unicode", "ascii", "dot", "svg", "png", "html"])
+    p.add_argument("-o", "--output", default=None, metavar="FILE")
+    p.add_argument("--log", default=None, metavar="FILE", help="a JSON-lines tick log from `mission run --log`")
+    p.add_argument("--tick", type=int, default=None, help="with --log: render the tree as it was at tick N")
+
+
+def _add_tree(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", default=None, help="mission config YAML")
+    p.add_argument("ros_args", nargs=argparse.REMAINDER, help="--ros-args … passed to rclpy")
+
+
+def _add_replay(p: argparse.ArgumentParser) -> None:
+    p.add_argument("bag", metavar="BAG")
+    p.add_argument("--config", default=None, help="mission config YAML")
+    p.add_argument("--rate", type=float, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
+    p.add_argument("--json", action="store_true", help="print detections as JSON lines")
+
+
+def _add_bench(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
+    p.add_argument("--json", action="store_true", help="print machine-readable results")
+    p.add_argument("--only", default=None, help="comma-separated benchmark names")
+    p.add_argument("-o", "--output", default="bench/results", metavar="DIR", help="where figures go")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
+    sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
+    adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree,
+              "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None}
+    for verb, help_text in VERBS.items():
+        p = sub.add_parser(verb, help=help_text, description=help_text)
+        adders[verb](p)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        module = importlib.import_module(f"mission.commands.{args.verb}")
+    except ModuleNotFoundError as err:
+        if err.name == f"mission.commands.{args.verb}":
+            print(f"mission: error: `mission {args.verb}` is not available in this build", file=sys.stderr)
+            return 2
+        raise
+    try:
+        return int(module.main(args) or 0)
+    except MissionError as err:
+        print(f"mission: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

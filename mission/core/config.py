@@ -1,0 +1,140 @@
+"""Config schema and loading: one validated object, or one line saying which file and key is wrong.
+
+Models are pydantic with ``extra="forbid"``, so a typo in a key is an error, not a silent default.
+Other floors reuse :func:`load_model` / :func:`validate_model` for their own files (scenarios, plugin params).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from mission.core.errors import ConfigError
+
+M = TypeVar("M", bound=BaseModel)
+
+
+class StrictModel(BaseModel):
+    """Base for every config section: unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+def _dotted(loc: tuple[Any, ...], prefix: str = "") -> str:
+    out = prefix
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+def format_validation_error(err: ValidationError, *, file: str | None, prefix: str = "") -> ConfigError:
+    """The first problem of a pydantic error as a one-line ConfigError naming file and dotted key."""
+    first = err.errors()[0]
+    key = _dotted(tuple(first["loc"]), prefix)
+    kind = first["type"]
+    if kind == "extra_forbidden":
+        msg = "unknown key"
+    elif kind == "missing":
+        msg = "required key is missing"
+    else:
+        got = first.get("input")
+        msg = f"{first['msg'].lower()}, got {got!r}" if not isinstance(got, dict) else first["msg"].lower()
+    more = len(err.errors()) - 1
+    if more:
+        msg += f" (and {more} more problem{'s' if more > 1 else ''})"
+    return ConfigError(msg, file=file, key=key)
+
+
+def validate_model(model: type[M], data: Any, *, file: str | None = None, prefix: str = "") -> M:
+    """Validate a mapping into `model`, raising a one-line ConfigError on the first problem."""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a mapping, got {type(data).__name__}", file=file, key=prefix or None)
+    try:
+        return model.model_validate(data)
+    except ValidationError as err:
+        raise format_validation_error(err, file=file, prefix=prefix) from None
+
+
+def read_yaml(path: str | Path) -> Any:
+    """Parse a YAML file; a missing file or bad syntax is a ConfigError naming the file (and line)."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError("file not found" if not p.exists() else "not a file", file=str(path))
+    try:
+        with p.open(encoding="utf-8") as fh:
+            return yaml.safe_load(fh)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        raise ConfigError(f"{where}invalid YAML: {problem}", file=str(path)) from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"cannot read: {err}", file=str(path)) from None
+
+
+def load_model(model: type[M], path: str | Path) -> M:
+    """Read and validate a YAML file into `model`."""
+    return validate_model(model, read_yaml(path), file=str(path))
+
+
+# --------------------------------------------------------------------------------------------------
+# The mission config file (`--config FILE`)
+# --------------------------------------------------------------------------------------------------
+
+
+class SourceConfig(StrictModel):
+    """One perception source: which plugin, its instance name, and its own params (validated by the plugin)."""
+
+    plugin: str
+    name: str | None = None  # defaults to the plugin name; must be unique when a plugin is used twice
+    params: dict[str, Any] = Field(default_factory=dict)
+
+
+class TargetSpec(StrictModel):
+    """What a named target looks like to perception; unset fields match anything."""
+
+    marker_id: int | None = None
+    label: str | None = None
+    source: str | None = None  # instance name of the source that must have produced the detection
+
+
+class PerceptionConfig(StrictModel):
+    sources: list[SourceConfig] = Field(
+        default_factory=lambda: [SourceConfig(plugin="aruco", params={"dictionary": "DICT_4X4_250"})]
+    )
+    # "all": every source's detections are used; "hybrid": when a precise source (aruco/apriltag) sees a
+    # target, detections of the same target from coarse sources (vlm) are dropped (long-range discovery
+    # by the VLM, close-range precision from the fiducial).
+    policy: Literal["all", "hybrid"] = "hybrid"
+    targets: dict[str, TargetSpec] = Field(
+        default_factory=lambda: {"target": TargetSpec(marker_id=7), "dock": TargetSpec(marker_id=0)}
+    )
+
+
+class RunConfig(StrictModel):
+    tick_hz: float = Field(10.0, gt=0, le=200)
+    max_duration_s: float = Field(180.0, gt=0)
+
+
+class MissionConfig(StrictModel):
+    """Top-level config; every section has defaults, so an empty file is a valid config."""
+
+    tree: str = "mission.xml"  # a path, or a file name under trees/
+    perception: PerceptionConfig = Field(default_factory=PerceptionConfig)
+    run: RunConfig = Field(default_factory=RunConfig)
+    sim: dict[str, Any] = Field(default_factory=dict)  # validated by the sim (sim/config.py)
+
+
+def load_config(path: str | Path | None) -> MissionConfig:
+    """The mission config from `path`, or the defaults when no file is given."""
+    if path is None:
+        return MissionConfig()
+    return load_model(MissionConfig, path)

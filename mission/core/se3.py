@@ -1,0 +1,162 @@
+"""The one SE(3) helper: rigid transforms as 4×4 numpy arrays, quaternions as (x, y, z, w).
+
+Naming follows the TF convention: ``T_a_b`` maps points expressed in frame b into frame a
+(the pose of b in a), so ``T_a_c = T_a_b @ T_b_c`` and ``inv(T_a_b) == T_b_a``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+ArrayLike = Sequence[float] | np.ndarray
+
+
+def normalize_quat(q: ArrayLike) -> np.ndarray:
+    """Unit quaternion with w ≥ 0 (one representative of ±q); raises on a zero or non-finite input."""
+    q = np.asarray(q, dtype=np.float64).reshape(4)
+    n = float(np.linalg.norm(q))
+    if not math.isfinite(n) or n < 1e-12:
+        raise ValueError(f"quaternion {q.tolist()} cannot be normalised")
+    q = q / n
+    return -q if q[3] < 0 else q
+
+
+def quat_to_matrix(q: ArrayLike) -> np.ndarray:
+    """3×3 rotation matrix of quaternion (x, y, z, w)."""
+    x, y, z, w = normalize_quat(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quat(r: np.ndarray) -> np.ndarray:
+    """Quaternion (x, y, z, w) of a 3×3 rotation matrix (Shepperd's method, stable for all angles)."""
+    m = np.asarray(r, dtype=np.float64)[:3, :3]
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0:
+        s = math.sqrt(tr + 1.0) * 2
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
+        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
+        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+    return normalize_quat(q)
+
+
+def rvec_to_matrix(rvec: ArrayLike) -> np.ndarray:
+    """Rodrigues: axis-angle vector (OpenCV's rvec) → 3×3 rotation."""
+    v = np.asarray(rvec, dtype=np.float64).reshape(3)
+    theta = float(np.linalg.norm(v))
+    if theta < 1e-12:
+        return np.eye(3)
+    k = v / theta
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(theta) * kx + (1 - math.cos(theta)) * (kx @ kx)
+
+
+def matrix_to_rvec(r: np.ndarray) -> np.ndarray:
+    """3×3 rotation → axis-angle vector (OpenCV's rvec)."""
+    q = matrix_to_quat(r)
+    s = float(np.linalg.norm(q[:3]))
+    if s < 1e-12:
+        return np.zeros(3)
+    angle = 2.0 * math.atan2(s, q[3])
+    return q[:3] / s * angle
+
+
+def transform(rotation: np.ndarray | None = None, translation: ArrayLike | None = None) -> np.ndarray:
+    """A 4×4 transform from a 3×3 rotation and a translation (either may be omitted)."""
+    t = np.eye(4)
+    if rotation is not None:
+        t[:3, :3] = np.asarray(rotation, dtype=np.float64)
+    if translation is not None:
+        t[:3, 3] = np.asarray(translation, dtype=np.float64).reshape(3)
+    return t
+
+
+def from_pos_quat(position: ArrayLike, quat: ArrayLike) -> np.ndarray:
+    """4×4 transform from a position and a quaternion (x, y, z, w)."""
+    return transform(quat_to_matrix(quat), position)
+
+
+def to_pos_quat(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position (3,), quaternion (4,)) of a 4×4 transform."""
+    return np.asarray(t[:3, 3], dtype=np.float64).copy(), matrix_to_quat(t[:3, :3])
+
+
+def invert(t: np.ndarray) -> np.ndarray:
+    """Inverse of a rigid transform (uses Rᵀ, not a general matrix inverse)."""
+    r = t[:3, :3]
+    out = np.eye(4)
+    out[:3, :3] = r.T
+    out[:3, 3] = -r.T @ t[:3, 3]
+    return out
+
+
+def compose(*ts: np.ndarray) -> np.ndarray:
+    """T0 @ T1 @ … — chain transforms left to right (T_a_b, T_b_c, … → T_a_z)."""
+    out = np.eye(4)
+    for t in ts:
+        out = out @ t
+    return out
+
+
+def apply(t: np.ndarray, points: ArrayLike) -> np.ndarray:
+    """Transform N×3 (or 3,) points by a 4×4 transform."""
+    p = np.asarray(points, dtype=np.float64)
+    flat = p.reshape(-1, 3)
+    out = flat @ t[:3, :3].T + t[:3, 3]
+    return out.reshape(p.shape)
+
+
+def rot_x(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]], dtype=np.float64)
+
+
+def rot_y(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]], dtype=np.float64)
+
+
+def rot_z(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]], dtype=np.float64)
+
+
+def planar(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
+    """The 4×4 transform of a floor pose (x, y, yaw) at height z."""
+    return transform(rot_z(yaw), (x, y, z))
+
+
+def yaw_of(t: np.ndarray) -> float:
+    """Heading of a transform's x axis projected on the floor."""
+    return math.atan2(t[1, 0], t[0, 0])
+
+
+def rotation_angle(r_a: np.ndarray, r_b: np.ndarray) -> float:
+    """Angle (rad) of the relative rotation between two 3×3 rotations."""
+    r = np.asarray(r_a)[:3, :3].T @ np.asarray(r_b)[:3, :3]
+    c = (np.trace(r) - 1.0) / 2.0
+    return math.acos(max(-1.0, min(1.0, c)))
+
+
+def wrap_angle(a: float) -> float:
+    """Angle wrapped into (-π, π]."""
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+# The optical frame (x right, y down, z forward) seen from a body frame (x forward, y left, z up).
+R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])

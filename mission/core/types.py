@@ -1,0 +1,277 @@
+"""The data that flows through the system: frames in, detections out, robot state and commands.
+
+Everything here is a plain dataclass so it can be built in a test, drawn, logged and sent
+over any transport. Geometry conventions:
+
+* camera optical frame: x right, y down, z forward (OpenCV / ROS ``*_optical_frame``);
+* marker frame: z out of the tag face, x right, y up as seen when facing the tag (OpenCV ArUco);
+* map frame: x, y on the floor, z up, yaw counter-clockwise (ROS REP 103);
+* quaternions are (x, y, z, w), as in ROS messages.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole model with optional distortion (OpenCV's plumb_bob / 5-coefficient order)."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    distortion: tuple[float, ...] = ()
+
+    def is_valid(self) -> bool:
+        """False when the calibration cannot be used for pose (zero/negative/NaN focal length)."""
+        vals = (self.fx, self.fy, self.cx, self.cy)
+        return all(math.isfinite(v) for v in vals) and self.fx > 0 and self.fy > 0
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The 3×3 camera matrix K."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]], dtype=np.float64)
+
+    @property
+    def dist_coeffs(self) -> np.ndarray:
+        """Distortion as OpenCV wants it; empty distortion means zeros (an ideal lens)."""
+        if not self.distortion:
+            return np.zeros(5, dtype=np.float64)
+        return np.asarray(self.distortion, dtype=np.float64)
+
+    @classmethod
+    def fallback(cls, width: int, height: int) -> CameraIntrinsics:
+        """The degraded-mode pinhole of the design notes: fx = fy = 0.9·W, principal point at the centre."""
+        f = 0.9 * width
+        return cls(fx=f, fy=f, cx=width / 2.0, cy=height / 2.0, width=width, height=height)
+
+    @classmethod
+    def from_vertical_fov(
+        cls, width: int, height: int, vfov_deg: float, cx: float | None = None, cy: float | None = None
+    ) -> CameraIntrinsics:
+        """A square-pixel pinhole from a vertical field of view (how renderers specify cameras)."""
+        f = (height / 2.0) / math.tan(math.radians(vfov_deg) / 2.0)
+        return cls(
+            fx=f,
+            fy=f,
+            cx=width / 2.0 if cx is None else cx,
+            cy=height / 2.0 if cy is None else cy,
+            width=width,
+            height=height,
+        )
+
+    def project(self, points_cam: np.ndarray) -> np.ndarray:
+        """Project N×3 optical-frame points to N×2 pixels (no distortion)."""
+        p = np.asarray(points_cam, dtype=np.float64).reshape(-1, 3)
+        return np.stack([self.fx * p[:, 0] / p[:, 2] + self.cx, self.fy * p[:, 1] / p[:, 2] + self.cy], axis=1)
+
+    def back_project(self, u: float, v: float, depth: float) -> np.ndarray:
+        """The optical-frame point at pixel (u, v) and depth z (metres)."""
+        return np.array([(u - self.cx) * depth / self.fx, (v - self.cy) * depth / self.fy, depth])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy,
+            "width": self.width, "height": self.height, "distortion": list(self.distortion),
+        }  # fmt: skip
+
+
+@dataclass
+class Frame:
+    """One camera image as it arrives from a world adapter."""
+
+    image: np.ndarray  # H×W×3 uint8 BGR or H×W mono
+    stamp: float  # seconds (sim time or ROS time)
+    frame_id: str = "camera_optical_frame"
+    intrinsics: CameraIntrinsics | None = None
+    depth: np.ndarray | None = None  # H×W float32 metres; NaN/0 = no return
+
+    @property
+    def width(self) -> int:
+        return int(self.image.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.image.shape[0])
+
+
+@dataclass
+class Detection:
+    """One thing a perception source saw in one frame (see ARCHITECTURE.md, "Detection")."""
+
+    source: str
+    marker_id: int | None
+    label: str | None
+    corners: np.ndarray | None  # 4×2 px, TL TR BR BL
+    position: np.ndarray  # (3,) metres, camera optical frame
+    orientation: np.ndarray  # (4,) quaternion x y z w, marker z out of the face
+    confidence: float
+    reprojection_error: float
+    stamp: float
+    frame_id: str
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def distance(self) -> float:
+        return float(np.linalg.norm(self.position))
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-serialisable dict (lists, floats, None) for `mission detect --json`, logs and ROS debug."""
+        return {
+            "source": self.source,
+            "marker_id": self.marker_id,
+            "label": self.label,
+            "corners": None if self.corners is None else np.asarray(self.corners, float).round(3).tolist(),
+            "position": [round(float(v), 6) for v in self.position],
+            "orientation": [round(float(v), 6) for v in self.orientation],
+            "confidence": round(float(self.confidence), 4),
+            "reprojection_error": round(float(self.reprojection_error), 4),
+            "stamp": float(self.stamp),
+            "frame_id": self.frame_id,
+            "extra": self.extra,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Detection:
+        return cls(
+            source=d["source"],
+            marker_id=d.get("marker_id"),
+            label=d.get("label"),
+            corners=None if d.get("corners") is None else np.asarray(d["corners"], dtype=np.float64),
+            position=np.asarray(d["position"], dtype=np.float64),
+            orientation=np.asarray(d["orientation"], dtype=np.float64),
+            confidence=float(d["confidence"]),
+            reprojection_error=float(d.get("reprojection_error", 0.0)),
+            stamp=float(d["stamp"]),
+            frame_id=d.get("frame_id", ""),
+            extra=dict(d.get("extra") or {}),
+        )
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    """A pose on the floor in the map frame."""
+
+    x: float
+    y: float
+    yaw: float
+
+    def distance_to(self, other: Pose2D) -> float:
+        return math.hypot(other.x - self.x, other.y - self.y)
+
+
+@dataclass(frozen=True)
+class Twist:
+    """A base velocity command: forward speed (m/s) and yaw rate (rad/s, CCW positive)."""
+
+    v: float = 0.0
+    w: float = 0.0
+
+
+@dataclass
+class LaserScan:
+    """A planar scan, as sensor_msgs/LaserScan: ranges[i] at angle_min + i·angle_increment (base frame)."""
+
+    angle_min: float
+    angle_increment: float
+    ranges: np.ndarray  # float32 metres; inf = no return within range_max
+    range_min: float
+    range_max: float
+    stamp: float
+    frame_id: str = "base_scan"
+
+    @property
+    def angles(self) -> np.ndarray:
+        return self.angle_min + self.angle_increment * np.arange(len(self.ranges))
+
+
+@dataclass
+class OccupancyGrid:
+    """A 2D map as nav_msgs/OccupancyGrid: data[row, col], row = y, values 0 free, 100 occupied, -1 unknown."""
+
+    data: np.ndarray  # int8 H×W
+    resolution: float  # metres per cell
+    origin: Pose2D  # map pose of cell (0, 0)'s corner
+    frame_id: str = "map"
+
+    def world_to_cell(self, x: float, y: float) -> tuple[int, int]:
+        """(row, col) of the cell containing map point (x, y); may be outside the grid."""
+        c = math.cos(-self.origin.yaw)
+        s = math.sin(-self.origin.yaw)
+        dx, dy = x - self.origin.x, y - self.origin.y
+        lx, ly = c * dx - s * dy, s * dx + c * dy
+        return math.floor(ly / self.resolution), math.floor(lx / self.resolution)
+
+    def cell_to_world(self, row: int, col: int) -> tuple[float, float]:
+        """Map coordinates of the centre of cell (row, col)."""
+        lx, ly = (col + 0.5) * self.resolution, (row + 0.5) * self.resolution
+        c, s = math.cos(self.origin.yaw), math.sin(self.origin.yaw)
+        return self.origin.x + c * lx - s * ly, self.origin.y + s * lx + c * ly
+
+    def in_bounds(self, row: int, col: int) -> bool:
+        return 0 <= row < self.data.shape[0] and 0 <= col < self.data.shape[1]
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """Where the robot is and how it moves, in the map frame, at `stamp`."""
+
+    pose: Pose2D
+    twist: Twist
+    stamp: float
+
+
+class NavStatus:
+    """What the navigator says about the current goal (strings, so they log and serialise as they read)."""
+
+    IDLE = "idle"
+    RUNNING = "running"
+    SUCCEEDED = "succeeded"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True)
+class NavGoal:
+    """A goal for the navigator (Nav2's /goal_pose in ROS, the planner stand-in in the sim).
+
+    `seq` increases on every new goal so an adapter can tell a new goal from the same one re-sent.
+    """
+
+    pose: Pose2D
+    stamp: float
+    seq: int
+    frame_id: str = "map"
+
+
+@dataclass(frozen=True)
+class DockSetpoint:
+    """The dock approach target for a docking server (Nav2 opennav_docking's detected_dock_pose)."""
+
+    pose_camera: tuple[tuple[float, ...], tuple[float, ...]]  # (position xyz, quaternion xyzw), optical frame
+    stamp: float
+
+
+@dataclass
+class TargetTrack:
+    """What perception knows about one named target (``target``, ``dock``…), kept across frames.
+
+    `visible` changes only on transitions (edge-triggered, like ``/marker_detected``): it turns True on
+    the first frame with a matching detection and False on the first frame without one.
+    """
+
+    name: str
+    visible: bool = False
+    last_seen: float | None = None  # stamp of the last frame with a detection
+    misses: int = 0  # consecutive processed frames without a detection
+    detection: Detection | None = None  # the last matching detection (camera frame)
+    pose_map: np.ndarray | None = None  # 4×4 map←target at the last detection
+    robot_at_last_seen: Pose2D | None = None
+    transitions: int = 0  # how many times `visible` flipped
