@@ -1,0 +1,35 @@
+"""The world-adapter contract: the only code that knows where data comes from and where commands go.
+
+A runner drives every world the same way, once per tick::
+
+    adapter.sense(bb)   # newest frame, robot state, scan, map, clock, navigator status → blackboard
+    tree.tick()         # behaviours read the blackboard and write intent (/goal/*)
+    adapter.act(bb)     # intent → the simulated base / Nav2 goal_pose, cmd_vel, docking
+    adapter.advance(dt) # simulated worlds step time; live worlds return at once
+
+Implementations: ``sim.adapter.SimAdapter`` (pybullet), ``mission.ros.adapter`` (rclpy) and replay.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import py_trees
+
+
+@runtime_checkable
+class WorldAdapter(Protocol):
+    def setup(self) -> None:
+        """Connect / load the world. Constructors stay light; the heavy work happens here."""
+
+    def sense(self, bb: py_trees.blackboard.Client) -> None:
+        """Write the newest inputs to the blackboard (keys in mission.core.blackboard)."""
+
+    def act(self, bb: py_trees.blackboard.Client) -> None:
+        """Read /goal/nav_goal, /goal/twist (and /goal/dock_setpoint) and carry them out."""
+
+    def advance(self, dt: float) -> None:
+        """Let `dt` seconds of world time pass (a no-op for live worlds that run on their own clock)."""
+
+    def close(self) -> None:
+        """Release the world (disconnect, stop threads)."""
