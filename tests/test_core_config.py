@@ -21,7 +21,7 @@ def test_empty_file_gives_the_defaults(tmp_path):
 
 
 def test_no_file_gives_the_defaults():
-    assert load_config(None).run.tick_hz == 10.0
+    assert load_config(None).run.tick_hz == 15.0
 
 
 def test_unknown_key_names_file_and_dotted_key(tmp_path):

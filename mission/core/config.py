@@ -120,7 +120,7 @@ class PerceptionConfig(StrictModel):
 
 
 class RunConfig(StrictModel):
-    tick_hz: float = Field(10.0, gt=0, le=200)
+    tick_hz: float = Field(15.0, gt=0, le=200)  # one perception pass per tick: match the camera rate
     max_duration_s: float = Field(180.0, gt=0)
 
 
