@@ -1,0 +1,238 @@
+"""Mission metrics from ground truth, tick by tick: the design notes' success criteria, measured.
+
+The recorder only needs what any simulated world can give (a ground-truth sample per tick) and what the
+tree wrote on the blackboard (state, goal, tracks). It knows nothing about pybullet.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from mission.core import se3
+from mission.core.blackboard import MissionState
+from mission.core.types import NavGoal, Pose2D, TargetTrack
+
+RANGE_BUCKETS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, 100.0))
+LOSS_STATES = (MissionState.LOST, MissionState.SEARCH)
+
+
+class GroundTruthSample(Protocol):
+    """The ground truth a world gives per tick (sim.ground_truth.GroundTruth satisfies it)."""
+
+    stamp: float
+    robot: Pose2D
+    T_map_optical: np.ndarray
+    target: Pose2D | None
+    target_moving: bool
+    T_map_target_marker: np.ndarray | None
+    target_in_los: bool
+    target_in_fov: bool
+    T_map_dock: np.ndarray | None
+    collisions: int
+
+
+@dataclass
+class DockErrors:
+    lateral_m: float
+    distance_m: float  # |stand-off − wanted stand-off|
+    standoff_m: float  # measured stand-off (camera optical centre to tag plane along its normal)
+    skew_deg: float
+
+    def within(self, lateral: float = 0.03, distance: float = 0.025, skew_deg: float = 10.0) -> bool:
+        return self.lateral_m <= lateral and self.distance_m <= distance and self.skew_deg <= skew_deg
+
+
+def dock_errors(T_map_optical: np.ndarray, T_map_dock: np.ndarray, robot_yaw: float, standoff: float) -> DockErrors:
+    """Docking errors of the camera relative to the tag, measured in the floor plane."""
+    n = T_map_dock[:3, 2].copy()  # tag normal (z out of the face)
+    n[2] = 0.0
+    n /= max(np.linalg.norm(n), 1e-9)
+    d = T_map_optical[:3, 3] - T_map_dock[:3, 3]
+    d[2] = 0.0
+    along = float(d @ n)
+    lateral = float(np.linalg.norm(d - along * n))
+    facing = math.atan2(-n[1], -n[0])
+    skew = abs(math.degrees(se3.wrap_angle(robot_yaw - facing)))
+    return DockErrors(lateral_m=lateral, distance_m=abs(along - standoff), standoff_m=along, skew_deg=skew)
+
+
+@dataclass
+class LossEvent:
+    start: float
+    state: str  # the first loss state entered (LOST or SEARCH)
+    end: float | None = None  # back in FOLLOW
+
+    @property
+    def recovered(self) -> bool:
+        return self.end is not None
+
+
+@dataclass
+class Occlusion:
+    start: float  # ground truth: line of sight blocked while following
+    end: float | None = None  # line of sight clear again
+    detected_at: float | None = None  # the tree entered LOST
+
+
+@dataclass
+class MetricsRecorder:
+    """Feed it once per tick; read `summary()` at the end."""
+
+    dock_standoff_m: float = 0.30
+    times: list[float] = field(default_factory=list)
+    robot_xy: list[tuple[float, float]] = field(default_factory=list)
+    target_xy: list[tuple[float, float] | None] = field(default_factory=list)
+    states: list[str] = field(default_factory=list)
+    los: list[bool] = field(default_factory=list)
+    fov: list[bool] = field(default_factory=list)
+    target_distance: list[float | None] = field(default_factory=list)
+    transitions: list[tuple[float, str]] = field(default_factory=list)
+    losses: list[LossEvent] = field(default_factory=list)
+    occlusions: list[Occlusion] = field(default_factory=list)
+    goals: list[tuple[float, float, float, bool]] = field(default_factory=list)  # t, x, y, target still
+    pose_errors: dict[str, list[tuple[float, float]]] = field(default_factory=dict)  # name → (range, err m)
+    dock: DockErrors | None = None
+    collisions: int = 0
+    _last_goal_seq: int = -1
+    _last_det_stamp: dict[str, float] = field(default_factory=dict)
+
+    def record(
+        self,
+        gt: GroundTruthSample,
+        state: str,
+        nav_goal: NavGoal | None,
+        tracks: dict[str, TargetTrack] | None,
+    ) -> None:
+        t = gt.stamp
+        prev = self.states[-1] if self.states else ""
+        self.times.append(t)
+        self.robot_xy.append((gt.robot.x, gt.robot.y))
+        self.target_xy.append(None if gt.target is None else (gt.target.x, gt.target.y))
+        self.states.append(state)
+        self.los.append(bool(gt.target_in_los))
+        self.fov.append(bool(gt.target_in_fov))
+        self.target_distance.append(None if gt.target is None else gt.robot.distance_to(gt.target))
+        self.collisions = int(gt.collisions)
+        if state != prev:
+            self.transitions.append((t, state))
+            self._on_transition(t, prev, state, gt)
+        self._track_occlusion(t, state, gt)
+        if nav_goal is not None and nav_goal.seq != self._last_goal_seq:
+            self._last_goal_seq = nav_goal.seq
+            if state == MissionState.FOLLOW:
+                self.goals.append((t, nav_goal.pose.x, nav_goal.pose.y, not gt.target_moving))
+        for name, track in (tracks or {}).items():
+            self._record_pose_error(name, track, gt)
+
+    def _on_transition(self, t: float, prev: str, state: str, gt: GroundTruthSample) -> None:
+        if state in LOSS_STATES and prev not in LOSS_STATES:
+            self.losses.append(LossEvent(start=t, state=state))
+        if state == MissionState.FOLLOW and self.losses and self.losses[-1].end is None:
+            self.losses[-1].end = t
+        if prev == MissionState.DOCK and state != MissionState.FAILED and gt.T_map_dock is not None:
+            self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
+
+    def _track_occlusion(self, t: float, state: str, gt: GroundTruthSample) -> None:
+        open_occ = self.occlusions[-1] if self.occlusions and self.occlusions[-1].end is None else None
+        if open_occ is None and not gt.target_in_los and gt.target is not None:
+            prev_los = self.los[-2] if len(self.los) > 1 else True
+            if prev_los and state == MissionState.FOLLOW:
+                self.occlusions.append(Occlusion(start=t))
+            return
+        if open_occ is not None:
+            if open_occ.detected_at is None and state in LOSS_STATES:
+                open_occ.detected_at = t
+            if gt.target_in_los:
+                open_occ.end = t
+
+    def _record_pose_error(self, name: str, track: TargetTrack, gt: GroundTruthSample) -> None:
+        det = track.detection
+        if det is None or self._last_det_stamp.get(name) == det.stamp:
+            return
+        self._last_det_stamp[name] = det.stamp
+        truth = gt.T_map_dock if name == "dock" else gt.T_map_target_marker
+        if truth is None:
+            return
+        est = se3.apply(gt.T_map_optical, det.position)
+        rng = float(np.linalg.norm(truth[:3, 3] - gt.T_map_optical[:3, 3]))
+        self.pose_errors.setdefault(name, []).append((rng, float(np.linalg.norm(est - truth[:3, 3]))))
+
+    def finish(self, gt: GroundTruthSample | None, final_state: str) -> None:
+        """Close open events at the end of the run (a dock that ends the run is measured here)."""
+        docked = final_state in (MissionState.DONE, MissionState.DOCK)
+        if gt is not None and self.dock is None and docked and gt.T_map_dock is not None:
+            self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
+
+    # -- summary -----------------------------------------------------------------------------------
+    def goal_jitter_sd(self) -> float | None:
+        """Largest s.d. (m) of follow goals within one stretch where the target stood still (≥ 5 goals)."""
+        windows: list[list[tuple[float, float]]] = []
+        current: list[tuple[float, float]] = []
+        for _, x, y, still in self.goals:
+            if still:
+                current.append((x, y))
+            elif current:
+                windows.append(current)
+                current = []
+        if current:
+            windows.append(current)
+        sds = []
+        for w in windows:
+            if len(w) >= 5:
+                a = np.asarray(w[2:])  # skip the first goals while the average settles
+                sds.append(float(math.sqrt(a[:, 0].var() + a[:, 1].var())))
+        return max(sds) if sds else None
+
+    def summary(self, duration: float) -> dict[str, Any]:
+        latencies = [o.detected_at - o.start for o in self.occlusions if o.detected_at is not None]
+        long_occl = [o for o in self.occlusions if (o.end or duration) - o.start >= 0.5]
+        reacq = [e.end - e.start for e in self.losses if e.end is not None]
+        open_losses = [e for e in self.losses if e.end is None]
+        pose: dict[str, Any] = {}
+        for name, samples in self.pose_errors.items():
+            buckets = {}
+            for lo, hi in RANGE_BUCKETS:
+                errs = [100.0 * e / r for r, e in samples if lo <= r < hi and r > 0]
+                if errs:
+                    buckets[f"{lo:g}-{hi:g}m"] = {
+                        "n": len(errs),
+                        "median_pct": round(float(np.median(errs)), 3),
+                        "p90_pct": round(float(np.percentile(errs, 90)), 3),
+                    }
+            pose[name] = buckets
+        time_in: dict[str, float] = {}
+        for i in range(1, len(self.times)):
+            time_in[self.states[i - 1]] = time_in.get(self.states[i - 1], 0.0) + self.times[i] - self.times[i - 1]
+        return {
+            "duration_s": round(duration, 3),
+            "state_transitions": [{"t": round(t, 3), "state": s} for t, s in self.transitions],
+            "time_in_state_s": {k: round(v, 2) for k, v in time_in.items() if k},
+            "occlusions": len(self.occlusions),
+            "occlusions_over_0_5s": len(long_occl),
+            "occlusions_detected": len(latencies),
+            "occlusion_detection_latency_s": _stats(latencies),
+            "loss_events": len(self.losses),
+            "loss_events_recovered": len(self.losses) - len(open_losses),
+            "loss_recovery_fraction": None if not self.losses else round(1 - len(open_losses) / len(self.losses), 3),
+            "reacquisition_time_s": _stats(reacq),
+            "goal_jitter_sd_m": _round(self.goal_jitter_sd()),
+            "detection_pose_error_by_range": pose,
+            "dock": None if self.dock is None else {k: round(v, 4) for k, v in self.dock.__dict__.items()},
+            "collisions": self.collisions,
+        }
+
+
+def _round(v: float | None, nd: int = 4) -> float | None:
+    return None if v is None else round(v, nd)
+
+
+def _stats(values: list[float]) -> dict[str, float] | None:
+    if not values:
+        return None
+    a = np.asarray(values)
+    return {"n": len(values), "median": round(float(np.median(a)), 3), "max": round(float(a.max()), 3),
+            "mean": round(float(a.mean()), 3)}
