@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 import py_trees
-from trees.loader import load_tree, resolve_tree_path, validate_tree
 
 from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
@@ -26,6 +25,7 @@ from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.snapshot import active_branch, snapshot
 from perception_plugins import registry
+from trees.loader import load_tree, resolve_tree_path, validate_tree
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:

@@ -1,0 +1,56 @@
+"""`mission run`: a mission in the pybullet simulation, headless; exit 0 on success, 1 on failure."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mission.core.errors import ConfigError
+from mission.observers import TickObserver
+from mission.report import plot_timeline, plot_trajectories, write_json
+from mission.sim_run import run_scenario
+
+DEFAULT_SCENARIO = "mission_full"
+
+
+def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
+    observers: list[TickObserver] = []
+    if not args.quiet:
+        from mission.live_status import LiveStatus
+
+        observers.append(LiveStatus(label))
+    for flag in ("record", "record_bag", "log", "serve"):
+        if getattr(args, flag, None):
+            raise ConfigError(f"--{flag.replace('_', '-')} is not available in this build yet")
+    return observers
+
+
+def main(args: argparse.Namespace) -> int:
+    scenario = args.scenario or DEFAULT_SCENARIO
+    label = f"{Path(scenario).stem} seed {args.seed}"
+    outcome, recorder, adapter = run_scenario(
+        scenario,
+        config_file=args.config,
+        tree=args.tree,
+        seed=args.seed,
+        max_duration=args.max_duration,
+        observers=_observers(args, label),
+    )
+    if args.report:
+        out = Path(args.report)
+        write_json(out / "report.json", outcome.to_json())
+        gt_dock = getattr(adapter, "dock_xy", None)
+        title = f"{outcome.scenario} seed {outcome.seed}: {'SUCCESS' if outcome.success else 'FAILURE'}"
+        plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title, gt_dock)
+        plot_timeline(recorder, out / "timeline.png", title)
+    m = outcome.metrics
+    verdict = "SUCCESS" if outcome.success else "FAILURE"
+    print(
+        f"{verdict}: {label}: {outcome.reason} "
+        f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
+        f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']})"
+        + (f"; report in {args.report}/" if args.report else "")
+    )
+    sys.stdout.flush()
+    return 0 if outcome.success else 1

@@ -1,0 +1,56 @@
+"""The compact terminal status of a running mission: sim time, state, target distance, active branch.
+
+On a terminal it is one line redrawn in place (rich); in a log (CI, a pipe) it prints a line per state
+change and a heartbeat every `every_s` simulated seconds — progress without flooding.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any, TextIO
+
+from rich.console import Console
+from rich.live import Live
+from rich.text import Text
+
+from mission.core import blackboard as bbk
+
+
+class LiveStatus:
+    """A TickObserver (mission.observers) that shows progress."""
+
+    def __init__(self, label: str, stream: TextIO | None = None, every_s: float = 10.0) -> None:
+        self.label = label
+        self.stream = stream or sys.stderr
+        self.every_s = every_s
+        self._console = Console(file=self.stream, highlight=False)
+        self._live: Live | None = None
+        self._last_state = None
+        self._last_print = -1e9
+
+    def _line(self, runner: Any, gt: Any) -> str:
+        state = runner.get(bbk.STATE, "") or "…"
+        dist = "" if gt.target is None else f"target {gt.robot.distance_to(gt.target):4.1f} m  "
+        branch = " › ".join(runner.active_branch()[-3:])
+        return f"[{self.label}] t={gt.stamp:6.1f}s  {state:<7} {dist}{branch}"
+
+    def on_start(self, runner: Any, adapter: Any) -> None:
+        if self._console.is_terminal:
+            self._live = Live(Text(""), console=self._console, refresh_per_second=8, transient=True)
+            self._live.start()
+
+    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+        line = self._line(runner, ground_truth)
+        if self._live is not None:
+            self._live.update(Text(line))
+            return
+        state = runner.get(bbk.STATE, "")
+        if state != self._last_state or ground_truth.stamp - self._last_print >= self.every_s:
+            print(line, file=self.stream, flush=True)
+            self._last_state = state
+            self._last_print = ground_truth.stamp
+
+    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+        if self._live is not None:
+            self._live.stop()
+            self._live = None

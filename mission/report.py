@@ -1,0 +1,131 @@
+"""Pictures and the JSON of a run: what a person looks at after `mission run --report DIR`.
+
+Files are written atomically (temp file + rename), so a crash mid-write leaves the previous file intact.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.collections import LineCollection
+
+from mission.core.types import OccupancyGrid
+from mission.metrics import MetricsRecorder
+
+STATE_COLOURS = {
+    "EXPLORE": "#7f7f7f",
+    "DOCK": "#9467bd",
+    "FOLLOW": "#2ca02c",
+    "LOST": "#ff7f0e",
+    "SEARCH": "#d62728",
+    "DONE": "#1f77b4",
+    "FAILED": "#000000",
+    "": "#c7c7c7",
+}
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write via a temp file in the same directory and os.replace: never a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_json(path: str | Path, data: Any) -> None:
+    atomic_write_bytes(path, (json.dumps(data, indent=2, default=_json_default) + "\n").encode())
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(f"not JSON-serialisable: {type(o).__name__}")
+
+
+def _save(fig: plt.Figure, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+def plot_trajectories(
+    rec: MetricsRecorder,
+    grid: OccupancyGrid | None,
+    path: Path,
+    title: str = "",
+    dock_xy: tuple[float, float] | None = None,
+) -> None:
+    """Top-down map: static obstacles, the target's path, the robot's path coloured by mission state."""
+    fig, ax = plt.subplots(figsize=(7, 7))
+    if grid is not None:
+        h, w = grid.data.shape
+        x0, y0, res = grid.origin.x, grid.origin.y, grid.resolution
+        extent = (x0, x0 + w * res, y0, y0 + h * res)
+        img = np.where(grid.data >= 50, 0.15, np.where(grid.data < 0, 0.7, 1.0))
+        ax.imshow(img, cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
+    tgt = np.array([p for p in rec.target_xy if p is not None])
+    if len(tgt):
+        ax.plot(tgt[:, 0], tgt[:, 1], "--", color="#1f77b4", lw=1.5, label="target (truth)")
+        ax.plot(*tgt[-1], "s", color="#d62728", ms=8)
+    xy = np.asarray(rec.robot_xy)
+    if len(xy) > 1:
+        segs = np.stack([xy[:-1], xy[1:]], axis=1)
+        colours = [STATE_COLOURS.get(s, "#c7c7c7") for s in rec.states[1:]]
+        ax.add_collection(LineCollection(segs, colors=colours, linewidths=2.5))
+        ax.plot(*xy[0], "o", color="black", ms=6, label="robot start")
+        ax.plot(*xy[-1], "^", color="black", ms=8, label="robot end")
+    if dock_xy is not None:
+        ax.plot(*dock_xy, "P", color="#9467bd", ms=11, label="dock tag")
+    for state in dict.fromkeys(rec.states):
+        if state:
+            ax.plot([], [], color=STATE_COLOURS.get(state, "#c7c7c7"), lw=3, label=state)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title or "trajectories")
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+    _save(fig, path)
+
+
+def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
+    """Mission state over time above the ground truth it reacts to (line of sight, field of view, range)."""
+    t = np.asarray(rec.times)
+    fig, (ax_s, ax_d) = plt.subplots(2, 1, figsize=(10, 4.2), sharex=True, height_ratios=[1.2, 1])
+    if len(t) > 1:
+        rows = {"state": 2.0, "line of sight": 1.0, "in view": 0.0}
+        for i in range(len(t) - 1):
+            w = t[i + 1] - t[i]
+            ax_s.barh(rows["state"], w, left=t[i], height=0.8, color=STATE_COLOURS.get(rec.states[i], "#c7c7c7"))
+            ax_s.barh(rows["line of sight"], w, left=t[i], height=0.8, color="#2ca02c" if rec.los[i] else "#d62728")
+            ax_s.barh(rows["in view"], w, left=t[i], height=0.8, color="#2ca02c" if rec.fov[i] else "#d9d9d9")
+        ax_s.set_yticks(list(rows.values()), list(rows.keys()))
+        for tt, s in rec.transitions:
+            if s:
+                ax_s.annotate(s, (tt, 2.45), fontsize=7, rotation=30)
+        d = np.array([np.nan if v is None else v for v in rec.target_distance], dtype=float)
+        ax_d.plot(t, d, color="#1f77b4")
+        ax_d.set_ylabel("robot–target (m)")
+    ax_d.set_xlabel("sim time (s)")
+    ax_s.set_title(title or "timeline")
+    _save(fig, path)
