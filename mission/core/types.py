@@ -93,6 +93,12 @@ class Frame:
     frame_id: str = "camera_optical_frame"
     intrinsics: CameraIntrinsics | None = None
     depth: np.ndarray | None = None  # H×W float32 metres; NaN/0 = no return
+    # Where the camera was when this image was taken: T_anchor_camera (4×4, anchor ← camera optical frame,
+    # TF convention of mission.core.se3) at `stamp`, in the frame named `anchor_frame` (odom or map).
+    # Optional: an adapter fills it when it knows the robot pose, so a source that reasons across frames
+    # (the VLM latch) can hold a world-fixed pose while the robot moves. None = not known for this frame.
+    T_anchor_camera: np.ndarray | None = None
+    anchor_frame: str = "map"
 
     @property
     def width(self) -> int:
