@@ -208,6 +208,17 @@ class OccupancyGrid:
     origin: Pose2D  # map pose of cell (0, 0)'s corner
     frame_id: str = "map"
 
+    def world_to_grid(self, x: float, y: float) -> tuple[float, float]:
+        """Continuous (row, col) of map point (x, y) in cell units (cell (r, c) spans [r, r+1) × [c, c+1)).
+
+        Raytracers need the sub-cell position, not just the cell index (see :meth:`world_to_cell`).
+        """
+        c = math.cos(-self.origin.yaw)
+        s = math.sin(-self.origin.yaw)
+        dx, dy = x - self.origin.x, y - self.origin.y
+        lx, ly = c * dx - s * dy, s * dx + c * dy
+        return ly / self.resolution, lx / self.resolution
+
     def world_to_cell(self, x: float, y: float) -> tuple[int, int]:
         """(row, col) of the cell containing map point (x, y); may be outside the grid."""
         c = math.cos(-self.origin.yaw)
@@ -281,3 +292,6 @@ class TargetTrack:
     pose_map: np.ndarray | None = None  # 4×4 map←target at the last detection
     robot_at_last_seen: Pose2D | None = None
     transitions: int = 0  # how many times `visible` flipped
+    # Recent map positions (stamp, x, y) of the target, oldest first, at most a couple of seconds: the
+    # goal generator averages them and the line-of-sight check extrapolates a constant velocity from them.
+    history: list[tuple[float, float, float]] = field(default_factory=list)
