@@ -1,0 +1,92 @@
+"""Groot2's ``<TreeNodesModel>``: the leaves a tree may use, with their ports, types and defaults.
+
+Groot2 shows a node's ports (and offers them in its palette) only when the file describes the node
+type. The shipped tree files carry this section, generated from the registry; a test regenerates it
+and compares, and ``python -m trees.nodes_model`` rewrites the shipped files after a behaviour's
+ports change (``--check`` only reports).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
+
+from behaviours.ports import Port
+
+#: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows)
+GROOT_TYPES: dict[type, str] = {str: "std::string", int: "int", float: "double", bool: "bool"}
+
+_SECTION = re.compile(r"^([ \t]*)<TreeNodesModel>.*?</TreeNodesModel>[ \t]*\n?", re.S | re.M)
+
+
+def format_default(value: object) -> str:
+    """A default as BT.CPP would parse it back (bools as true/false)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
+def _port_xml(name: str, port: Port) -> str:
+    attrs = f"name={quoteattr(name)} type={quoteattr(GROOT_TYPES.get(port.type, port.type.__name__))}"
+    if not port.required:
+        attrs += f" default={quoteattr(format_default(port.default))}"
+    tag = f"{port.direction}_port"
+    return f"<{tag} {attrs}>{escape(port.doc)}</{tag}>" if port.doc else f"<{tag} {attrs}/>"
+
+
+def nodes_model_xml(registry: dict[str, type], indent: str = "") -> str:
+    """``<TreeNodesModel>`` for every leaf in `registry` (sorted by tag), each line prefixed by `indent`."""
+    lines = ["<TreeNodesModel>"]
+    for tag in sorted(registry):
+        cls = registry[tag]
+        kind = getattr(cls, "NODE_TYPE", "Action")
+        ports: dict[str, Port] = getattr(cls, "PORTS", {})
+        if not ports:
+            lines.append(f"  <{kind} ID={quoteattr(tag)}/>")
+            continue
+        lines.append(f"  <{kind} ID={quoteattr(tag)}>")
+        lines.extend(f"    {_port_xml(name, port)}" for name, port in ports.items())
+        lines.append(f"  </{kind}>")
+    lines.append("</TreeNodesModel>")
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
+def nodes_model_section(text: str) -> str | None:
+    """The ``<TreeNodesModel>`` block of a tree file's text, as written (None when absent)."""
+    match = _SECTION.search(text)
+    return match.group(0) if match else None
+
+
+def with_nodes_model(text: str, registry: dict[str, type]) -> str:
+    """Tree file text with its ``<TreeNodesModel>`` replaced by (or, before ``</root>``, given) the current one."""
+    match = _SECTION.search(text)
+    if match:
+        return text[: match.start()] + nodes_model_xml(registry, match.group(1)) + text[match.end() :]
+    return text.replace("</root>", nodes_model_xml(registry, "  ") + "</root>")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Regenerate the TreeNodesModel section of the shipped tree files.")
+    parser.add_argument("--check", action="store_true", help="report stale files, change nothing (exit 1 if any)")
+    args = parser.parse_args(argv)
+    from behaviours.registry import all_behaviours
+
+    registry = all_behaviours()
+    stale = []
+    for path in sorted(Path(__file__).resolve().parent.glob("*.xml")):
+        text = path.read_text()
+        new = with_nodes_model(text, registry)
+        if new != text:
+            stale.append(path.name)
+            if not args.check:
+                path.write_text(new)
+    verb = "stale" if args.check else "updated"
+    print(f"{verb}: {', '.join(stale) or 'none'}")
+    return 1 if args.check and stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
