@@ -1,0 +1,228 @@
+"""VisualServoDock: the second half of DOCK — servo on the live tag pose to the final stand-off.
+
+Each new detection of the dock tag (its map pose, from PerceiveTargets) updates a small floor-plane
+filter (position and face normal, exponential smoothing with a gate against the flat-marker pose flips);
+between frames the robot's own motion (ROBOT_STATE) carries the estimate, so the control runs every tick.
+The control law is in behaviours/dock_control.py. The tag pose in the camera frame of every new detection
+goes to DOCK_SETPOINT (what a Nav2 docking server would take as detected_dock_pose).
+
+SUCCESS (and stop) when stand-off, lateral and skew are inside tolerance on two consecutive fresh
+detections; FAILURE with a reason when the tag is unseen for > detection_timeout_s or at timeout_s.
+Defaults follow Nav2 opennav_docking (v ≤ 0.25 m/s, ω ≤ 0.75 rad/s, detection timeout 1 s) and the
+design notes' tolerances (3 cm lateral, 2.5 cm distance, 10° skew at a 0.30 m stand-off).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+import py_trees
+
+from behaviours.dock_control import ServoGains, approach_command, backoff_command
+from behaviours.leaf import MissionLeaf
+from behaviours.ports import Port
+from behaviours.registry import register
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.blackboard import MissionState
+from mission.core.docking import DockOffsets, dock_offsets, tag_floor_normal
+from mission.core.types import DockSetpoint
+
+SETTLE_DETECTIONS = 2  # consecutive fresh detections inside tolerance before declaring success
+
+
+class FloorTagFilter:
+    """Smooths a wall tag's floor pose (x, y, normal heading); rejects sudden normal flips.
+
+    A flat marker's pose is two-fold ambiguous: a single frame can report the normal 20–40° off. A jump
+    larger than `gate_rad` is ignored unless it persists for `reset_after` frames (then the tag really
+    moved, or the old estimate was the wrong one).
+    """
+
+    def __init__(self, alpha: float = 0.5, gate_rad: float = math.radians(25.0), reset_after: int = 3) -> None:
+        self.alpha = alpha
+        self.gate_rad = gate_rad
+        self.reset_after = reset_after
+        self.xy: np.ndarray | None = None
+        self.heading = 0.0
+        self.z = 0.0
+        self.rejected = 0
+        self._streak = 0
+
+    def update(self, T_map_tag: np.ndarray) -> bool:
+        """Fold in one measurement; False when it was gated out as a flip."""
+        n = tag_floor_normal(T_map_tag)
+        heading = math.atan2(n[1], n[0])
+        xy = np.asarray(T_map_tag, dtype=np.float64)[:2, 3]
+        if self.xy is None:
+            self.xy, self.heading, self.z = xy.copy(), heading, float(T_map_tag[2, 3])
+            return True
+        jump = se3.wrap_angle(heading - self.heading)
+        if abs(jump) > self.gate_rad:
+            self._streak += 1
+            self.rejected += 1
+            if self._streak < self.reset_after:
+                self.xy = (1 - self.alpha) * self.xy + self.alpha * xy
+                return False
+            self.heading, self._streak = heading, 0
+        else:
+            self.heading = se3.wrap_angle(self.heading + self.alpha * jump)
+            self._streak = 0
+        self.xy = (1 - self.alpha) * self.xy + self.alpha * xy
+        return True
+
+    def pose(self) -> np.ndarray:
+        """The filtered tag pose as a 4×4 map transform (z out of the face, horizontal)."""
+        assert self.xy is not None
+        return se3.transform(se3.rot_z(self.heading) @ se3.rot_y(math.pi / 2), (self.xy[0], self.xy[1], self.z))
+
+
+@register
+class VisualServoDock(MissionLeaf):
+    """DOCK (final approach): TWIST commands from the live tag pose to the stand-off, within tolerance."""
+
+    NODE_TYPE = "Action"
+    PORTS: ClassVar[dict[str, Port]] = {
+        "target": Port(str, "dock", "name of the dock target (a key of perception.targets)"),
+        "standoff_m": Port(float, 0.30, "final distance from the camera optical centre to the tag plane"),
+        "lateral_tol_m": Port(float, 0.03, "success tolerance on the lateral offset"),
+        "distance_tol_m": Port(float, 0.025, "success tolerance on |distance − standoff|"),
+        "skew_tol_deg": Port(float, 10.0, "success tolerance on the skew"),
+        "max_v": Port(float, 0.25, "forward speed limit (m/s)"),
+        "max_w": Port(float, 0.75, "yaw rate limit (rad/s)"),
+        "detection_timeout_s": Port(float, 1.0, "fail when the tag is unseen this long"),
+        "timeout_s": Port(float, 30.0, "give up after this long"),
+    }
+    READS = (bbk.TRACKS,)
+    WRITES = (bbk.DOCK_SETPOINT,)
+    COMMANDS = True
+
+    def __init__(
+        self,
+        name: str = "VisualServoDock",
+        *,
+        target: str = "dock",
+        standoff_m: float = 0.30,
+        lateral_tol_m: float = 0.03,
+        distance_tol_m: float = 0.025,
+        skew_tol_deg: float = 10.0,
+        max_v: float = 0.25,
+        max_w: float = 0.75,
+        detection_timeout_s: float = 1.0,
+        timeout_s: float = 30.0,
+    ) -> None:
+        super().__init__(name)
+        self.target = target
+        self.standoff_m = float(standoff_m)
+        self.lateral_tol_m = float(lateral_tol_m)
+        self.distance_tol_m = float(distance_tol_m)
+        self.skew_tol_rad = math.radians(float(skew_tol_deg))
+        self.max_v = abs(float(max_v))
+        self.max_w = abs(float(max_w))
+        self.detection_timeout_s = float(detection_timeout_s)
+        self.timeout_s = float(timeout_s)
+        self.gains = ServoGains()
+        self._reset()
+
+    def _reset(self) -> None:
+        self.filter = FloorTagFilter()
+        self.phase = "approach"
+        self.backoffs = 0
+        self.offsets: DockOffsets | None = None
+        self._t0 = 0.0
+        self._used_seen: float | None = None
+        self._settled = 0
+
+    def initialise(self) -> None:
+        self._reset()
+        self._t0 = self.now()
+        tr = self.track(self.target)
+        if tr is not None and tr.pose_map is not None:
+            self.filter.update(tr.pose_map)  # start from what staging saw; live detections take over
+            self._used_seen = tr.last_seen
+        self.feedback_message = f"DOCK: servoing on {self.target}"
+
+    def _describe(self, off: DockOffsets) -> str:
+        return (
+            f"stand-off {off.standoff_m:.3f} m (→{self.standoff_m:.2f}), lateral {100 * off.lateral_m:+.1f} cm, "
+            f"skew {off.skew_deg:+.1f}°"
+        )
+
+    def _within(self, off: DockOffsets) -> bool:
+        return (
+            abs(off.standoff_m - self.standoff_m) <= self.distance_tol_m
+            and abs(off.lateral_m) <= self.lateral_tol_m
+            and abs(off.skew_rad) <= self.skew_tol_rad
+        )
+
+    def update(self) -> py_trees.common.Status:
+        self.set_state(MissionState.DOCK)
+        now = self.now()
+        tr = self.track(self.target)
+        if tr is None or tr.last_seen is None:
+            return self.fail(f"DOCK: {self.target} was never seen, nothing to servo on")
+        where = f" at {self._describe(self.offsets)}" if self.offsets is not None else ""
+        if now - self._t0 > self.timeout_s:
+            return self.fail(f"DOCK: not docked within {self.timeout_s:.0f} s{where}")
+        unseen = now - max(tr.last_seen, self._t0)
+        if unseen > self.detection_timeout_s:
+            return self.fail(
+                f"DOCK: {self.target} tag unseen for {unseen:.1f} s (> {self.detection_timeout_s:.1f} s){where}"
+            )
+        state = self.robot()
+        if state is None:
+            self.halt()
+            self.feedback_message = "DOCK: waiting for the robot pose"
+            return py_trees.common.Status.RUNNING
+        fresh = tr.last_seen != self._used_seen and tr.pose_map is not None
+        if fresh:
+            self._used_seen = tr.last_seen
+            self.filter.update(tr.pose_map)
+            if tr.detection is not None:
+                det = tr.detection
+                pose_camera = (tuple(float(v) for v in det.position), tuple(float(v) for v in det.orientation))
+                self.write(bbk.DOCK_SETPOINT, DockSetpoint(pose_camera=pose_camera, stamp=float(tr.last_seen)))
+        if self.filter.xy is None:
+            self.halt()
+            self.feedback_message = f"DOCK: waiting for a map pose of {self.target}"
+            return py_trees.common.Status.RUNNING
+        T_map_optical = se3.planar(state.pose.x, state.pose.y, state.pose.yaw) @ self.extrinsics()
+        off = dock_offsets(T_map_optical, self.filter.pose(), state.pose.yaw)
+        self.offsets = off
+
+        if self._within(off):
+            if fresh:
+                self._settled += 1
+            if self._settled >= SETTLE_DETECTIONS:
+                self.halt()
+                msg = (
+                    f"DOCK: docked: lateral {100 * abs(off.lateral_m):.1f} cm, "
+                    f"distance {100 * abs(off.standoff_m - self.standoff_m):.1f} cm, skew {abs(off.skew_deg):.1f}°"
+                )
+                self.write(bbk.REASON, msg)
+                self.feedback_message = msg
+                return py_trees.common.Status.SUCCESS
+            self.halt()
+            self.feedback_message = f"DOCK: inside tolerance, settling: {self._describe(off)}"
+            return py_trees.common.Status.RUNNING
+        self._settled = 0
+
+        remaining = off.standoff_m - self.standoff_m
+        if self.phase == "approach" and remaining < self.distance_tol_m and abs(off.lateral_m) > self.lateral_tol_m:
+            self.phase = "backoff"
+            self.backoffs += 1
+        elif self.phase == "backoff" and remaining >= self.gains.backoff_m:
+            self.phase = "approach"
+        if self.phase == "backoff":
+            cmd = backoff_command(off, self.max_v, self.max_w, self.gains)
+            doing = f"backing off to re-approach (lateral off by more than {100 * self.lateral_tol_m:.0f} cm)"
+        else:
+            cmd = approach_command(
+                off, self.standoff_m, self.max_v, self.max_w, self.gains, deadband_m=0.5 * self.distance_tol_m
+            )
+            doing = "approaching"
+        self.drive(cmd.v, cmd.w)
+        self.feedback_message = f"DOCK: {doing}: {self._describe(off)}; v {cmd.v:.2f} w {cmd.w:+.2f}"
+        return py_trees.common.Status.RUNNING

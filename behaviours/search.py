@@ -1,0 +1,97 @@
+"""SearchSweep: the SEARCH state — turn to look, first toward where the target was last seen.
+
+Direction: the sign of the bearing of the last target position relative to the robot's heading when the
+search starts (CCW for positive, CW for negative; CCW when the target was never placed in the map).
+The sweep first turns through that bearing, then a full circle, then keeps circling until `duration_s`,
+after which it fails with a reason. Rotation progress is integrated from the robot's yaw (odometry), so a
+slow base still completes its circle; without a robot pose it is estimated from the commanded rate.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import py_trees
+
+from behaviours.approach import bearing_to
+from behaviours.leaf import MissionLeaf
+from behaviours.ports import Port
+from behaviours.registry import register
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.blackboard import MissionState
+
+
+@register
+class SearchSweep(MissionLeaf):
+    """SEARCH: rotate in place (TWIST) toward the last-seen bearing, then a full circle; FAILURE after duration_s."""
+
+    NODE_TYPE = "Action"
+    PORTS: ClassVar[dict[str, Port]] = {
+        "target": Port(str, "target", "name of the target (a key of perception.targets)"),
+        "duration_s": Port(float, 20.0, "give up after sweeping this long"),
+        "angular_speed": Port(float, 0.6, "rotation rate (rad/s)"),
+    }
+    READS = (bbk.TRACKS,)
+    COMMANDS = True
+
+    def __init__(
+        self, name: str = "SearchSweep", *, target: str = "target", duration_s: float = 20.0, angular_speed: float = 0.6
+    ) -> None:
+        super().__init__(name)
+        self.target = target
+        self.duration_s = float(duration_s)
+        self.angular_speed = abs(float(angular_speed))
+        self.direction = 1.0
+        self.first_turn = 0.0  # rad to turn toward the last-seen bearing before the full circle
+        self._t0 = 0.0
+        self._t_prev = 0.0
+        self._yaw_prev: float | None = None
+        self.turned = 0.0  # rad turned so far in `direction`
+
+    def initialise(self) -> None:
+        self._t0 = self._t_prev = self.now()
+        state = self.robot()
+        tr = self.track(self.target)
+        self.direction, self.first_turn = 1.0, 0.0
+        if state is not None and tr is not None and tr.pose_map is not None:
+            bearing = bearing_to(state.pose, (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3])))
+            self.direction = 1.0 if bearing >= 0 else -1.0
+            self.first_turn = abs(bearing)
+        self._yaw_prev = state.pose.yaw if state is not None else None
+        self.turned = 0.0
+        self.feedback_message = self._describe()
+
+    def _integrate(self, now: float) -> None:
+        state = self.robot()
+        if state is not None and self._yaw_prev is not None:
+            self.turned += self.direction * se3.wrap_angle(state.pose.yaw - self._yaw_prev)
+        else:
+            self.turned += self.angular_speed * max(now - self._t_prev, 0.0)
+        self._yaw_prev = state.pose.yaw if state is not None else None
+        self._t_prev = now
+
+    def _describe(self) -> str:
+        side = "left" if self.direction > 0 else "right"
+        if self.turned < self.first_turn:
+            return (
+                f"searching: turning {side} toward last bearing {math.degrees(self.first_turn):.0f}° "
+                f"({math.degrees(self.first_turn - self.turned):.0f}° to go)"
+            )
+        circle = (self.turned - self.first_turn) / (2 * math.pi)
+        lap = int(circle) + 1
+        return f"searching: circle {lap} turning {side}, {100 * (circle - int(circle)):.0f}% done"
+
+    def update(self) -> py_trees.common.Status:
+        self.set_state(MissionState.SEARCH)
+        now = self.now()
+        self._integrate(now)
+        elapsed = now - self._t0
+        if elapsed > self.duration_s:
+            return self.fail(
+                f"SEARCH: {self.target} not found after {elapsed:.1f} s of sweeping (limit {self.duration_s:.0f} s)"
+            )
+        self.drive(0.0, self.direction * self.angular_speed)
+        self.feedback_message = f"{self._describe()}, {elapsed:.1f} s of {self.duration_s:.0f} s"
+        return py_trees.common.Status.RUNNING

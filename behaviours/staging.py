@@ -1,0 +1,106 @@
+"""GoToStaging: the first half of DOCK — navigate to a pose in front of the dock marker, facing it.
+
+The staging pose is `offset_m` in front of the tag along its face normal (Nav2 opennav_docking's staging
+offset, 0.7 m), computed with mission.core.docking from the dock track's map pose. Seen from far away a
+flat marker's orientation is unreliable (two-fold pose ambiguity), so the goal is refined when the tag has
+been re-measured from clearly closer (≥ 0.2 m nearer) and the staging pose moved by more than 10 cm / 10°;
+refinements are what the feedback counts.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import py_trees
+
+from behaviours.leaf import MissionLeaf
+from behaviours.ports import Port
+from behaviours.registry import register
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.blackboard import MissionState
+from mission.core.docking import staging_pose
+from mission.core.types import NavGoal, NavStatus, Pose2D
+
+REFINE_CLOSER_M = 0.2
+REFINE_MOVE_M = 0.10
+REFINE_TURN_RAD = math.radians(10.0)
+
+
+@register
+class GoToStaging(MissionLeaf):
+    """DOCK (approach): SUCCESS when the navigator reports the staging pose reached; FAILURE with a reason otherwise."""
+
+    NODE_TYPE = "Action"
+    PORTS: ClassVar[dict[str, Port]] = {
+        "target": Port(str, "dock", "name of the dock target (a key of perception.targets)"),
+        "offset_m": Port(float, 0.7, "staging distance in front of the tag, along its normal (base pose)"),
+        "timeout_s": Port(float, 40.0, "give up after this long"),
+    }
+    READS = (bbk.TRACKS,)
+    COMMANDS = True
+
+    def __init__(
+        self, name: str = "GoToStaging", *, target: str = "dock", offset_m: float = 0.7, timeout_s: float = 40.0
+    ) -> None:
+        super().__init__(name)
+        self.target = target
+        self.offset_m = float(offset_m)
+        self.timeout_s = float(timeout_s)
+        self._goal: NavGoal | None = None
+        self._from_distance = math.inf  # range of the detection the current goal came from
+        self._t0 = 0.0
+        self.refinements = 0
+
+    def initialise(self) -> None:
+        self._goal = None
+        self._from_distance = math.inf
+        self._t0 = self.now()
+        self.refinements = 0
+        self.feedback_message = f"DOCK: going to the staging pose of {self.target}"
+
+    def _wanted(self, pose: Pose2D, distance: float) -> bool:
+        if self._goal is None:
+            return True
+        g = self._goal.pose
+        moved = math.hypot(pose.x - g.x, pose.y - g.y) > REFINE_MOVE_M
+        turned = abs(se3.wrap_angle(pose.yaw - g.yaw)) > REFINE_TURN_RAD
+        return distance < self._from_distance - REFINE_CLOSER_M and (moved or turned)
+
+    def update(self) -> py_trees.common.Status:
+        self.set_state(MissionState.DOCK)
+        now = self.now()
+        tr = self.track(self.target)
+        if tr is None or tr.pose_map is None:
+            return self.fail(f"DOCK: {self.target} was never seen, no staging pose")
+        if now - self._t0 > self.timeout_s:
+            return self.fail(f"DOCK: staging pose not reached within {self.timeout_s:.0f} s")
+        try:
+            pose = staging_pose(tr.pose_map, self.offset_m)
+        except ValueError as err:
+            return self.fail(f"DOCK: {self.target}: {err}")
+        distance = tr.detection.distance if tr.detection is not None else math.inf
+        if self._wanted(pose, distance):
+            if self._goal is not None:
+                self.refinements += 1
+            self._goal = self.navigate(pose)
+            self._from_distance = distance
+        else:
+            assert self._goal is not None
+            self.resend_goal(self._goal)
+        outcome = self.nav_outcome(self._goal)
+        g = self._goal.pose
+        where = f"({g.x:.2f}, {g.y:.2f}, {math.degrees(g.yaw):.0f}°)"
+        if outcome == NavStatus.SUCCEEDED:
+            self.halt()
+            self.feedback_message = f"DOCK: at the staging pose {where}"
+            return py_trees.common.Status.SUCCESS
+        if outcome == NavStatus.FAILED:
+            return self.fail(f"DOCK: navigation to the staging pose {where} failed")
+        state = self.robot()
+        togo = f", {math.hypot(g.x - state.pose.x, g.y - state.pose.y):.2f} m to go" if state is not None else ""
+        self.feedback_message = f"DOCK: to staging {where} {self.offset_m:.2f} m in front of {self.target}{togo}" + (
+            f" ({self.refinements} refinement(s))" if self.refinements else ""
+        )
+        return py_trees.common.Status.RUNNING
