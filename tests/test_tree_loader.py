@@ -1,0 +1,734 @@
+"""The tree loader: BehaviorTree.CPP v4 XML → py_trees, with every mistake caught before the first tick.
+
+These tests use small test-only leaves (real py_trees behaviours declaring PORTS) in a local
+registry, so they specify the loader independently of the shipped behaviours
+(tests/test_tree_files.py loads the shipped trees with the real registry).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+from typing import ClassVar
+from xml.etree import ElementTree
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from behaviours.ports import REQUIRED, Dependencies, Port, PortsDeclared
+from mission.core import blackboard as bbk
+from mission.core.errors import TreeError
+from trees.controls import BtParallel, ClockTimeout, RetryUntilSuccessful
+from trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
+from trees.nodes_model import nodes_model_xml
+
+# --------------------------------------------------------------------------- test-only behaviours
+BUILT: list[str] = []  # names of every test leaf constructed (to prove nothing is built on errors)
+
+
+class Probe(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A leaf with one port of every supported type; returns RUNNING."""
+
+    PORTS: ClassVar[dict[str, Port]] = {
+        "label": Port(str, "probe", "free text"),
+        "gain": Port(float, 1.0, "a number"),
+        "count": Port(int, 3, "a whole number"),
+        "enabled": Port(bool, True, "a flag"),
+    }
+
+    def __init__(self, name: str, *, label: str = "probe", gain: float = 1.0, count: int = 3, enabled: bool = True):
+        super().__init__(name)
+        BUILT.append(name)
+        self.label, self.gain, self.count, self.enabled = label, gain, count, enabled
+
+    def update(self) -> Status:
+        self.feedback_message = f"{self.label} x{self.gain}"
+        return Status.RUNNING
+
+
+class Scripted(py_trees.behaviour.Behaviour, PortsDeclared):
+    """Returns the statuses spelled in `script` (S/F/R), one per update, repeating the last one."""
+
+    PORTS: ClassVar[dict[str, Port]] = {"script": Port(str, "S", "statuses to return: S, F or R per update")}
+    CODES: ClassVar[dict[str, Status]] = {"S": Status.SUCCESS, "F": Status.FAILURE, "R": Status.RUNNING}
+
+    def __init__(self, name: str, *, script: str = "S") -> None:
+        super().__init__(name)
+        BUILT.append(name)
+        self.script = script
+        self.updates = 0
+        self.halted = 0
+
+    def update(self) -> Status:
+        status = self.CODES[self.script[min(self.updates, len(self.script) - 1)]]
+        self.updates += 1
+        self.feedback_message = f"update {self.updates}: {status.name}"
+        return status
+
+    def terminate(self, new_status: Status) -> None:
+        if new_status == Status.INVALID:
+            self.halted += 1
+
+
+class Ready(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A condition without ports."""
+
+    NODE_TYPE = "Condition"
+
+    def __init__(self, name: str) -> None:
+        super().__init__(name)
+        BUILT.append(name)
+
+    def update(self) -> Status:
+        self.feedback_message = "ready"
+        return Status.SUCCESS
+
+
+class NeedsMode(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A leaf with a required port."""
+
+    PORTS: ClassVar[dict[str, Port]] = {"mode": Port(str, REQUIRED, "which mode")}
+
+    def __init__(self, name: str, *, mode: str) -> None:
+        super().__init__(name)
+        BUILT.append(name)
+        self.mode = mode
+
+    def update(self) -> Status:
+        self.feedback_message = self.mode
+        return Status.SUCCESS
+
+
+class WithDeps(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A leaf that asks for injected dependencies."""
+
+    def __init__(self, name: str, *, deps: Dependencies | None = None) -> None:
+        super().__init__(name)
+        BUILT.append(name)
+        self.deps = deps
+
+    def update(self) -> Status:
+        self.feedback_message = "has deps"
+        return Status.SUCCESS
+
+
+class Rejects(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A leaf whose constructor checks a value's meaning (beyond its type)."""
+
+    PORTS: ClassVar[dict[str, Port]] = {"waypoints": Port(str, "", "x,y;x,y")}
+
+    def __init__(self, name: str, *, waypoints: str = "") -> None:
+        super().__init__(name)
+        if waypoints and "," not in waypoints:
+            raise ValueError(f"waypoints expects 'x,y;x,y', got {waypoints!r}")
+
+    def update(self) -> Status:
+        return Status.SUCCESS
+
+
+REGISTRY: dict[str, type] = {
+    "TestProbe": Probe,
+    "TestScripted": Scripted,
+    "TestReady": Ready,
+    "TestNeedsMode": NeedsMode,
+    "TestWithDeps": WithDeps,
+    "TestRejects": Rejects,
+}
+
+
+@pytest.fixture(autouse=True)
+def _reset_built():
+    BUILT.clear()
+
+
+def write(directory: Path, name: str, body: str) -> Path:
+    """A tree file: `body` (the <root> children) wrapped in a v4 <root>, unless it starts with '<?xml'/'<root'."""
+    text = textwrap.dedent(body).strip("\n")
+    if not text.lstrip().startswith(("<root", "<?xml")):
+        text = '<root BTCPP_format="4">\n' + textwrap.indent(text, "  ") + "\n</root>"
+    path = directory / name
+    path.write_text(text + "\n")
+    return path
+
+
+def line_of(path: Path, needle: str) -> int:
+    """1-based line of the first line in the file containing `needle`."""
+    for number, line in enumerate(path.read_text().splitlines(), start=1):
+        if needle in line:
+            return number
+    raise AssertionError(f"{needle!r} not in {path}")
+
+
+def load(path: Path, deps: Dependencies | None = None) -> py_trees.behaviour.Behaviour:
+    return load_tree(path, deps, registry=REGISTRY)
+
+
+def tick(root: py_trees.behaviour.Behaviour, times: int = 1) -> Status:
+    tree = py_trees.trees.BehaviourTree(root)
+    for _ in range(times):
+        tree.tick()
+    return root.status
+
+
+# ------------------------------------------------------------------------------- building trees
+def test_a_tree_file_becomes_py_trees_with_typed_port_values_and_names(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <BehaviorTree ID="Main">
+          <Sequence name="steps">
+            <TestProbe name="first" label="hello" gain="2.5" count="7" enabled="false"/>
+            <TestProbe/>
+          </Sequence>
+        </BehaviorTree>
+        """,
+    )
+    root = load(path)
+    first, second = root.children
+    assert isinstance(root, py_trees.composites.Sequence)
+    assert root.name == "Main"  # a tree's root is named after its ID so viewers show it
+    assert (first.name, first.label, first.gain, first.count, first.enabled) == ("first", "hello", 2.5, 7, False)
+    assert (second.name, second.label, second.gain, second.count) == ("TestProbe", "probe", 1.0, 3)
+    assert second.enabled is True
+    assert tick(root) == Status.RUNNING
+    assert first.feedback_message == "hello x2.5"
+
+
+@pytest.mark.parametrize(
+    ("tag", "kind", "memory"),
+    [
+        ("Sequence", py_trees.composites.Sequence, True),
+        ("ReactiveSequence", py_trees.composites.Sequence, False),
+        ("Fallback", py_trees.composites.Selector, True),
+        ("ReactiveFallback", py_trees.composites.Selector, False),
+    ],
+)
+def test_bt_cpp_sequences_and_fallbacks_map_to_py_trees_with_the_matching_memory(tmp_path, tag, kind, memory):
+    path = write(tmp_path, "t.xml", f'<BehaviorTree ID="T"><{tag}><TestReady/><TestReady/></{tag}></BehaviorTree>')
+    root = load(path)
+    assert type(root) is kind
+    assert root.memory is memory
+
+
+@pytest.mark.parametrize(
+    ("decorator", "child_script", "ticks", "expected"),
+    [
+        ("<Inverter>", "S", 1, Status.FAILURE),
+        ("<Inverter>", "F", 1, Status.SUCCESS),
+        ("<ForceSuccess>", "F", 1, Status.SUCCESS),
+        ("<ForceSuccess>", "R", 1, Status.RUNNING),
+        ("<ForceFailure>", "S", 1, Status.FAILURE),
+        ('<RetryUntilSuccessful num_attempts="3">', "FFS", 3, Status.SUCCESS),
+        ('<RetryUntilSuccessful num_attempts="3">', "FFFS", 3, Status.FAILURE),
+        ('<RetryUntilSuccessful num_attempts="-1">', "FFFFFS", 6, Status.SUCCESS),
+        ('<Repeat num_cycles="3">', "S", 2, Status.RUNNING),
+        ('<Repeat num_cycles="3">', "S", 3, Status.SUCCESS),
+        ('<Repeat num_cycles="3">', "SF", 2, Status.FAILURE),
+    ],
+)
+def test_decorators_behave_like_bt_cpp(tmp_path, decorator, child_script, ticks, expected):
+    tag = decorator[1:].split()[0].rstrip(">")
+    path = write(
+        tmp_path,
+        "t.xml",
+        f'<BehaviorTree ID="T">{decorator}<TestScripted script="{child_script}"/></{tag}></BehaviorTree>',
+    )
+    assert tick(load(path), ticks) == expected
+
+
+def test_retry_until_successful_starts_a_failed_attempt_again_on_the_next_tick(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><RetryUntilSuccessful num_attempts="2"><TestScripted script="FS"/>'
+        "</RetryUntilSuccessful></BehaviorTree>",
+    )
+    root = load(path)
+    assert isinstance(root, RetryUntilSuccessful)
+    assert tick(root) == Status.RUNNING
+    assert "failure" in root.feedback_message
+    root.tick_once()
+    assert root.status == Status.SUCCESS
+
+
+def test_timeout_counts_msec_on_the_blackboard_clock_and_halts_its_child(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Timeout msec="500"><TestScripted script="R"/></Timeout></BehaviorTree>',
+    )
+    clock = bbk.writer("test clock")
+    bbk.set_(clock, bbk.CLOCK, 100.0)
+    root = load(path)
+    assert isinstance(root, ClockTimeout)
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.tick()
+    bbk.set_(clock, bbk.CLOCK, 100.4)  # sim time, not wall time: no sleeping here
+    tree.tick()
+    assert root.status == Status.RUNNING
+    bbk.set_(clock, bbk.CLOCK, 100.6)
+    tree.tick()
+    assert root.status == Status.FAILURE
+    assert root.feedback_message == "timed out after 0.5 s"
+    assert root.decorated.halted == 1
+
+
+@pytest.mark.parametrize(
+    ("attrs", "scripts", "expected"),
+    [
+        ("", ["S", "S"], Status.SUCCESS),  # default: all must succeed
+        ("", ["S", "R"], Status.RUNNING),
+        ("", ["R", "F"], Status.FAILURE),  # default failure_count = 1
+        ('success_count="1"', ["R", "S"], Status.SUCCESS),
+        ('success_count="2" failure_count="2"', ["F", "R", "S"], Status.RUNNING),
+        ('success_count="2" failure_count="2"', ["F", "F", "R"], Status.FAILURE),
+        ('success_count="3" failure_count="3"', ["F", "R", "S"], Status.FAILURE),  # success impossible
+        ('success_count="-2"', ["S", "R", "S"], Status.SUCCESS),  # -2 of 3 = 2 children
+    ],
+)
+def test_parallel_uses_bt_cpp_success_and_failure_thresholds(tmp_path, attrs, scripts, expected):
+    children = "".join(f'<TestScripted script="{s}"/>' for s in scripts)
+    path = write(tmp_path, "t.xml", f'<BehaviorTree ID="T"><Parallel {attrs}>{children}</Parallel></BehaviorTree>')
+    root = load(path)
+    assert isinstance(root, BtParallel)
+    assert isinstance(root, py_trees.composites.Parallel)  # viewers draw it as a parallel
+    assert tick(root) == expected
+
+
+def test_a_parallel_does_not_tick_finished_children_again_and_halts_running_ones_when_it_ends(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Parallel success_count="2">'
+        '<TestScripted name="done" script="S"/><TestScripted name="slow" script="RS"/>'
+        '<TestScripted name="bg" script="R"/>'
+        "</Parallel></BehaviorTree>",
+    )
+    root = load(path)
+    done, slow, bg = root.children
+    assert tick(root, 2) == Status.SUCCESS
+    assert done.updates == 1  # finished in tick 1, not ticked in tick 2
+    assert slow.updates == 2
+    assert bg.halted == 1
+
+
+def test_explicit_groot_spelling_action_id_is_the_same_node(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Control ID="Sequence"><Action ID="TestProbe" gain="4"/>'
+        '<Condition ID="TestReady"/></Control></BehaviorTree>',
+    )
+    root = load(path)
+    assert isinstance(root, py_trees.composites.Sequence)
+    assert root.children[0].gain == 4.0
+    assert isinstance(root.children[1], Ready)
+
+
+def test_dependencies_are_injected_only_into_classes_that_take_them(tmp_path):
+    path = write(
+        tmp_path, "t.xml", '<BehaviorTree ID="T"><Sequence><TestWithDeps/><TestProbe/></Sequence></BehaviorTree>'
+    )
+    deps = Dependencies(policy="first")
+    with_deps, _probe = load(path, deps).children
+    assert with_deps.deps is deps
+    empty = load(path).children[0].deps
+    assert isinstance(empty, Dependencies) and empty.sources == []
+
+
+# ---------------------------------------------------------------------------------- SubTrees
+def test_a_subtree_is_flattened_and_its_root_named_after_the_tree_id(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <root BTCPP_format="4" main_tree_to_execute="Main">
+          <BehaviorTree ID="Main">
+            <Sequence>
+              <SubTree ID="Inner"/>
+              <SubTree ID="Inner" name="inner again"/>
+            </Sequence>
+          </BehaviorTree>
+          <BehaviorTree ID="Inner">
+            <Fallback name="choose"><TestReady/><TestProbe/></Fallback>
+          </BehaviorTree>
+        </root>
+        """,
+    )
+    root = load(path)
+    first, second = root.children
+    assert root.name == "Main"
+    assert (first.name, second.name) == ("Inner", "inner again")
+    assert isinstance(first, py_trees.composites.Selector)
+    assert first.children[0] is not second.children[0]  # every use is its own instance
+    assert tick(root) == Status.SUCCESS
+
+
+def test_includes_are_relative_to_the_including_file_and_a_diamond_is_not_a_cycle(tmp_path):
+    (tmp_path / "lib").mkdir()
+    write(tmp_path / "lib", "leaf.xml", '<BehaviorTree ID="Leaf"><TestReady/></BehaviorTree>')
+    for name in ("A", "B"):
+        write(
+            tmp_path / "lib",
+            f"{name.lower()}.xml",
+            f'<include path="leaf.xml"/><BehaviorTree ID="{name}"><SubTree ID="Leaf"/></BehaviorTree>',
+        )
+    main = write(
+        tmp_path,
+        "main.xml",
+        """
+        <include path="lib/a.xml"/>
+        <include path="lib/b.xml"/>
+        <BehaviorTree ID="Main"><Sequence><SubTree ID="A"/><SubTree ID="B"/></Sequence></BehaviorTree>
+        """,
+    )
+    root = load(main)
+    assert [c.name for c in root.children] == ["A", "B"]
+    assert tick(root) == Status.SUCCESS
+
+
+# ---------------------------------------------------------------------------------- the errors
+A_TREE = (
+    '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <Sequence>\n      {node}\n    </Sequence>\n'
+    "  </BehaviorTree>\n</root>"
+)
+
+ERROR_CASES = {
+    # id: (files {name: text}, needle on the offending line of main.xml or the named file, expected message tail)
+    "malformed XML": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <TestReady>\n  </BehaviorTree>\n</root>'},
+        ("main.xml", "</BehaviorTree>"),
+        "malformed XML: mismatched tag (column 5); expected a well-formed BehaviorTree.CPP v4 file",
+    ),
+    "wrong BTCPP_format": (
+        {"main.xml": '<root BTCPP_format="3">\n  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "<root"),
+        '<root>: BTCPP_format="3" is not supported; expected "4"',
+    ),
+    "missing BTCPP_format": (
+        {"main.xml": '<root>\n  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "<root"),
+        '<root>: missing BTCPP_format="4"; this loader reads BehaviorTree.CPP v4 files',
+    ),
+    "unknown tag": (
+        {"main.xml": A_TREE.format(node="<TestProbee/>")},
+        ("main.xml", "TestProbee"),
+        "<TestProbee>: unknown node 'TestProbee' (did you mean TestProbe?); expected a registered behaviour (",
+    ),
+    "unknown port": (
+        {"main.xml": A_TREE.format(node='<TestProbe gian="2"/>')},
+        ("main.xml", "gian"),
+        "<TestProbe>: unknown port 'gian' (did you mean gain?); TestProbe ports: label, gain, count, enabled",
+    ),
+    "missing required port": (
+        {"main.xml": A_TREE.format(node="<TestNeedsMode/>")},
+        ("main.xml", "TestNeedsMode"),
+        "<TestNeedsMode>: missing required port mode (str); which mode",
+    ),
+    "wrong type float": (
+        {"main.xml": A_TREE.format(node='<TestProbe gain="far"/>')},
+        ("main.xml", "far"),
+        "<TestProbe>: port gain expects float, got 'far'",
+    ),
+    "wrong type int": (
+        {"main.xml": A_TREE.format(node='<TestProbe count="1.5"/>')},
+        ("main.xml", "1.5"),
+        "<TestProbe>: port count expects int, got '1.5'",
+    ),
+    "wrong type bool": (
+        {"main.xml": A_TREE.format(node='<TestProbe enabled="maybe"/>')},
+        ("main.xml", "maybe"),
+        "<TestProbe>: port enabled expects bool (true/false), got 'maybe'",
+    ),
+    "blackboard remapping": (
+        {"main.xml": A_TREE.format(node='<TestProbe label="{goal}"/>')},
+        ("main.xml", "{goal}"),
+        '<TestProbe>: port label="{{goal}}" is a blackboard remapping, which is not supported yet; '
+        "expected a constant value",
+    ),
+    "unknown subtree": (
+        {"main.xml": A_TREE.format(node='<SubTree ID="Missing"/>')},
+        ("main.xml", "Missing"),
+        '<SubTree ID="Missing">: unknown subtree \'Missing\'; trees defined: T',
+    ),
+    "subtree recursion": (
+        {
+            "main.xml": '<root BTCPP_format="4" main_tree_to_execute="A">\n'
+            '  <BehaviorTree ID="A"><SubTree ID="B"/></BehaviorTree>\n'
+            '  <BehaviorTree ID="B">\n    <Sequence><TestReady/><SubTree ID="A"/></Sequence>\n  </BehaviorTree>\n'
+            "</root>"
+        },
+        ("main.xml", '<SubTree ID="A"/>'),
+        '<SubTree ID="A">: recursive subtree: A → B → A; a tree cannot contain itself',
+    ),
+    "subtree port remapping": (
+        {
+            "main.xml": '<root BTCPP_format="4" main_tree_to_execute="A">\n'
+            '  <BehaviorTree ID="A">\n    <SubTree ID="B" target="dock"/>\n  </BehaviorTree>\n'
+            '  <BehaviorTree ID="B"><TestReady/></BehaviorTree>\n</root>'
+        },
+        ("main.xml", 'target="dock"'),
+        "<SubTree ID=\"B\">: SubTree port 'target': remapping into subtrees is not supported yet; "
+        "set constant ports on the nodes inside the subtree",
+    ),
+    "missing include file": (
+        {"main.xml": '<root BTCPP_format="4">\n  <include path="nowhere.xml"/>\n'
+         '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "nowhere"),
+        '<include path="nowhere.xml">: included file not found: {dir}/nowhere.xml (paths are relative to this file)',
+    ),
+    "include cycle": (
+        {
+            "main.xml": '<root BTCPP_format="4">\n  <include path="other.xml"/>\n'
+            '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>',
+            "other.xml": '<root BTCPP_format="4">\n  <include path="main.xml"/>\n</root>',
+        },
+        ("other.xml", "main.xml"),
+        '<include path="main.xml">: include cycle: {dir}/main.xml → {dir}/other.xml → {dir}/main.xml',
+    ),
+    "decorator with two children": (
+        {"main.xml": A_TREE.format(node="<Inverter><TestReady/><TestReady/></Inverter>")},
+        ("main.xml", "Inverter"),
+        "<Inverter>: decorator has 2 children; expected exactly 1",
+    ),
+    "leaf with children": (
+        {"main.xml": A_TREE.format(node="<TestProbe><TestReady/></TestProbe>")},
+        ("main.xml", "<TestProbe>"),
+        "<TestProbe>: action node has 1 child; expected none",
+    ),
+    "control without children": (
+        {"main.xml": A_TREE.format(node="<Fallback/>")},
+        ("main.xml", "Fallback"),
+        "<Fallback>: control node has no children; expected at least 1",
+    ),
+    "required control port": (
+        {"main.xml": A_TREE.format(node="<Repeat><TestReady/></Repeat>")},
+        ("main.xml", "Repeat"),
+        "<Repeat>: missing required port num_cycles (int); successful cycles before SUCCESS (-1 = forever)",
+    ),
+    "retry with zero attempts": (
+        {"main.xml": A_TREE.format(node='<RetryUntilSuccessful num_attempts="0"><TestReady/></RetryUntilSuccessful>')},
+        ("main.xml", "RetryUntilSuccessful"),
+        "<RetryUntilSuccessful>: port num_attempts expects an int ≥ 1 (or -1 for no limit), got 0",
+    ),
+    "parallel threshold above its children": (
+        {"main.xml": A_TREE.format(node='<Parallel success_count="3"><TestReady/><TestReady/></Parallel>')},
+        ("main.xml", "Parallel"),
+        "<Parallel>: port success_count=3 means 3 of 2 children; expected 1..2 (or -1 for all)",
+    ),
+    "scripting pre-condition": (
+        {"main.xml": A_TREE.format(node='<TestReady _skipIf="done"/>')},
+        ("main.xml", "_skipIf"),
+        "<TestReady>: _skipIf (BT.CPP scripting pre/post conditions) is not supported",
+    ),
+    "two trees without a main": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="A"><TestReady/></BehaviorTree>\n'
+         '  <BehaviorTree ID="B"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "<root"),
+        '<root>: the file defines 2 trees (A, B); expected exactly one <BehaviorTree ID="..."> '
+        'or main_tree_to_execute="ID"',
+    ),
+    "unknown main tree": (
+        {"main.xml": '<root BTCPP_format="4" main_tree_to_execute="Mian">\n'
+         '  <BehaviorTree ID="Main"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "<root"),
+        '<root>: main_tree_to_execute="Mian" names no tree; trees defined: Main',
+    ),
+    "tree defined twice": (
+        {
+            "main.xml": '<root BTCPP_format="4">\n  <include path="other.xml"/>\n'
+            '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>',
+            "other.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>',
+        },
+        ("main.xml", '<BehaviorTree ID="T">'),
+        '<BehaviorTree ID="T">: tree T is already defined at {dir}/other.xml:2',
+    ),
+    "behaviour tree with two roots": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <TestReady/><TestReady/>\n'
+         "  </BehaviorTree>\n</root>"},
+        ("main.xml", "<BehaviorTree"),
+        '<BehaviorTree ID="T">: has 2 root nodes; expected exactly one',
+    ),
+    "unexpected element under root": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviourTree ID="T"><TestReady/></BehaviourTree>\n</root>'},
+        ("main.xml", "BehaviourTree"),
+        '<BehaviourTree ID="T">: unexpected element; expected <BehaviorTree>, <include> or <TreeNodesModel>',
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(ERROR_CASES), ids=list(ERROR_CASES))
+def test_a_bad_tree_fails_before_anything_is_built_naming_file_line_element_and_what_was_expected(tmp_path, case):
+    files, (bad_file, needle), tail = ERROR_CASES[case]
+    for name, text in files.items():
+        (tmp_path / name).write_text(text + "\n")
+    directory = str(tmp_path.resolve())
+    bad = tmp_path / bad_file
+    expected = f"{bad.resolve()}:{line_of(bad, needle)}: {tail.format(dir=directory)}"
+
+    with pytest.raises(TreeError) as validated:
+        validate_tree(tmp_path / "main.xml", registry=REGISTRY)
+    with pytest.raises(TreeError) as loaded:
+        load(tmp_path / "main.xml")
+
+    message = str(loaded.value)
+    assert message.startswith(expected), message
+    assert "\n" not in message
+    assert str(validated.value) == message
+    assert BUILT == []  # nothing was constructed, so nothing was ticked
+
+
+def test_a_bad_node_late_in_the_file_stops_loading_before_the_good_nodes_before_it_are_built(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <BehaviorTree ID="T">
+          <Sequence>
+            <TestProbe name="fine"/>
+            <TestReady/>
+            <FollowTheLeader/>
+          </Sequence>
+        </BehaviorTree>
+        """,
+    )
+    with pytest.raises(TreeError, match=rf"t\.xml:{line_of(path, 'FollowTheLeader')}: <FollowTheLeader>: unknown node"):
+        load(path)
+    assert BUILT == []
+
+
+def test_every_problem_in_a_file_is_collected_and_the_first_is_the_message(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <BehaviorTree ID="T">
+          <Sequence>
+            <TestProbe gain="far"/>
+            <Nope/>
+            <TestNeedsMode/>
+          </Sequence>
+        </BehaviorTree>
+        """,
+    )
+    with pytest.raises(TreeError) as err:
+        validate_tree(path, registry=REGISTRY)
+    problems = err.value.problems
+    assert [p.split(": ")[1] for p in problems] == ["<TestProbe>", "<Nope>", "<TestNeedsMode>"]
+    assert str(err.value) == problems[0]
+
+
+def test_errors_in_an_included_file_name_the_included_file(tmp_path):
+    write(tmp_path, "lib.xml", '<BehaviorTree ID="Lib">\n  <TestProbe count="many"/>\n</BehaviorTree>')
+    main = write(
+        tmp_path, "main.xml", '<include path="lib.xml"/>\n<BehaviorTree ID="Main"><SubTree ID="Lib"/></BehaviorTree>'
+    )
+    with pytest.raises(TreeError) as err:
+        load(main)
+    assert str(err.value) == f"{(tmp_path / 'lib.xml').resolve()}:3: <TestProbe>: port count expects int, got 'many'"
+
+
+def test_an_unused_tree_in_the_file_is_checked_too(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <root BTCPP_format="4" main_tree_to_execute="Main">
+          <BehaviorTree ID="Main"><TestReady/></BehaviorTree>
+          <BehaviorTree ID="Spare"><TestProbe gain="x"/></BehaviorTree>
+        </root>
+        """,
+    )
+    with pytest.raises(TreeError, match="port gain expects float, got 'x'"):
+        validate_tree(path, registry=REGISTRY)
+
+
+def test_a_constructor_that_rejects_a_value_is_reported_where_the_value_was_written(tmp_path):
+    path = write(tmp_path, "t.xml", '<BehaviorTree ID="T">\n  <TestRejects waypoints="3"/>\n</BehaviorTree>')
+    with pytest.raises(TreeError) as err:
+        load(path)
+    assert str(err.value) == f"{path.resolve()}:3: <TestRejects>: waypoints expects 'x,y;x,y', got '3'"
+
+
+# ------------------------------------------------------------------------------ finding trees
+def test_a_tree_is_found_by_path_or_by_shipped_name():
+    assert resolve_tree_path("follow") == resolve_tree_path("follow.xml")
+    assert resolve_tree_path("follow.xml").parent == Path(__file__).resolve().parents[1] / "trees"
+    assert resolve_tree_path("trees/dock.xml") == Path("trees/dock.xml")  # a path as given (cwd = repo)
+    assert {"mission.xml", "explore.xml", "dock.xml", "follow.xml", "explore_dock.xml"} <= set(shipped_trees())
+
+
+def test_an_unknown_tree_name_lists_the_shipped_trees():
+    with pytest.raises(TreeError) as err:
+        resolve_tree_path("folow.xml")
+    assert str(err.value).startswith("folow.xml: tree file not found; expected a path to a BehaviorTree.CPP v4 XML")
+    assert "dock.xml, explore.xml, explore_dock.xml, follow.xml, mission.xml" in str(err.value)
+
+
+# ------------------------------------------------------------------------------- description
+def test_describe_tree_gives_kinds_ports_and_lines_without_building_anything(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        """
+        <root BTCPP_format="4" main_tree_to_execute="Main">
+          <BehaviorTree ID="Main">
+            <ReactiveSequence name="top">
+              <Inverter><TestReady/></Inverter>
+              <SubTree ID="Inner"/>
+            </ReactiveSequence>
+          </BehaviorTree>
+          <BehaviorTree ID="Inner">
+            <TestProbe gain="2"/>
+          </BehaviorTree>
+        </root>
+        """,
+    )
+    desc = describe_tree(path, registry=REGISTRY)
+    assert BUILT == []
+    rows = [(d.tag, d.name, d.kind, d.line) for d in desc.walk()]
+    assert rows == [
+        ("BehaviorTree", "Main", "SubTree", 2),
+        ("ReactiveSequence", "top", "Control", 3),
+        ("Inverter", "Inverter", "Decorator", 4),
+        ("TestReady", "TestReady", "Condition", 4),
+        ("SubTree", "Inner", "SubTree", 5),
+        ("TestProbe", "TestProbe", "Action", 9),
+    ]
+    probe = desc.children[0].children[1].children[0]
+    assert probe.ports == {"gain": 2.0}
+    assert probe.effective_ports == {"label": "probe", "gain": 2.0, "count": 3, "enabled": True}
+    assert desc.children[0].children[1].subtree == "Inner"
+    assert probe.file == str(path.resolve())
+
+
+# ------------------------------------------------------------------------------ Groot2 model
+def test_nodes_model_describes_every_leaf_with_port_types_and_defaults_for_groot2():
+    model = ElementTree.fromstring(nodes_model_xml(REGISTRY))
+    assert model.tag == "TreeNodesModel"
+    assert [(n.tag, n.get("ID")) for n in model] == sorted(
+        [("Action", "TestNeedsMode"), ("Action", "TestProbe"), ("Action", "TestRejects"), ("Action", "TestScripted"),
+         ("Action", "TestWithDeps"), ("Condition", "TestReady")],
+        key=lambda row: row[1],
+    )
+    probe = model.find("Action[@ID='TestProbe']")
+    ports = {p.get("name"): (p.tag, p.get("type"), p.get("default"), p.text) for p in probe}
+    assert ports == {
+        "label": ("input_port", "std::string", "probe", "free text"),
+        "gain": ("input_port", "double", "1.0", "a number"),
+        "count": ("input_port", "int", "3", "a whole number"),
+        "enabled": ("input_port", "bool", "true", "a flag"),
+    }
+    mode = model.find("Action[@ID='TestNeedsMode']/input_port")
+    assert mode.get("default") is None  # required: no default
+
+
+def test_a_tree_nodes_model_section_in_a_user_file_is_ignored_by_the_loader(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><TestReady/></BehaviorTree>\n' + nodes_model_xml({"Other": Probe}),
+    )
+    assert isinstance(load(path), Ready)
