@@ -65,7 +65,7 @@ def with_nodes_model(text: str, registry: dict[str, type]) -> str:
     match = _SECTION.search(text)
     if match:
         return text[: match.start()] + nodes_model_xml(registry, match.group(1)) + text[match.end() :]
-    return text.replace("</root>", nodes_model_xml(registry, "  ") + "</root>")
+    return text.replace("</root>", "\n" + nodes_model_xml(registry, "  ") + "</root>")
 
 
 def main(argv: list[str] | None = None) -> int:

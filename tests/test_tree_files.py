@@ -1,0 +1,169 @@
+"""The shipped tree files: they match the behaviour catalogue, load with the real behaviours, tick on an
+empty blackboard without crashing, carry an up-to-date Groot2 TreeNodesModel, and a user can compose
+new trees from the shipped behaviours without writing Python."""
+
+from __future__ import annotations
+
+import shutil
+
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from behaviours.ports import Dependencies
+from behaviours.registry import all_behaviours
+from mission.core import blackboard as bbk
+from mission.core.errors import TreeError
+from trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
+from trees.nodes_model import nodes_model_section, with_nodes_model
+
+SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml"]
+
+
+def shape(desc: TreeDescription) -> str:
+    """A tree as one line: ``Tag:name(port=value)[children]`` (name only when set, SubTrees by ID)."""
+    if desc.tag == "SubTree":
+        return f"SubTree({desc.subtree})"
+    text = desc.tag if desc.name == desc.tag or desc.tag == "BehaviorTree" else f"{desc.tag}:{desc.name}"
+    if desc.ports:
+        text += "(" + ",".join(f"{k}={v}" for k, v in desc.ports.items()) + ")"
+    if desc.children:
+        text += "[" + ",".join(shape(c) for c in desc.children) + "]"
+    return text
+
+
+FOLLOW = (
+    "ReactiveFallback:coordinator["
+    "ReactiveSequence:FOLLOW[IsTargetVisible(target=target,max_misses=4),FollowTarget(target=target)],"
+    "ReactiveSequence:LOST[IsLineOfSightBlocked(target=target,min_misses=5),HoldLastGoal(target=target,timeout_s=3.0)],"
+    "SearchSweep(target=target,duration_s=20.0)]"
+)
+PERCEIVE = "ForceSuccess[PerceiveTargets]"
+CATALOGUE = {
+    "explore.xml": "BehaviorTree[Explore(target=dock)]",
+    "dock.xml": "BehaviorTree[RetryUntilSuccessful(num_attempts=3)["
+    "Sequence:approach[GoToStaging(target=dock),VisualServoDock(target=dock)]]]",
+    "follow.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},SubTree(Follow)]]",
+    "mission.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},"
+    "Sequence:phases[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]]",
+    "explore_dock.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},"
+    "Sequence:phases[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]]",
+}
+MAIN_TREE = {
+    "explore.xml": "Explore",
+    "dock.xml": "Dock",
+    "follow.xml": "FollowMission",
+    "mission.xml": "Mission",
+    "explore_dock.xml": "ExploreDock",
+}
+
+
+def test_every_catalogue_tree_ships_with_the_package():
+    assert set(SHIPPED) <= set(shipped_trees())
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_a_shipped_tree_has_the_shape_the_catalogue_describes(name):
+    desc = describe_tree(name)
+    assert desc.name == MAIN_TREE[name]
+    assert shape(desc) == CATALOGUE[name]
+
+
+def test_the_follow_subtree_is_the_target_coordinator_from_the_catalogue():
+    follow = next(d for d in describe_tree("follow.xml").walk() if d.tag == "SubTree")
+    assert shape(follow.children[0]) == FOLLOW
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_a_shipped_tree_loads_and_keeps_ticking_on_an_empty_blackboard(name):
+    validate_tree(name)
+    root = load_tree(name, Dependencies())
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.setup(timeout=5.0)
+    for _ in range(5):
+        tree.tick()
+        assert root.status != Status.INVALID
+    for node in root.iterate():
+        if node.name == "PerceiveTargets":  # no sources, no frame: nothing to do, and that is fine
+            assert node.status == Status.SUCCESS, node.feedback_message
+        if node.status != Status.INVALID and not node.children:
+            assert node.feedback_message, f"{node.name} ticked without a feedback message"
+    tree.shutdown()
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_trees_use_only_the_declared_readable_blackboard_keys(name):
+    tree = py_trees.trees.BehaviourTree(load_tree(name))
+    tree.setup(timeout=5.0)
+    for _ in range(3):
+        tree.tick()
+    declared = {k.path for k in bbk.ALL_KEYS}
+    used = set(py_trees.blackboard.Blackboard.storage) | set(py_trees.blackboard.Blackboard.metadata)
+    assert used <= declared, f"undeclared (e.g. UUID) keys: {sorted(used - declared)}"
+
+
+def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_phase():
+    root = load_tree("mission.xml")
+    phases = next(n for n in root.iterate() if n.name == "phases")
+    assert root.name == "Mission"
+    assert [c.name for c in phases.children] == ["Explore", "Dock", "Follow"]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_registered_behaviours(name):
+    text = (TREES_DIR / name).read_text()
+    assert nodes_model_section(text) is not None
+    assert with_nodes_model(text, all_behaviours()) == text, "stale: run `python -m trees.nodes_model`"
+
+
+def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_path):
+    path = tmp_path / "patrol.xml"
+    path.write_text(
+        f"""<root BTCPP_format="4" main_tree_to_execute="Patrol">
+  <include path="{TREES_DIR / "dock.xml"}"/>
+  <BehaviorTree ID="Patrol">
+    <ReactiveSequence name="patrol">
+      <ForceSuccess><PerceiveTargets/></ForceSuccess>
+      <Sequence name="steps">
+        <Fallback name="find the dock">
+          <Timeout msec="90000">
+            <Explore target="dock" waypoints="1.0,0.0;1.0,1.5" angular_speed="0.4"/>
+          </Timeout>
+          <SetMissionState name="give up" state="FAILED"/>
+        </Fallback>
+        <SubTree ID="Dock"/>
+        <Parallel success_count="1">
+          <SearchSweep target="target" duration_s="15" angular_speed="0.3"/>
+          <Inverter><IsTargetVisible target="target"/></Inverter>
+        </Parallel>
+        <SetMissionState state="DONE"/>
+      </Sequence>
+    </ReactiveSequence>
+  </BehaviorTree>
+</root>
+"""
+    )
+    validate_tree(path)
+    clock = bbk.writer("test clock")
+    bbk.set_(clock, bbk.CLOCK, 0.0)
+    root = load_tree(path)
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.setup(timeout=5.0)
+    for step in range(3):
+        bbk.set_(clock, bbk.CLOCK, 0.1 * step)
+        tree.tick()
+    assert root.name == "Patrol"
+    assert root.status == Status.RUNNING
+    explore = next(n for n in root.iterate() if n.name == "Explore")
+    assert explore.status == Status.RUNNING, explore.feedback_message
+
+
+def test_a_typo_in_a_copy_of_a_shipped_tree_names_file_line_and_element(tmp_path):
+    copy = tmp_path / "follow.xml"
+    shutil.copy(TREES_DIR / "follow.xml", copy)
+    text = copy.read_text().replace('<FollowTarget target="target"/>', '<FollowTarget target="target" offset_m="far"/>')
+    copy.write_text(text)
+    line = next(i for i, row in enumerate(text.splitlines(), start=1) if "offset_m=" in row and "FollowTarget" in row)
+    with pytest.raises(TreeError) as err:
+        validate_tree(copy)
+    assert str(err.value) == f"{copy.resolve()}:{line}: <FollowTarget>: port offset_m expects float, got 'far'"
