@@ -127,6 +127,21 @@ class Rejects(py_trees.behaviour.Behaviour, PortsDeclared):
         return Status.SUCCESS
 
 
+class Gate(py_trees.decorators.Decorator, PortsDeclared):
+    """A registered decorator: passes its child's status through unless closed."""
+
+    NODE_TYPE = "Decorator"
+    PORTS: ClassVar[dict[str, Port]] = {"open": Port(bool, True, "pass the child's status through")}
+
+    def __init__(self, name: str, *, child: py_trees.behaviour.Behaviour, open: bool = True) -> None:
+        super().__init__(name=name, child=child)
+        self.open = open
+
+    def update(self) -> Status:
+        self.feedback_message = "open" if self.open else "closed"
+        return self.decorated.status if self.open else Status.FAILURE
+
+
 REGISTRY: dict[str, type] = {
     "TestProbe": Probe,
     "TestScripted": Scripted,
@@ -134,6 +149,7 @@ REGISTRY: dict[str, type] = {
     "TestNeedsMode": NeedsMode,
     "TestWithDeps": WithDeps,
     "TestRejects": Rejects,
+    "TestGate": Gate,
 }
 
 
@@ -338,6 +354,15 @@ def test_dependencies_are_injected_only_into_classes_that_take_them(tmp_path):
     assert isinstance(empty, Dependencies) and empty.sources == []
 
 
+def test_a_registered_decorator_class_gets_its_child_and_ports(tmp_path):
+    path = write(
+        tmp_path, "t.xml", '<BehaviorTree ID="T"><TestGate open="false"><TestReady/></TestGate></BehaviorTree>'
+    )
+    root = load(path)
+    assert isinstance(root, Gate) and isinstance(root.decorated, Ready)
+    assert tick(root) == Status.FAILURE
+
+
 # ---------------------------------------------------------------------------------- SubTrees
 def test_a_subtree_is_flattened_and_its_root_named_after_the_tree_id(tmp_path):
     path = write(
@@ -401,6 +426,16 @@ ERROR_CASES = {
         {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <TestReady>\n  </BehaviorTree>\n</root>'},
         ("main.xml", "</BehaviorTree>"),
         "malformed XML: mismatched tag (column 5); expected a well-formed BehaviorTree.CPP v4 file",
+    ),
+    "empty file": (
+        {"main.xml": ""},
+        ("main.xml", ""),
+        'empty file; expected <root BTCPP_format="4"> with a <BehaviorTree>',
+    ),
+    "BT.CPP built-in not supported": (
+        {"main.xml": A_TREE.format(node='<Delay delay_msec="100"><TestReady/></Delay>')},
+        ("main.xml", "Delay"),
+        "<Delay>: the BT.CPP built-in Delay is not supported by this loader; supported built-ins: Sequence, ",
     ),
     "wrong BTCPP_format": (
         {"main.xml": '<root BTCPP_format="3">\n  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
@@ -710,7 +745,7 @@ def test_nodes_model_describes_every_leaf_with_port_types_and_defaults_for_groot
     assert model.tag == "TreeNodesModel"
     assert [(n.tag, n.get("ID")) for n in model] == sorted(
         [("Action", "TestNeedsMode"), ("Action", "TestProbe"), ("Action", "TestRejects"), ("Action", "TestScripted"),
-         ("Action", "TestWithDeps"), ("Condition", "TestReady")],
+         ("Action", "TestWithDeps"), ("Condition", "TestReady"), ("Decorator", "TestGate")],
         key=lambda row: row[1],
     )
     probe = model.find("Action[@ID='TestProbe']")

@@ -265,5 +265,15 @@ BUILTINS: dict[str, BuiltinNode] = {
     )
 }
 
+#: BT.CPP v4 built-ins this loader does not map (yet): named in their own error message
+UNSUPPORTED_BUILTINS = frozenset(
+    {
+        "SequenceWithMemory", "ParallelAll", "IfThenElse", "WhileDoElse", "Switch2", "Switch3", "Switch4",
+        "Switch5", "Switch6", "ManualSelector", "KeepRunningUntilFailure", "Delay", "RunOnce", "Precondition",
+        "Sleep", "Script", "ScriptCondition", "SetBlackboard", "UnsetBlackboard", "WasEntryUpdated",
+        "SkipUnlessUpdated", "WaitValueUpdate", "LoopInt", "LoopDouble", "LoopString", "LoopBool",
+    }
+)
+
 #: tags with a meaning in the file format itself (not nodes a registry may define)
 RESERVED_TAGS = frozenset({"SubTree", "BehaviorTree", "root", "include", "TreeNodesModel"})

@@ -33,7 +33,7 @@ from py_trees.behaviour import Behaviour
 
 from behaviours.ports import Dependencies, Port
 from mission.core.errors import TreeError
-from trees.controls import BUILTINS, RESERVED_TAGS, BuiltinNode, NodeKind
+from trees.controls import BUILTINS, RESERVED_TAGS, UNSUPPORTED_BUILTINS, BuiltinNode, NodeKind
 from trees.xml_source import SourceElement, display_path, parse_file
 
 TREES_DIR = Path(__file__).resolve().parent
@@ -360,6 +360,11 @@ class _Compiler:
         )
 
     def _unknown_node(self, node_type: str) -> str:
+        if node_type in UNSUPPORTED_BUILTINS:
+            return (
+                f"the BT.CPP built-in {node_type} is not supported by this loader; "
+                f"supported built-ins: {', '.join(BUILTINS)}, SubTree"
+            )
         leaves = sorted(t for t in self.registry if t not in BUILTINS)
         hint = difflib.get_close_matches(node_type, [*leaves, *BUILTINS, "SubTree"], n=1)
         return (

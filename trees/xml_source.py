@@ -63,6 +63,8 @@ def parse_file(path: Path) -> SourceElement:
 
 def parse_bytes(data: bytes, path: Path) -> SourceElement:
     """Parse XML text that came from `path` (used in messages and to resolve includes)."""
+    if not data.strip():
+        raise TreeError(f'{display_path(path)}:1: empty file; expected <root BTCPP_format="4"> with a <BehaviorTree>')
     parser = expat.ParserCreate()
     stack: list[SourceElement] = []
     roots: list[SourceElement] = []
