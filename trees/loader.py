@@ -207,7 +207,7 @@ def convert_port(text: str, port: Port) -> Any:
 
 
 class _Compiler:
-    """Walks the document once, collecting every problem (deduplicated, in discovery order)."""
+    """Checks every tree (each SubTree use expanded in place), collecting problems deduplicated, in order."""
 
     def __init__(self, doc: TreeDocument, registry: dict[str, type]) -> None:
         self.doc = doc
