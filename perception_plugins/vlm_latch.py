@@ -1,0 +1,116 @@
+"""The one-shot latch of the VLM pipeline: consensus of a few model answers, then a pose held in the
+anchor (odom/map) frame; and the circuit breaker that stops calling the model when there is no anchor.
+
+A VLM answer is expensive (a rate-limited, quota-counted remote call) and noisy (~cm to dm), so the
+design notes' node asks until `min_consecutive` answers agree within `tolerance_m` *in the anchor frame*
+(so the robot may move between answers), then caches anchor←target. From then on the target's pose in
+the camera is ``inv(T_anchor_camera_now) @ T_anchor_target`` — no model calls — which is only right for
+a static target; `reset()` (the /redetect request) starts over.
+
+Pure logic, no threads and no clock: vlm_stub.py drives it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mission.core import se3
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One model answer turned into a pose in the anchor frame."""
+
+    T_anchor_target: np.ndarray
+    confidence: float
+    stamp: float  # of the frame the model saw
+
+
+def mean_pose(candidates: list[Candidate]) -> np.ndarray:
+    """Mean position and chordal-mean rotation of candidates.
+
+    The in-plane axis of a rectangular surface is known modulo 90°, so each rotation is first turned
+    about its own z by the multiple of 90° that brings it closest to the first candidate's.
+    """
+    ref = candidates[0].T_anchor_target[:3, :3]
+    acc = np.zeros((3, 3))
+    for c in candidates:
+        r = c.T_anchor_target[:3, :3]
+        best = min((r @ se3.rot_z(k * math.pi / 2) for k in range(4)), key=lambda q: se3.rotation_angle(ref, q))
+        acc += best
+    u, _, vt = np.linalg.svd(acc)
+    rot = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+    pos = np.mean([c.T_anchor_target[:3, 3] for c in candidates], axis=0)
+    return se3.transform(rot, pos)
+
+
+class OneShotLatch:
+    """Consensus → latch, plus the failed-anchor circuit breaker."""
+
+    def __init__(self, *, min_consecutive: int, tolerance_m: float, max_failed_attempts: int) -> None:
+        self.min_consecutive = min_consecutive
+        self.tolerance_m = tolerance_m
+        self.max_failed_attempts = max_failed_attempts
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the latch, the candidates and the breaker (a redetect request)."""
+        self.run: list[Candidate] = []
+        self.T_anchor_target: np.ndarray | None = None
+        self.confidence = 0.0
+        self.latched_at: float | None = None
+        self.failed_attempts = 0
+        self.breaker_open = False
+
+    @property
+    def latched(self) -> bool:
+        return self.T_anchor_target is not None
+
+    def add(self, candidate: Candidate) -> bool:
+        """Add an answer; True when this answer completed the consensus and the pose is now latched.
+
+        An answer that is farther than the tolerance from any answer of the current run starts a new
+        run with itself (the run is of *consecutive* agreeing answers).
+        """
+        if self.latched:
+            return False
+        p = candidate.T_anchor_target[:3, 3]
+        agrees = all(np.linalg.norm(p - c.T_anchor_target[:3, 3]) <= self.tolerance_m for c in self.run)
+        self.run = [*self.run, candidate] if agrees else [candidate]
+        if len(self.run) < self.min_consecutive:
+            return False
+        chosen = self.run[-self.min_consecutive :]
+        self.T_anchor_target = mean_pose(chosen)
+        self.confidence = float(np.mean([c.confidence for c in chosen]))
+        self.latched_at = candidate.stamp
+        return True
+
+    def spread_m(self) -> float:
+        """Largest distance between two answers of the current run (0 with fewer than two)."""
+        pts = [c.T_anchor_target[:3, 3] for c in self.run]
+        return max((float(np.linalg.norm(a - b)) for i, a in enumerate(pts) for b in pts[i + 1 :]), default=0.0)
+
+    def anchor_failed(self) -> bool:
+        """Count an attempt that could not reach the anchor frame; True when the breaker is now open."""
+        self.failed_attempts += 1
+        if self.failed_attempts >= self.max_failed_attempts:
+            self.breaker_open = True
+        return self.breaker_open
+
+    def anchor_ok(self) -> None:
+        """The anchor frame was reachable: failures must be consecutive to open the breaker."""
+        self.failed_attempts = 0
+
+    def unlatch(self) -> None:
+        """Drop the held pose but keep the breaker state (the target moved; ask the model again)."""
+        self.run = []
+        self.T_anchor_target = None
+        self.latched_at = None
+
+    def camera_pose(self, T_anchor_camera: np.ndarray) -> np.ndarray:
+        """The latched target in the current camera frame: inv(T_anchor_camera) @ T_anchor_target."""
+        assert self.T_anchor_target is not None
+        return se3.compose(se3.invert(T_anchor_camera), self.T_anchor_target)

@@ -1,0 +1,451 @@
+"""`vlm_stub`: find an object by a text label, the way a rate-limited vision-language model would.
+
+The design notes' Gemini Robotics-ER node, with the model behind a small client interface
+(perception_plugins/vlm_client.py) and a colour-and-shape stub shipped in its place:
+
+* a model call runs on a worker thread, never on the tick: ``process()`` submits a request when the
+  budget allows and returns what is ready;
+* the budget — ``publish_rate_limit_hz`` between calls and ``daily_quota`` per UTC day — is recorded in
+  ``state_file`` *before* each call, atomically, so a crash loop cannot burn the quota;
+* each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
+  Canny + PCA in-plane axis (x axis) — perception_plugins/depth_pose.py;
+* answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
+  in the anchor frame (``map_frame``); the pose is then latched there and re-emitted at
+  ``republish_rate_hz`` as ``inv(T_anchor_camera_now) @ T_anchor_target`` with no further calls
+  (perception_plugins/vlm_latch.py);
+* the camera's anchor pose comes with each frame (``Frame.T_anchor_camera`` / ``Frame.anchor_frame``,
+  filled by the world adapter); when it is missing at an attempt, the attempt fails, and after
+  ``max_failed_latch_attempts`` consecutive failures the circuit breaker stops all model calls until
+  :meth:`VlmStubSource.reset_latch` (the /mission/redetect request).
+
+A latched pose is only right while the target stays put. So, while latched, the source checks the depth
+image where the target should appear: nearer than expected means something is in front (occluded: not
+emitted), farther than expected for ``stale_after_frames`` frames means the target has gone (the latch
+is dropped and the model is asked again, within the budget). Detections are flagged
+``extra["precision"] = "coarse"``: with perception ``policy: hybrid`` a precise fiducial source that sees
+the same target wins (long-range discovery by the VLM, close-range precision from the tag).
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as wait_futures
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import Field
+
+from mission.core import se3
+from mission.core.config import StrictModel, validate_model
+from mission.core.errors import ConfigError
+from mission.core.types import CameraIntrinsics, Detection, Frame
+from perception_plugins.depth_pose import SurfacePose, depth_at, estimate_surface_pose
+from perception_plugins.quota_store import QuotaStore, default_state_file
+from perception_plugins.vlm_client import ColourShapeClient, VlmClient, known_colours, parse_label
+from perception_plugins.vlm_latch import Candidate, OneShotLatch
+
+log = logging.getLogger(__name__)
+
+
+class VlmStubParams(StrictModel):
+    """Params of the `vlm_stub` source (defaults follow the design notes' Gemini node)."""
+
+    target_label: str = Field("red box", min_length=1)  # what to find: a colour word + optional shape word
+    client: str = "stub"  # "stub", or "package.module:Class" of a VlmClient built with client_params
+    client_params: dict[str, Any] = Field(default_factory=dict)
+    confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
+    publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
+    daily_quota: int = Field(20, ge=0)  # model calls per UTC day, shared by everything using state_file
+    state_file: str | None = None  # None = $XDG_CACHE_HOME/mission/vlm_quota_<client>.json
+    # the stub's imitation of a remote model
+    latency_s: float = Field(1.0, ge=0.0)
+    miss_rate: float = Field(0.05, ge=0.0, le=1.0)
+    pixel_noise: float = Field(2.0, ge=0.0)  # px, standard deviation
+    seed: int = 0
+    min_blob_area_px: int = Field(40, ge=1)
+    # the latch
+    latch_in_map: bool = True  # false: no latch — each answer is emitted once (for moving targets)
+    map_frame: str = Field("map", min_length=1)  # the anchor frame frames must carry (Frame.anchor_frame)
+    republish_rate_hz: float = Field(30.0, gt=0.0)
+    min_consecutive_detections: int = Field(3, ge=1)
+    latch_position_tolerance_m: float = Field(0.10, gt=0.0)
+    max_failed_latch_attempts: int = Field(5, ge=1)
+    # the pose from depth
+    patch_radius_m: float = Field(0.05, gt=0.0)
+    mad_k: float = Field(2.5, gt=0.0)
+    # keeping a latched pose honest
+    republish_only_in_view: bool = True
+    verify_with_depth: bool = True
+    depth_tolerance_m: float = Field(0.25, gt=0.0)
+    stale_after_frames: int = Field(15, ge=1)
+    max_latch_age_s: float = Field(0.0, ge=0.0)  # 0 = a latch never expires by age
+
+
+@dataclass(frozen=True)
+class _Request:
+    image: np.ndarray
+    depth: np.ndarray
+    intrinsics: CameraIntrinsics
+    stamp: float
+    frame_id: str
+    T_anchor_camera: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class _Answer:
+    request: _Request
+    outcome: str  # "ok" | "miss" | "no_depth"
+    pose: SurfacePose | None = None
+    confidence: float = 0.0
+    pixel: tuple[float, float] | None = None
+
+
+def _make_client(p: VlmStubParams) -> VlmClient:
+    if p.client == "stub":
+        if parse_label(p.target_label).colour is None:
+            raise ConfigError(
+                f"the stub client finds objects by colour: name one of {', '.join(known_colours())} "
+                f"in the label, got {p.target_label!r}",
+                key="target_label",
+            )
+        return ColourShapeClient(
+            latency_s=p.latency_s,
+            miss_rate=p.miss_rate,
+            pixel_noise=p.pixel_noise,
+            seed=p.seed,
+            min_area_px=p.min_blob_area_px,
+        )
+    module, _, cls_name = p.client.partition(":")
+    if not module or not cls_name:
+        raise ConfigError(f"expected 'stub' or 'package.module:Class', got {p.client!r}", key="client")
+    try:
+        cls = getattr(importlib.import_module(module), cls_name)
+        return cls(**p.client_params)
+    except Exception as err:
+        raise ConfigError(f"cannot create VLM client {p.client!r}: {err}", key="client") from None
+
+
+class VlmStubSource:
+    """A VLM-style source: a few rate-limited model calls, a consensus, then a latched pose re-emitted
+    as the robot moves."""
+
+    description: ClassVar[str] = (
+        "VLM stand-in: finds '<colour> [shape]' (e.g. 'red box'), latches its pose in the map frame after "
+        "3 agreeing rate-limited model calls (coarse)"
+    )
+
+    def __init__(
+        self,
+        params: dict,
+        name: str = "vlm_stub",
+        *,
+        clock: Callable[[], float] | None = None,
+        client: VlmClient | None = None,
+    ) -> None:
+        """`clock` is the wall clock of the rate limit and quota (time.time; tests pass a fake one);
+        `client` replaces the configured client with an instance."""
+        self.params = validate_model(VlmStubParams, params)
+        self.name = name
+        p = self.params
+        self._clock = clock or time.time
+        self._client: VlmClient = client if client is not None else _make_client(p)
+        client_kind = "stub" if p.client == "stub" else p.client.replace(":", ".")
+        path = Path(p.state_file).expanduser() if p.state_file else default_state_file(client_kind)
+        self._min_interval = 1.0 / p.publish_rate_limit_hz
+        self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval)
+        self.latch = OneShotLatch(
+            min_consecutive=p.min_consecutive_detections,
+            tolerance_m=p.latch_position_tolerance_m,
+            max_failed_attempts=p.max_failed_latch_attempts,
+        )
+        self._lock = threading.RLock()
+        self._executor: ThreadPoolExecutor | None = None
+        self._pending: Future[_Answer] | None = None
+        self._next_attempt = -math.inf  # wall time; paces attempts that fail before a call is made
+        self._next_emit: float | None = None  # frame-stamp schedule of republishing
+        self._stale_frames = 0
+        self._fresh: list[_Answer] = []  # unlatched mode: answers not yet emitted
+        self.model_calls = 0
+        self.state = "idle"
+        self.counters: Counter[str] = Counter()
+        self._logged: set[str] = set()
+
+    # -- public controls ---------------------------------------------------------------------------
+    def reset_latch(self) -> None:
+        """Forget the latched pose, the candidates and the circuit breaker (the redetect request)."""
+        with self._lock:
+            self.latch.reset()
+            self._next_emit = None
+            self._stale_frames = 0
+            self._next_attempt = -math.inf
+            self.state = "idle"
+            self._logged.discard("breaker")
+
+    def wait_idle(self, timeout: float) -> bool:
+        """Block until the model call in flight (if any) has answered; False on timeout.
+
+        For batch tools and tests; the tick path never calls it.
+        """
+        fut = self._pending
+        if fut is None:
+            return True
+        done, _ = wait_futures([fut], timeout=timeout)
+        with self._lock:
+            self._collect()
+        return bool(done)
+
+    def status(self) -> dict[str, Any]:
+        """What the source is doing, for logs and viewers."""
+        with self._lock:
+            now = self._clock()
+            return {
+                "state": self.state,
+                "latched": self.latch.latched,
+                "model_calls": self.model_calls,
+                "calls_today": self.quota.calls_today(now),
+                "daily_quota": self.params.daily_quota,
+                "run": len(self.latch.run),
+                "failed_latch_attempts": self.latch.failed_attempts,
+                "breaker_open": self.latch.breaker_open,
+                "in_flight": self._pending is not None,
+                **{k: int(v) for k, v in self.counters.items()},
+            }
+
+    # -- the tick ----------------------------------------------------------------------------------
+    def process(self, frame: Frame) -> list[Detection]:
+        """Detections for this frame (the latched target, re-expressed in this camera pose); never blocks."""
+        with self._lock:
+            self._collect()
+            if not self.params.latch_in_map:
+                out = [self._unlatched_detection(a, frame) for a in self._fresh]
+                self._fresh = []
+            else:
+                out = self._republish(frame) if self.latch.latched else []
+            self._maybe_request(frame)
+            return out
+
+    def close(self) -> None:
+        self._client.close()
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
+            self._executor = None
+
+    # -- internals ---------------------------------------------------------------------------------
+    def _anchor(self, frame: Frame) -> np.ndarray | None:
+        t = frame.T_anchor_camera
+        if t is None or frame.anchor_frame != self.params.map_frame:
+            return None
+        return np.asarray(t, dtype=np.float64)
+
+    def _log_once(self, kind: str, msg: str, *args: object, level: int = logging.WARNING) -> None:
+        if kind not in self._logged:
+            self._logged.add(kind)
+            log.log(level, "%s: " + msg, self.name, *args)
+
+    def _maybe_request(self, frame: Frame) -> None:
+        p = self.params
+        if self._pending is not None:
+            self.state = "waiting_for_model"
+            return
+        if p.latch_in_map and self.latch.latched:
+            self.state = "latched"
+            return
+        if self.latch.breaker_open:
+            self.state = "breaker_open"
+            return
+        if frame.depth is None or frame.intrinsics is None or not frame.intrinsics.is_valid():
+            self.state = "no_depth"  # an answer could not be placed in 3D: do not spend a call on it
+            self.counters["frames_without_depth"] += 1
+            return
+        if frame.depth.shape[:2] != frame.image.shape[:2]:
+            self.counters["frames_bad_depth"] += 1
+            self._log_once("bad_depth", "depth %s does not match image %s; frame skipped",
+                           frame.depth.shape[:2], frame.image.shape[:2])
+            return
+        now = self._clock()
+        refusal = self.quota.refusal(now)
+        if refusal is None and now < self._next_attempt:
+            refusal = QuotaStore.RATE_LIMITED
+        if refusal is not None:
+            self.state = refusal
+            if refusal == QuotaStore.QUOTA_EXHAUSTED:
+                self._log_once("quota", "daily quota of %d model calls is spent (%s); no more calls today",
+                               p.daily_quota, self.quota.path)
+            return
+        anchor = self._anchor(frame)
+        if p.latch_in_map and anchor is None:
+            self._next_attempt = now + self._min_interval
+            self.counters["failed_latch_attempts"] += 1
+            if self.latch.anchor_failed():
+                self.state = "breaker_open"
+                self._log_once("breaker", "no camera pose in %r for %d attempts: circuit breaker open, "
+                               "no more model calls until redetect", p.map_frame, self.latch.failed_attempts)
+            else:
+                self.state = "no_anchor"
+            return
+        self.latch.anchor_ok()
+        self.quota.record_call(now)  # persisted before the call: a crash now still counts it
+        self._next_attempt = now + self._min_interval
+        self.model_calls += 1
+        request = _Request(
+            image=frame.image.copy(),
+            depth=np.asarray(frame.depth, dtype=np.float32).copy(),
+            intrinsics=frame.intrinsics,
+            stamp=frame.stamp,
+            frame_id=frame.frame_id,
+            T_anchor_camera=anchor,
+        )
+        if self._executor is None:
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"vlm-{self.name}")
+        self._pending = self._executor.submit(self._ask, request)
+        self.state = "waiting_for_model"
+
+    def _ask(self, req: _Request) -> _Answer:
+        """Worker thread: the model call, then the geometry (kept off the tick too)."""
+        p = self.params
+        points = [q for q in self._client.locate(req.image, p.target_label) if q.confidence >= p.confidence_threshold]
+        if not points:
+            return _Answer(req, "miss")
+        best = max(points, key=lambda q: q.confidence)
+        h, w = req.image.shape[:2]
+        u, v = best.to_pixel(w, h)
+        pose = estimate_surface_pose(
+            req.image, req.depth, req.intrinsics, u, v, patch_radius_m=p.patch_radius_m, mad_k=p.mad_k
+        )
+        if pose is None:
+            return _Answer(req, "no_depth", pixel=(u, v))
+        return _Answer(req, "ok", pose, best.confidence, (u, v))
+
+    def _collect(self) -> None:
+        """Take the model's answer if it is ready: count it, and add it to the consensus (or the outbox)."""
+        fut = self._pending
+        if fut is None or not fut.done():
+            return
+        self._pending = None
+        try:
+            answer = fut.result()
+        except Exception as err:  # a failing client must not take the tick down
+            self.counters["client_errors"] += 1
+            self._log_once(f"client:{type(err).__name__}", "VLM client failed: %s", err)
+            return
+        if answer.outcome != "ok" or answer.pose is None:
+            self.counters["misses" if answer.outcome == "miss" else "answers_without_depth"] += 1
+            return
+        self.counters["answers"] += 1
+        req = answer.request
+        if not self.params.latch_in_map:
+            self._fresh.append(answer)
+            return
+        assert req.T_anchor_camera is not None
+        candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
+                              req.stamp)
+        if self.latch.add(candidate):
+            self.counters["latches"] += 1
+            self._stale_frames = 0
+            self._next_emit = None
+            pos = self.latch.T_anchor_target[:3, 3]  # type: ignore[index]
+            log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.target_label,
+                     np.round(pos, 3).tolist(), self.params.map_frame, self.model_calls)
+
+    def _detection(self, t_cam: np.ndarray, frame: Frame, confidence: float, latched: bool,
+                   extra: dict[str, Any]) -> Detection:
+        pos, quat = se3.to_pos_quat(t_cam)
+        return Detection(
+            source=self.name,
+            marker_id=None,
+            label=self.params.target_label,
+            corners=None,
+            position=pos,
+            orientation=quat,
+            confidence=float(np.clip(confidence, 0.0, 1.0)),
+            reprojection_error=0.0,
+            stamp=frame.stamp,
+            frame_id=frame.frame_id,
+            extra={
+                "precision": "coarse",
+                "latched": latched,
+                "model_calls": self.model_calls,
+                "client": self.params.client,
+                **extra,
+            },
+        )
+
+    def _unlatched_detection(self, answer: _Answer, frame: Frame) -> Detection:
+        """An answer emitted once, moved into the current camera frame when both camera poses are known."""
+        req = answer.request
+        assert answer.pose is not None
+        t_then = answer.pose.T_camera_target
+        now_anchor = self._anchor(frame)
+        if req.T_anchor_camera is not None and now_anchor is not None:
+            t_cam = se3.compose(se3.invert(now_anchor), req.T_anchor_camera, t_then)
+            where = frame
+        else:  # keep the stamp and frame of the image the model saw
+            t_cam = t_then
+            where = Frame(image=req.image, stamp=req.stamp, frame_id=req.frame_id)
+        return self._detection(t_cam, where, answer.confidence, False,
+                               {"pixel": [round(c, 1) for c in answer.pixel or (0.0, 0.0)],
+                                "age_s": round(frame.stamp - req.stamp, 3)})
+
+    def _republish(self, frame: Frame) -> list[Detection]:
+        p = self.params
+        latch = self.latch
+        age = frame.stamp - latch.latched_at if latch.latched_at is not None else 0.0
+        if p.max_latch_age_s > 0 and age > p.max_latch_age_s:
+            self._drop_latch("older than max_latch_age_s")
+            return []
+        anchor = self._anchor(frame)
+        if anchor is None:
+            self.counters["republish_without_anchor"] += 1
+            return []
+        period = 1.0 / p.republish_rate_hz
+        if self._next_emit is not None and frame.stamp < self._next_emit - 0.1 * period:
+            return []  # paced on a fixed schedule, so the average rate never exceeds republish_rate_hz
+        t_cam = latch.camera_pose(anchor)
+        z = float(t_cam[2, 3])
+        intr = frame.intrinsics
+        pixel: tuple[float, float] | None = None
+        if intr is not None and z > 1e-3:
+            u, v = intr.project(t_cam[:3, 3])[0]
+            if 0 <= u < frame.width and 0 <= v < frame.height:
+                pixel = (float(u), float(v))
+        if pixel is None and p.republish_only_in_view:
+            self.counters["latched_out_of_view"] += 1
+            return []
+        if pixel is not None and p.verify_with_depth and frame.depth is not None:
+            seen = depth_at(frame.depth, *pixel)
+            if seen is not None and seen < z - p.depth_tolerance_m:
+                self.counters["latched_occluded"] += 1
+                self._stale_frames = 0
+                return []
+            if seen is not None and seen > z + p.depth_tolerance_m:
+                self._stale_frames += 1
+                if self._stale_frames >= p.stale_after_frames:
+                    self._drop_latch(f"depth behind the latched pose for {self._stale_frames} frames (target moved)")
+                return []
+            self._stale_frames = 0
+        behind = self._next_emit is None or frame.stamp - self._next_emit > period
+        self._next_emit = frame.stamp + period if behind else self._next_emit + period  # type: ignore[operator]
+        self.counters["republished"] += 1
+        return [self._detection(t_cam, frame, latch.confidence, True, {
+            "anchor_frame": p.map_frame,
+            "pose_anchor": [round(float(x), 5) for x in (*latch.T_anchor_target[:3, 3],  # type: ignore[index]
+                                                           *se3.matrix_to_quat(latch.T_anchor_target))],
+            "pixel": None if pixel is None else [round(pixel[0], 1), round(pixel[1], 1)],
+            "latch_age_s": round(frame.stamp - (latch.latched_at or frame.stamp), 3),
+        })]
+
+    def _drop_latch(self, why: str) -> None:
+        self.latch.unlatch()
+        self._stale_frames = 0
+        self._next_emit = None
+        self.counters["unlatches"] += 1
+        log.info("%s: latch on %r dropped: %s", self.name, self.params.target_label, why)
