@@ -1,0 +1,56 @@
+"""The DDS transport the node runs on: shared memory only, unless the operator chose otherwise.
+
+Network rule of this project: DDS must never send on a non-loopback interface. FastDDS's defaults
+(UDPv4 multicast discovery on every interface) break it, so before rclpy starts:
+
+* ``FASTRTPS_DEFAULT_PROFILES_FILE`` unset → it is set to the repo's ``ros/fastdds_shm.xml``
+  (builtin transports off, one shared-memory transport of 16 MB). An operator who wants the robot's
+  network sets that variable to their own profile, explicitly.
+* ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` with this profile → changed to ``SYSTEM_DEFAULT``.
+  Measured with Jazzy's rmw_fastrtps: LOCALHOST *adds* a UDPv4 transport on top of the profile, which
+  binds UDP sockets on every interface (one on the machine's non-loopback address); SYSTEM_DEFAULT
+  leaves the profile alone and the process holds no UDP or TCP socket at all.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import MutableMapping
+from pathlib import Path
+
+PROFILE_NAME = "fastdds_shm.xml"
+REPO_PROFILE = Path(__file__).resolve().parents[2] / "ros" / PROFILE_NAME
+
+
+def shm_profile_path() -> Path:
+    """The shared-memory-only profile: the repo's, or the one colcon installed under share/mission."""
+    if REPO_PROFILE.is_file():
+        return REPO_PROFILE
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        candidate = Path(prefix) / "share" / "mission" / PROFILE_NAME if prefix else None
+        if candidate is not None and candidate.is_file():
+            return candidate
+    return REPO_PROFILE
+
+
+def configure_transport(env: MutableMapping[str, str] | None = None) -> list[str]:
+    """Apply the shared-memory default to `env` (os.environ) before rclpy.init; returns what was done."""
+    env = os.environ if env is None else env
+    notes: list[str] = []
+    rmw = env.get("RMW_IMPLEMENTATION", "") or "rmw_fastrtps_cpp"
+    if rmw != "rmw_fastrtps_cpp":
+        return [f"DDS: RMW_IMPLEMENTATION={rmw}; its transport configuration is the operator's"]
+    ours = shm_profile_path()
+    if not env.get("FASTRTPS_DEFAULT_PROFILES_FILE"):
+        env["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(ours)
+        notes.append(f"DDS: shared memory only ({ours}); set FASTRTPS_DEFAULT_PROFILES_FILE to use another transport")
+    profile = env["FASTRTPS_DEFAULT_PROFILES_FILE"]
+    if Path(profile).resolve() == ours.resolve() and env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST":
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SYSTEM_DEFAULT"
+        notes.append(
+            "DDS: ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST would add a UDP transport on every interface to the "
+            "shared-memory profile; using SYSTEM_DEFAULT (the profile alone)"
+        )
+    if not Path(profile).is_file():
+        notes.append(f"DDS: FASTRTPS_DEFAULT_PROFILES_FILE={profile} does not exist; FastDDS falls back to UDP")
+    return notes

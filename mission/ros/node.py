@@ -1,0 +1,353 @@
+"""The ROS 2 node ``mission_tree``: the mission tree on live topics (``ros2 run mission tree``).
+
+``install/mission/lib/mission/tree`` (colcon) and ``mission tree`` both run :func:`main`.
+
+Each tick (``tick_hz``): the ROS adapter writes the newest frame, odometry, scan and map to the
+blackboard, the tree ticks (its PerceiveTargets leaf runs the perception sources on the frame), the
+adapter publishes the tree's commands, and the node publishes what perception found in that frame:
+``/marker_detected`` (on transitions), ``/aruco/debug`` (observations), ``/detected_aruco_pose``,
+``/aruco_poses`` and ``/tf``. A 1 Hz timer publishes the heartbeat with the counters; ``/mission/tree``
+carries the tree snapshot when it changes (at most 2 Hz, latched for late viewers).
+
+``tree:=none`` runs perception only (ros/perception_only.xml): the design notes' aruco_pose_streamer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import logging
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from mission.core import blackboard as bbk
+from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
+from mission.core.errors import ConfigError, MissionError
+from mission.core.perception import PerceptionSource
+from mission.core.types import Detection, Frame
+from mission.ros import dds
+
+NODE_NAME = "mission_tree"
+PERCEPTION_ONLY_TREE = Path(__file__).resolve().parents[2] / "ros" / "perception_only.xml"
+FALLBACK_DICTIONARY = "DICT_4X4_250"
+TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
+
+# name → (default, description): the node's ROS parameters (README's table is generated from this)
+PARAMETERS: dict[str, tuple[Any, str]] = {
+    "image_topic": ("/camera/image_raw", "camera images (bgr8, rgb8, mono8)"),
+    "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
+    "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
+    "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
+    "marker_size_m": (0.049, "ArUco marker side length (without `config`)"),
+    "dictionary": ("DICT_4X4_250", "ArUco dictionary (without `config`); unknown → warning, DICT_4X4_250"),
+    "config": ("", "mission config YAML; its perception sources and targets replace the two above"),
+    "tree": ("", "tree file or shipped tree name; empty = the config's tree; `none` = perception only"),
+    "tick_hz": (0.0, "tree ticks per second; 0 = the config's run.tick_hz (15)"),
+    "base_frame": ("base_link", "robot base frame"),
+    "map_frame": ("map", "frame of goals (/goal_pose, /target_goal_pose)"),
+    "odom_topic": ("/odom", "nav_msgs/Odometry"),
+    "scan_topic": ("/scan", "sensor_msgs/LaserScan"),
+    "map_topic": ("/map", "nav_msgs/OccupancyGrid (latched)"),
+    "amcl_topic": ("/amcl_pose", "optional AMCL pose; corrects odometry into the map frame"),
+    "target_marker_id": (-1, "marker id of the `target` (>= 0 overrides the config's perception.targets)"),
+    "camera_info_tolerance_s": (0.1, "largest stamp difference when pairing image ↔ camera info / depth"),
+    "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0], "camera body frame in base_frame: x y z roll pitch yaw"),
+    "goal_tolerance_m": (0.25, "distance at which a sent goal counts as reached"),
+}
+
+
+def build_config(params: dict[str, Any], log: logging.Logger | Any) -> tuple[MissionConfig, str | None]:
+    """The mission config: the YAML file when `config` is set, else an ArUco source from the ROS params."""
+    config_file = params["config"] or None
+    if config_file:
+        config = load_config(config_file)
+    else:
+        source = SourceConfig(
+            plugin="aruco",
+            params={"dictionary": params["dictionary"], "marker_size_m": float(params["marker_size_m"])},
+        )
+        config = MissionConfig()
+        config.perception.sources = [source]
+    if int(params["target_marker_id"]) >= 0:
+        config.perception.targets["target"] = TargetSpec(marker_id=int(params["target_marker_id"]))
+    return config, config_file
+
+
+def create_sources(config: MissionConfig, from_ros_params: bool, log: Any) -> list[PerceptionSource]:
+    """The perception sources; an unknown dictionary from the ROS params falls back to DICT_4X4_250."""
+    from perception_plugins import registry
+
+    try:
+        return registry.create_all(config.perception.sources)
+    except ConfigError as err:
+        if not (from_ros_params and err.key and "dictionary" in err.key):
+            raise
+        log.warning(f"parameter dictionary: {err.detail}; falling back to {FALLBACK_DICTIONARY}")
+        config.perception.sources[0].params["dictionary"] = FALLBACK_DICTIONARY
+        return registry.create_all(config.perception.sources)
+
+
+class MissionNode:
+    """Owns the rclpy node, the runner and the output publishers."""
+
+    def __init__(self, argv: Sequence[str], cli_config: str | None = None, cli_tree: str | None = None) -> None:
+        import rclpy
+        from rcl_interfaces.msg import ParameterDescriptor
+        from rclpy.node import Node
+
+        self.rclpy = rclpy
+        self.node = Node(NODE_NAME)
+        for name, (default, doc) in PARAMETERS.items():
+            # dynamic typing: `-p tick_hz:=10` (an int) is as good as 10.0
+            self.node.declare_parameter(name, default, ParameterDescriptor(description=doc, dynamic_typing=True))
+        self.params = {name: self.node.get_parameter(name).value for name in PARAMETERS}
+        if cli_config:
+            self.params["config"] = cli_config
+        if cli_tree:
+            self.params["tree"] = cli_tree
+        self.log = self.node.get_logger()
+        self.runner = None
+        self.sources: list[PerceptionSource] = []
+        self._processed = 0
+        self._ticks_failed = 0
+        self._last_tree_json = ""
+        self._last_tree_pub = -math.inf
+        self._tree_pending = False
+        self._tick_errors: set[str] = set()
+
+    # -- set-up ------------------------------------------------------------------------------------
+    def setup(self) -> None:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        from mission.ros.adapter import RosAdapter, RosTopics
+        from mission.ros.marker_outputs import VisibilityEdge
+        from mission.ros.messages import RclpyMessages
+        from mission.ros.tf_support import load_tf_message
+        from mission.runner import TreeRunner
+
+        p, n = self.params, self.node
+        config, config_file = build_config(p, self.log)
+        tree = str(p["tree"] or "")
+        self.perception_only = tree.lower() == "none"
+        if self.perception_only:
+            tree = str(PERCEPTION_ONLY_TREE)
+        self.sources = create_sources(config, from_ros_params=config_file is None, log=self.log)
+        topics = RosTopics(
+            image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
+            odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
+            amcl_topic=p["amcl_topic"], camera_frame=p["camera_frame"], base_frame=p["base_frame"],
+            map_frame=p["map_frame"], camera_info_tolerance_s=float(p["camera_info_tolerance_s"]),
+            camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]], goal_tolerance_m=float(p["goal_tolerance_m"]),
+        )  # fmt: skip
+        self.adapter = RosAdapter(n, topics)
+        self.runner = TreeRunner(config, self.adapter, tree or None, config_file=config_file, sources=self.sources)
+        self.runner.setup()
+        self.config = config
+
+        self.msgs = RclpyMessages()
+        m = self.msgs
+        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+        latched = QoSProfile(
+            depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+        )
+        self.pub_marker = n.create_publisher(m.cls("std_msgs/msg/Bool"), "/marker_detected", reliable)
+        self.pub_debug = n.create_publisher(m.cls("std_msgs/msg/String"), "/aruco/debug", reliable)
+        self.pub_target = n.create_publisher(m.cls("geometry_msgs/msg/PoseStamped"), "/detected_aruco_pose", reliable)
+        self.pub_poses = n.create_publisher(m.cls("geometry_msgs/msg/PoseArray"), "/aruco_poses", reliable)
+        self.pub_tree = n.create_publisher(m.cls("std_msgs/msg/String"), "/mission/tree", latched)
+        self.pub_dock = None
+        if self.perception_only:
+            self.pub_dock = self.adapter._pubs["dock"]
+        self.sub_redetect = n.create_subscription(m.cls("std_msgs/msg/Empty"), "/mission/redetect",
+                                                  self._on_redetect, reliable)  # fmt: skip
+        self.pub_tf = None
+        tf = load_tf_message()
+        if tf.message is not None:
+            try:
+                self.pub_tf = n.create_publisher(tf.message, "/tf", QoSProfile(depth=100))
+                self.tf_message = tf.message
+                self.log.info(f"/tf: publishing marker frames ({tf.detail})")
+            except Exception as err:  # a tf2_msgs whose type support does not load: run without TF
+                self.log.warning(f"/tf disabled: {tf.detail} does not work here: {err}")
+        else:
+            self.log.warning(f"/tf disabled: {tf.detail}")
+        self.edge = VisibilityEdge()
+
+        tick_hz = float(p["tick_hz"]) or float(config.run.tick_hz)
+        self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)
+        self.heartbeat_timer = n.create_timer(1.0, self._on_heartbeat)
+        names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
+        self.log.info(
+            f"{NODE_NAME}: tree {self.runner.tree_path} at {tick_hz:g} Hz; sources: {names}; "
+            f"image {topics.image_topic}, camera info {topics.camera_info_topic}, camera frame {topics.camera_frame}"
+        )
+
+    # -- callbacks ---------------------------------------------------------------------------------
+    def _on_tick(self) -> None:
+        try:
+            self.runner.tick()
+            self._publish_perception()
+            self._publish_tree()
+        except Exception as err:  # a failing tick must not take the node down: count, log once per kind
+            self._ticks_failed += 1
+            kind = f"{type(err).__name__}: {err}"
+            if kind not in self._tick_errors:
+                self._tick_errors.add(kind)
+                self.log.error(f"tick failed ({kind}); further identical errors are counted, not logged")
+
+    def _publish_perception(self) -> None:
+        stats = self.runner.get(bbk.PERCEPTION_STATS, {}) or {}
+        processed = int(stats.get("frames_processed", 0))
+        if processed == self._processed:
+            return
+        self._processed = processed
+        frame: Frame | None = self.runner.get(bbk.FRAME)
+        detections: list[Detection] = list(self.runner.get(bbk.DETECTIONS, []) or [])
+        if frame is None:
+            return
+        self.publish_frame_outputs(frame, detections)
+
+    def publish_frame_outputs(self, frame: Frame, detections: list[Detection]) -> None:
+        from mission.ros.conversions import matrix_to_pose, pose_stamped, transform_stamped
+        from mission.ros.marker_outputs import current_detection, detection_matrix, observation_json, tf_child_frames
+        from mission.ros.messages import header_msg
+
+        m = self.msgs
+        changed = self.edge.update(bool(detections))
+        if changed is not None:
+            self.pub_marker.publish(m.new("std_msgs/msg/Bool", data=changed))
+        if not detections:
+            return
+        frame_id, stamp = frame.frame_id or self.params["camera_frame"], float(frame.stamp)
+        self.pub_debug.publish(
+            m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
+        )
+        self.pub_poses.publish(m.new(
+            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
+            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
+        ))  # fmt: skip
+        tracks = self.runner.get(bbk.TRACKS, {}) or {}
+        if "target" in self.config.perception.targets:
+            target = current_detection(tracks, "target", stamp)
+        else:
+            target = min(detections, key=lambda d: d.distance)
+        if target is not None:
+            self.pub_target.publish(pose_stamped(m, detection_matrix(target), stamp, frame_id))
+        if self.pub_dock is not None:
+            dock = current_detection(tracks, "dock", stamp)
+            if dock is not None:
+                self.pub_dock.publish(pose_stamped(m, detection_matrix(dock), stamp, frame_id))
+        if self.pub_tf is not None:
+            transforms = [
+                transform_stamped(m, detection_matrix(d), stamp, frame_id, child)
+                for d in detections
+                for child in tf_child_frames(d)
+            ]
+            if transforms:
+                self.pub_tf.publish(self.tf_message(transforms=transforms))
+
+    def _publish_tree(self) -> None:
+        snap = self.runner.snapshot()
+        body = json.dumps({k: v for k, v in snap.items() if k not in ("tick", "clock")}, sort_keys=True)
+        if body != self._last_tree_json:
+            self._last_tree_json = body
+            self._tree_pending = True
+        now = time.monotonic()
+        if self._tree_pending and now - self._last_tree_pub >= TREE_PUBLISH_PERIOD_S:
+            self._tree_pending = False
+            self._last_tree_pub = now
+            self.pub_tree.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
+
+    def counters(self) -> dict[str, Any]:
+        stats = dict(self.runner.get(bbk.PERCEPTION_STATS, {}) or {}) if self.runner else {}
+        cache = self.adapter.cache.stats
+        return {
+            "mode": "perception" if self.perception_only else "tree",
+            "tick": self.runner.ticks if self.runner else 0,
+            "mission_state": self.runner.get(bbk.STATE, "") if self.runner else "",
+            "frames_received": cache.received.get("image", 0),
+            "frames_processed": int(stats.get("frames_processed", 0)),
+            "frames_dropped": cache.images_dropped,
+            "marker_visible": self.edge.visible,
+            "ticks_failed": self._ticks_failed,
+            **cache.to_json(),
+            "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
+        }
+
+    def _on_heartbeat(self) -> None:
+        from mission.ros.marker_outputs import heartbeat_json
+
+        self.pub_debug.publish(
+            self.msgs.new("std_msgs/msg/String", data=json.dumps(heartbeat_json(NODE_NAME, self.counters())))
+        )
+
+    def _on_redetect(self, _msg: Any) -> None:
+        reset = 0
+        for src in self.sources:
+            for method in ("reset_latch", "redetect", "reset"):
+                fn = getattr(src, method, None)
+                if callable(fn):
+                    fn()
+                    reset += 1
+                    break
+        self.log.info(f"/mission/redetect: reset {reset} source latch(es)")
+
+    # -- run ---------------------------------------------------------------------------------------
+    def spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+
+        with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
+            self.rclpy.spin(self.node)
+
+    def close(self) -> None:
+        if self.runner is not None:
+            try:
+                self.runner.close()
+            except Exception as err:  # closing must not hide the reason we stopped
+                self.log.warning(f"closing the runner: {err}")
+        for s in self.sources:
+            s.close()
+        self.node.destroy_node()
+
+
+def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="tree", description="the mission tree as a ROS 2 node")
+    parser.add_argument("--config", default=None, help="mission config YAML (same as -p config:=FILE)")
+    parser.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
+    return parser.parse_args(list(argv))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``install/mission/lib/mission/tree`` and ``mission tree``."""
+    argv = list(sys.argv if argv is None else argv)
+    for note in dds.configure_transport():
+        print(f"[{NODE_NAME}] {note}", file=sys.stderr)
+    import rclpy
+    from rclpy.utilities import remove_ros_args
+
+    cli = _parse_cli(remove_ros_args(argv)[1:])
+    rclpy.init(args=argv)
+    node: MissionNode | None = None
+    try:
+        node = MissionNode(argv, cli_config=cli.config, cli_tree=cli.tree)
+        try:
+            node.setup()
+        except MissionError as err:
+            print(f"{NODE_NAME}: error: {err}", file=sys.stderr)
+            return 2
+        node.spin()
+        return 0
+    finally:
+        if node is not None:
+            node.close()
+        if rclpy.ok():
+            rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

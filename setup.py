@@ -1,0 +1,54 @@
+"""colcon's entry point (ROS 2 ament_python). pip and every PEP 517 frontend use pyproject.toml instead.
+
+colcon runs ``setup.py`` itself, and two things in pyproject.toml get in its way: its static
+``[project]`` table would overrule the ament entry points below, and colcon's introspection of
+``setup.py`` cannot evaluate the metadata objects setuptools makes from it. So when colcon runs this
+file it describes the package from pyproject.toml's data (packages, plugin entry points) plus the
+ament pieces: the ``tree`` executable under lib/mission, the ament index marker and package.xml.
+"""
+
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from setuptools import setup
+
+if "setuptools.build_meta" in sys.modules:  # pip / PEP 517: everything is in pyproject.toml
+    setup()
+else:
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    from setuptools import find_packages
+    from setuptools.dist import Distribution
+
+    class AmentDistribution(Distribution):
+        """Reads setup.cfg (the ament install layout) but not pyproject.toml."""
+
+        def parse_config_files(self, filenames=None, ignore_option_errors=False):
+            super().parse_config_files(filenames=["setup.cfg"], ignore_option_errors=ignore_option_errors)
+
+    here = Path(__file__).resolve().parent
+    project = tomllib.loads((here / "pyproject.toml").read_text(encoding="utf-8"))
+    tool = project.get("tool", {}).get("setuptools", {})
+    manifest = ET.parse(here / "package.xml").getroot()
+    name = manifest.findtext("name")
+    entry_points = {
+        group: [f"{k} = {v}" for k, v in eps.items()]
+        for group, eps in project["project"].get("entry-points", {}).items()
+    }
+    entry_points["console_scripts"] = ["tree = mission.ros.node:main"]
+    setup(
+        distclass=AmentDistribution,
+        name=name,
+        version=manifest.findtext("version"),
+        packages=find_packages(include=tool["packages"]["find"]["include"]),
+        package_data=tool.get("package-data", {}),
+        data_files=[
+            ("share/ament_index/resource_index/packages", [f"resource/{name}"]),
+            (f"share/{name}", ["package.xml", "ros/fastdds_shm.xml"]),
+        ],
+        entry_points=entry_points,
+        zip_safe=False,
+    )
