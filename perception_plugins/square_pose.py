@@ -76,12 +76,12 @@ def solve_square(corners: np.ndarray, side_m: float, K: np.ndarray, dist: np.nda
     except cv2.error:
         return []
     errs_arr = np.asarray(errs, dtype=np.float64).reshape(-1) if errs is not None else np.zeros(int(n))
-    out = [
-        PoseHypothesis(np.asarray(rvecs[i], np.float64).reshape(3), np.asarray(tvecs[i], np.float64).reshape(3),
-                       float(errs_arr[i]))  # fmt: skip
-        for i in range(int(n))
-        if np.all(np.isfinite(rvecs[i])) and np.all(np.isfinite(tvecs[i])) and float(np.asarray(tvecs[i]).reshape(3)[2]) > 0
-    ]
+    out = []
+    for i in range(int(n)):
+        rvec = np.asarray(rvecs[i], np.float64).reshape(3)
+        tvec = np.asarray(tvecs[i], np.float64).reshape(3)
+        if np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)) and tvec[2] > 0:  # in front of the camera
+            out.append(PoseHypothesis(rvec, tvec, float(errs_arr[i])))
     return sorted(out, key=lambda h: h.reprojection_error)
 
 

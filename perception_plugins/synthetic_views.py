@@ -281,6 +281,6 @@ def render_sequence(
         render_marker_view(
             t, marker_id=marker_id, marker_size_m=marker_size_m, dictionary=dictionary, intrinsics=k,
             blur_sigma=blur_sigma, noise_sigma=noise_sigma, rng=rng, black=black, white=white, background=bg,
-        )  # fmt: skip
+        )
         for t in poses
     ]

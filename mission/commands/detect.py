@@ -36,7 +36,8 @@ def parse_set(items: list[str]) -> dict[str, Any]:
         try:
             out[key] = yaml.safe_load(raw) if raw.strip() else None
         except yaml.YAMLError as err:
-            raise ConfigError(f"value {raw!r} is not valid YAML ({str(err).splitlines()[0]})", key=f"--set {key}")
+            why = str(err).splitlines()[0]
+            raise ConfigError(f"value {raw!r} is not valid YAML ({why})", key=f"--set {key}") from None
     return out
 
 
