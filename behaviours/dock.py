@@ -31,6 +31,10 @@ from mission.core.docking import DockOffsets, dock_offsets, tag_floor_normal
 from mission.core.types import DockSetpoint
 
 SETTLE_DETECTIONS = 2  # consecutive fresh detections inside tolerance before declaring success
+# Inside tolerance the servo keeps refining toward these fractions of the tolerances (margin for measurement
+# noise), and declares success when it gets there, or after SETTLE_S inside tolerance without getting there.
+TIGHT_DISTANCE, TIGHT_LATERAL, TIGHT_SKEW = 0.5, 0.7, 0.5
+SETTLE_S = 1.5
 
 
 class FloorTagFilter:
@@ -134,6 +138,7 @@ class VisualServoDock(MissionLeaf):
         self._t0 = 0.0
         self._used_seen: float | None = None
         self._settled = 0
+        self._within_since: float | None = None
 
     def initialise(self) -> None:
         self._reset()
@@ -157,6 +162,13 @@ class VisualServoDock(MissionLeaf):
             and abs(off.skew_rad) <= self.skew_tol_rad
         )
 
+    def _tight(self, off: DockOffsets) -> bool:
+        return (
+            abs(off.standoff_m - self.standoff_m) <= TIGHT_DISTANCE * self.distance_tol_m
+            and abs(off.lateral_m) <= TIGHT_LATERAL * self.lateral_tol_m
+            and abs(off.skew_rad) <= TIGHT_SKEW * self.skew_tol_rad
+        )
+
     def update(self) -> py_trees.common.Status:
         self.set_state(MissionState.DOCK)
         now = self.now()
@@ -165,7 +177,7 @@ class VisualServoDock(MissionLeaf):
             return self.fail(f"DOCK: {self.target} was never seen, nothing to servo on")
         where = f" at {self._describe(self.offsets)}" if self.offsets is not None else ""
         if now - self._t0 > self.timeout_s:
-            return self.fail(f"DOCK: not docked within {self.timeout_s:.0f} s{where}")
+            return self.fail(f"DOCK: not docked within {self.timeout_s:g} s{where}")
         unseen = now - max(tr.last_seen, self._t0)
         if unseen > self.detection_timeout_s:
             return self.fail(
@@ -193,9 +205,12 @@ class VisualServoDock(MissionLeaf):
         self.offsets = off
 
         if self._within(off):
+            if self._within_since is None:
+                self._within_since = now
             if fresh:
                 self._settled += 1
-            if self._settled >= SETTLE_DETECTIONS:
+            done = self._tight(off) or now - self._within_since >= SETTLE_S
+            if done and self._settled >= SETTLE_DETECTIONS:
                 self.halt()
                 msg = (
                     f"DOCK: docked: lateral {100 * abs(off.lateral_m):.1f} cm, "
@@ -204,10 +219,9 @@ class VisualServoDock(MissionLeaf):
                 self.write(bbk.REASON, msg)
                 self.feedback_message = msg
                 return py_trees.common.Status.SUCCESS
-            self.halt()
-            self.feedback_message = f"DOCK: inside tolerance, settling: {self._describe(off)}"
-            return py_trees.common.Status.RUNNING
-        self._settled = 0
+        else:
+            self._settled = 0
+            self._within_since = None
 
         remaining = off.standoff_m - self.standoff_m
         if self.phase == "approach" and remaining < self.distance_tol_m and abs(off.lateral_m) > self.lateral_tol_m:

@@ -118,13 +118,13 @@ class Explore(MissionLeaf):
             self.feedback_message = msg
             return py_trees.common.Status.SUCCESS
         if elapsed > self.timeout_s:
-            return self.fail(f"EXPLORE: {self.target} not found within {self.timeout_s:.0f} s")
+            return self.fail(f"EXPLORE: {self.target} not found within {self.timeout_s:g} s")
         if self.phase == "sweep":
             self._turn_progress(now)
             self.drive(0.0, self.angular_speed)
             self.feedback_message = (
                 f"EXPLORE: sweeping for {self.target}, turned {math.degrees(self.turned):.0f}°, "
-                f"{elapsed:.0f} s of {self.timeout_s:.0f} s"
+                f"{elapsed:.0f} s of {self.timeout_s:g} s"
             )
             return py_trees.common.Status.RUNNING
         if self.phase == "turn":

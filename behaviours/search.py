@@ -90,8 +90,8 @@ class SearchSweep(MissionLeaf):
         elapsed = now - self._t0
         if elapsed > self.duration_s:
             return self.fail(
-                f"SEARCH: {self.target} not found after {elapsed:.1f} s of sweeping (limit {self.duration_s:.0f} s)"
+                f"SEARCH: {self.target} not found after {elapsed:.1f} s of sweeping (limit {self.duration_s:g} s)"
             )
         self.drive(0.0, self.direction * self.angular_speed)
-        self.feedback_message = f"{self._describe()}, {elapsed:.1f} s of {self.duration_s:.0f} s"
+        self.feedback_message = f"{self._describe()}, {elapsed:.1f} s of {self.duration_s:g} s"
         return py_trees.common.Status.RUNNING

@@ -75,7 +75,7 @@ class GoToStaging(MissionLeaf):
         if tr is None or tr.pose_map is None:
             return self.fail(f"DOCK: {self.target} was never seen, no staging pose")
         if now - self._t0 > self.timeout_s:
-            return self.fail(f"DOCK: staging pose not reached within {self.timeout_s:.0f} s")
+            return self.fail(f"DOCK: staging pose not reached within {self.timeout_s:g} s")
         try:
             pose = staging_pose(tr.pose_map, self.offset_m)
         except ValueError as err:
@@ -91,7 +91,7 @@ class GoToStaging(MissionLeaf):
             self.resend_goal(self._goal)
         outcome = self.nav_outcome(self._goal)
         g = self._goal.pose
-        where = f"({g.x:.2f}, {g.y:.2f}, {math.degrees(g.yaw):.0f}°)"
+        where = f"({g.x:.2f}, {g.y:.2f}, {round(math.degrees(g.yaw))}°)"
         if outcome == NavStatus.SUCCEEDED:
             self.halt()
             self.feedback_message = f"DOCK: at the staging pose {where}"
