@@ -122,12 +122,13 @@ class MissionNode:
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from rclpy.qos import QoSProfile
 
-        from mission.ros.adapter import RosAdapter, RosTopics
+        from mission.ros.adapter import LATCHED, RELIABLE, RosAdapter
         from mission.ros.marker_outputs import VisibilityEdge
         from mission.ros.messages import RclpyMessages
         from mission.ros.tf_support import load_tf_message
+        from mission.ros.world_io import RosTopics
         from mission.runner import TreeRunner
 
         p, n = self.params, self.node
@@ -151,10 +152,7 @@ class MissionNode:
 
         self.msgs = RclpyMessages()
         m = self.msgs
-        reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        latched = QoSProfile(
-            depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
-        )
+        reliable, latched = RELIABLE, LATCHED
         self.pub_marker = n.create_publisher(m.cls("std_msgs/msg/Bool"), "/marker_detected", reliable)
         self.pub_debug = n.create_publisher(m.cls("std_msgs/msg/String"), "/aruco/debug", reliable)
         self.pub_target = n.create_publisher(m.cls("geometry_msgs/msg/PoseStamped"), "/detected_aruco_pose", reliable)
@@ -162,7 +160,7 @@ class MissionNode:
         self.pub_tree = n.create_publisher(m.cls("std_msgs/msg/String"), "/mission/tree", latched)
         self.pub_dock = None
         if self.perception_only:
-            self.pub_dock = self.adapter._pubs["dock"]
+            self.pub_dock = self.adapter.publishers["dock"]
         self.sub_redetect = n.create_subscription(m.cls("std_msgs/msg/Empty"), "/mission/redetect",
                                                   self._on_redetect, reliable)  # fmt: skip
         self.pub_tf = None

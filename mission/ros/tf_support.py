@@ -64,7 +64,8 @@ def load_tf_message() -> TfSupport:
                 break
         if mod is None:
             return TfSupport(None, "tf2_msgs is not importable (run scripts/build_ros, or source a ROS install)")
-    prefix = Path(mod.__file__).resolve().parents[5]  # <prefix>/lib/pythonX.Y/site-packages/tf2_msgs/msg/__init__.py
+    # <prefix>/lib/pythonX.Y/site-packages/tf2_msgs/msg/__init__.py; not resolve(): a symlink install points into build/
+    prefix = Path(os.path.abspath(mod.__file__)).parents[5]
     try:
         _preload(prefix)
     except OSError as err:
