@@ -191,6 +191,7 @@ class ArucoSource:
             "dictionary": self.dictionary,
             "intrinsics": "fallback" if degraded else "calibrated",
             "disambiguation": self.params.disambiguation,
+            "track_frames": choice.track_frames,  # consecutive frames this marker's pose has been followed
         }
         if choice.alternative is not None:
             alt = choice.alternative

@@ -160,7 +160,7 @@ class TemporalDisambiguator:
 
     decay: float = 0.9  # evidence kept per frame (~10-frame memory)
     hysteresis: float = 0.3  # evidence lead needed to switch
-    clear_ratio: float = 0.5  # min/max error ratio below which one frame decides
+    clear_ratio: float = 0.2  # min/max error ratio for a one-frame decision (0.5 measured: 10 % flips, 0.2: 4 %)
     stale_after_s: float = 1.0
     max_jump_deg: float = 40.0
     floor_px: float = 0.02
