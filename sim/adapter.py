@@ -1,0 +1,336 @@
+"""The simulated world as a world adapter: pybullet renders and ray-casts, the rest is kinematics.
+
+Per tick the runner calls ``sense`` (clock, robot state, camera frame when one is due at the camera
+rate, lidar scan when one is due, the static map, navigator status → blackboard), ticks the tree,
+calls ``act`` (twist or nav goal from the blackboard → base / navigator), then ``advance(dt)`` (the
+target moves along its path, the navigator drives, the base integrates its motion in ≤ 20 ms substeps,
+the lidar fires at its rate). ``ground_truth()`` tells metrics what really happened.
+
+Seed N draws, each from its own stream so one aspect does not shift another: start pose jitter,
+marker mounting jitter, target timing (speed, pauses, start delay), image and lidar noise.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import py_trees
+
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.types import (
+    CameraIntrinsics,
+    Frame,
+    LaserScan,
+    NavGoal,
+    OccupancyGrid,
+    Pose2D,
+    RobotState,
+    Twist,
+)
+from sim.geometry import Footprint, clearance
+from sim.ground_truth import GroundTruth
+from sim.navigator import Navigator
+from sim.robot import DiffDriveBase
+from sim.scenario import Scenario
+from sim.static_map import static_map
+from sim.target_motion import TargetPath
+from sim.world import World, intrinsics_for, static_footprints, unknown_footprints
+
+SUBSTEP_S = 0.02
+TARGET_ROBOT_GAP_M = 0.05  # the target waits rather than come closer than this to the robot
+NOISE_BANK = 12  # pre-drawn noise images, picked at random per frame (drawing per frame costs ~8 ms)
+
+
+class SimAdapter:
+    """A scenario in pybullet behind the WorldAdapter protocol (mission.core.world)."""
+
+    def __init__(self, scenario: Scenario, seed: int = 0, renderer: str | None = None) -> None:
+        self.scenario = scenario
+        self.seed = int(seed)
+        self.renderer = renderer or scenario.camera.renderer
+        if self.renderer not in ("tiny", "egl"):
+            raise ValueError(f"renderer must be 'tiny' or 'egl', got {self.renderer!r}")
+        cam = scenario.camera
+        self.intrinsics: CameraIntrinsics = intrinsics_for(cam, self.renderer)
+        m = cam.mount
+        self.T_base_optical = se3.transform(se3.rot_y(math.radians(m.pitch_deg)) @ se3.R_BODY_OPTICAL, (m.x, m.y, m.z))
+        self.occupancy_grid: OccupancyGrid = static_map(scenario)
+        streams = np.random.SeedSequence(self.seed).spawn(4)
+        self._rng_start, self._rng_marker, self._rng_timing, self._rng_noise = (
+            np.random.default_rng(s) for s in streams
+        )
+        self._static = static_footprints(scenario)
+        self._unknown = unknown_footprints(scenario)
+        self.start_pose = self._draw_start()
+        self.world: World | None = None
+        self.base: DiffDriveBase | None = None
+        self.navigator: Navigator | None = None
+        self.target_path: TargetPath | None = None
+        self.t = 0.0
+        self._tau = 0.0  # the target's own progress clock (stops while the robot is in its way)
+        self._target_pose = (0.0, 0.0, 0.0)
+        self._cmd = Twist(0.0, 0.0)
+        self._mode = "stop"  # "stop" | "twist" | "nav"
+        self._goal_seq: int | None = None
+        self._frame_seq = 0
+        self._next_frame_t = 0.0
+        self._next_scan_t = 0.0
+        self._scan: LaserScan | None = None
+        self._scan_seq = 0
+        self._scan_published = -1
+        self._noise: list[tuple[np.ndarray, np.ndarray]] = []
+        self.frames_rendered = 0
+
+    # -- WorldAdapter --------------------------------------------------------------------------------
+    def setup(self) -> None:
+        sc = self.scenario
+        r = self.scenario.random
+        jitter = []
+        if sc.target is not None:
+            for _ in sc.target.markers:
+                dx, dy = self._rng_marker.uniform(-1.0, 1.0, 2) * r.marker_shift_m
+                tilt = math.radians(self._rng_marker.uniform(-r.marker_tilt_deg, r.marker_tilt_deg))
+                jitter.append(se3.transform(se3.rot_z(tilt), (dx, dy, 0.0)))
+        self.world = World(sc, marker_jitter=jitter, renderer=self.renderer)
+        self.world.build()
+        x, y, yaw = self.start_pose
+        self.base = DiffDriveBase(sc.robot, x, y, yaw)
+        self.navigator = Navigator(self.occupancy_grid, sc.robot.radius, sc.navigation, sc.robot.max_v, sc.robot.max_w)
+        if sc.target is not None:
+            self.target_path = TargetPath(sc.target, self._rng_timing, r.timing_frac, sc.duration_s)
+            self._target_pose = self.target_path.pose(0.0)
+        if sc.lighting.image_noise_sigma > 0:
+            self._noise = self._noise_bank(sc.lighting.image_noise_sigma)
+        self._sync_bodies()
+        self._take_scan()
+
+    def sense(self, bb: py_trees.blackboard.Client) -> None:
+        assert self.base is not None and self.navigator is not None, "call setup() first"
+        s = self.base.state
+        bbk.set_(bb, bbk.CLOCK, self.t)
+        bbk.set_(bb, bbk.ROBOT_STATE, RobotState(Pose2D(s.x, s.y, s.yaw), Twist(s.v, s.w), self.t))
+        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.T_base_optical.copy())
+        bbk.set_(bb, bbk.MAP, self.occupancy_grid)
+        bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
+        if self.t >= self._next_frame_t - 1e-9:
+            frame = self.capture()
+            self._frame_seq += 1
+            bbk.set_(bb, bbk.FRAME, frame)
+            bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
+            period = 1.0 / self.scenario.camera.rate_hz
+            while self._next_frame_t <= self.t + 1e-9:
+                self._next_frame_t += period
+        if self._scan is not None and self._scan_seq != self._scan_published:
+            bbk.set_(bb, bbk.SCAN, self._scan)
+            self._scan_published = self._scan_seq
+
+    def act(self, bb: py_trees.blackboard.Client) -> None:
+        """TWIST overrides navigation (cancels it); a NAV_GOAL with a new seq starts one; neither → stop."""
+        assert self.navigator is not None, "call setup() first"
+        twist = bbk.get(bb, bbk.TWIST)
+        goal = bbk.get(bb, bbk.NAV_GOAL)
+        if isinstance(twist, Twist):
+            if self.navigator.goal is not None:
+                self.navigator.cancel()
+                self._goal_seq = None
+            self._cmd, self._mode = twist, "twist"
+        elif isinstance(goal, NavGoal):
+            if goal.seq != self._goal_seq:
+                self._goal_seq = goal.seq
+                self.navigator.set_goal(goal.pose, self.t)
+            self._mode = "nav"
+        else:
+            if self.navigator.goal is not None:
+                self.navigator.cancel()
+            self._goal_seq = None
+            self._cmd, self._mode = Twist(0.0, 0.0), "stop"
+
+    def advance(self, dt: float) -> None:
+        assert self.base is not None and self.navigator is not None, "call setup() first"
+        if dt <= 0:
+            return
+        n = max(1, math.ceil(dt / SUBSTEP_S - 1e-9))
+        h = dt / n
+        for _ in range(n):
+            self._move_target(h)
+            if self.t >= self._next_scan_t - 1e-9:
+                self._sync_bodies()
+                self._take_scan()
+            pose = self.robot_pose
+            cmd = self.navigator.command(pose, self.t) if self._mode == "nav" else self._cmd
+            self.base.step(cmd.v, cmd.w, h, self._obstacles_for_robot())
+            self.t += h
+        self._sync_bodies()
+
+    def close(self) -> None:
+        if self.world is not None:
+            self.world.close()
+            self.world = None
+
+    # -- sensing -------------------------------------------------------------------------------------
+    @property
+    def robot_pose(self) -> Pose2D:
+        assert self.base is not None
+        s = self.base.state
+        return Pose2D(s.x, s.y, s.yaw)
+
+    def T_map_optical(self) -> np.ndarray:
+        p = self.robot_pose
+        return se3.planar(p.x, p.y, p.yaw) @ self.T_base_optical
+
+    def capture(self) -> Frame:
+        """Render the camera now (the frame the robot would get at this instant)."""
+        assert self.world is not None
+        cam = self.scenario.camera
+        T = self.T_map_optical()
+        img, depth = self.world.render(T, cam, self.scenario.lighting, depth=cam.depth)
+        if self._noise:
+            plus, minus = self._noise[int(self._rng_noise.integers(len(self._noise)))]
+            img = _add_noise(img, plus, minus)
+        self.frames_rendered += 1
+        return Frame(image=img, stamp=self.t, frame_id="camera_optical_frame", intrinsics=self.intrinsics,
+                     depth=depth, T_anchor_camera=T, anchor_frame="map")  # fmt: skip
+
+    def _noise_bank(self, sigma: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        cam = self.scenario.camera
+        bank = []
+        for _ in range(NOISE_BANK):
+            n = np.rint(self._rng_noise.normal(0.0, sigma, (cam.height, cam.width, 3))).clip(-255, 255)
+            bank.append((np.maximum(n, 0).astype(np.uint8), np.maximum(-n, 0).astype(np.uint8)))
+        return bank
+
+    def _take_scan(self) -> None:
+        assert self.world is not None
+        li = self.scenario.lidar
+        pose = self.robot_pose
+        ang = -math.pi + (2 * math.pi / li.beams) * np.arange(li.beams)
+        world_ang = pose.yaw + ang
+        froms = np.tile([pose.x, pose.y, li.height_m], (li.beams, 1))
+        tos = froms + li.range_max_m * np.column_stack([np.cos(world_ang), np.sin(world_ang), np.zeros(li.beams)])
+        frac = self.world.ray_fractions(froms, tos)
+        ranges = frac * li.range_max_m
+        if li.noise_sigma_m > 0:
+            ranges = ranges + self._rng_noise.normal(0.0, li.noise_sigma_m, li.beams)
+        ranges = np.where(frac >= 1.0, np.inf, np.maximum(ranges, li.range_min_m)).astype(np.float32)
+        self._scan = LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / li.beams, ranges=ranges,
+                               range_min=li.range_min_m, range_max=li.range_max_m, stamp=self.t,
+                               frame_id="base_scan")  # fmt: skip
+        self._scan_seq += 1
+        assert self.navigator is not None
+        self.navigator.update_scan(pose, self._scan)
+        period = 1.0 / li.rate_hz
+        while self._next_scan_t <= self.t + 1e-9:
+            self._next_scan_t += period
+
+    # -- world motion --------------------------------------------------------------------------------
+    def _target_footprint(self, x: float, y: float, yaw: float) -> Footprint:
+        tg = self.scenario.target
+        assert tg is not None
+        return Footprint("box", x, y, yaw, tg.size[0] / 2, tg.size[1] / 2, name="target")
+
+    def _obstacles_for_robot(self) -> list[Footprint]:
+        fps = [*self._static, *self._unknown]
+        if self.target_path is not None:
+            fps.append(self._target_footprint(*self._target_pose))
+        return fps
+
+    def _move_target(self, h: float) -> None:
+        if self.target_path is None or self.base is None:
+            return
+        pose = self.target_path.pose(self._tau + h)
+        s = self.base.state
+        gap = self._target_footprint(*pose).distance(s.x, s.y) - self.scenario.robot.radius
+        if gap < TARGET_ROBOT_GAP_M and pose != self._target_pose:
+            now_gap = self._target_footprint(*self._target_pose).distance(s.x, s.y) - self.scenario.robot.radius
+            if gap < now_gap:  # only wait when moving would bring it closer to the robot
+                return
+        self._tau += h
+        self._target_pose = pose
+
+    def _sync_bodies(self) -> None:
+        assert self.world is not None
+        p = self.robot_pose
+        self.world.set_robot_pose(p.x, p.y, p.yaw)
+        if self.target_path is not None:
+            self.world.set_target_pose(*self._target_pose)
+
+    def _draw_start(self) -> tuple[float, float, float]:
+        r, sp = self.scenario.random, self.scenario.robot
+        nominal = (sp.x, sp.y, math.radians(sp.yaw_deg))
+        fps = [*self._static, *self._unknown]
+        for _ in range(20):
+            rho = r.start_xy_m * math.sqrt(self._rng_start.uniform())
+            phi = self._rng_start.uniform(0, 2 * math.pi)
+            x, y = sp.x + rho * math.cos(phi), sp.y + rho * math.sin(phi)
+            yaw = nominal[2] + math.radians(self._rng_start.uniform(-r.start_yaw_deg, r.start_yaw_deg))
+            if clearance(fps, x, y)[0] >= sp.radius + 0.01:
+                return x, y, se3.wrap_angle(yaw)
+        return nominal
+
+    # -- ground truth --------------------------------------------------------------------------------
+    @property
+    def dock_xy(self) -> tuple[float, float] | None:
+        d = self.scenario.dock
+        return None if d is None else (d.x, d.y)
+
+    @property
+    def collisions(self) -> int:
+        return 0 if self.base is None else self.base.contacts
+
+    def _visibility(self, T_map_optical: np.ndarray, T_map_marker: np.ndarray) -> tuple[bool, bool]:
+        assert self.world is not None
+        cam = self.scenario.camera
+        c = T_map_optical[:3, 3]
+        m = T_map_marker[:3, 3]
+        los = self.world.ray_hit(c, m) < 0
+        p = se3.apply(se3.invert(T_map_optical), m)
+        facing = float(T_map_marker[:3, 2] @ (c - m)) > 0.0
+        fov = False
+        if cam.near_m < p[2] <= cam.max_range_m and facing:
+            u, v = self.intrinsics.project(p[None, :])[0]
+            fov = 0.0 <= u < cam.width and 0.0 <= v < cam.height
+        return los, fov
+
+    def ground_truth(self) -> GroundTruth:
+        """The true state now (poses in the map frame, visibility of the target marker and the dock)."""
+        assert self.base is not None and self.world is not None and self.navigator is not None
+        T_opt = self.T_map_optical()
+        target = None
+        marker_T: np.ndarray | None = None
+        all_markers: list[np.ndarray] = []
+        los = fov = moving = False
+        if self.target_path is not None:
+            x, y, yaw = self._target_pose
+            target = Pose2D(x, y, yaw)
+            moving = self.target_path.moving(self._tau)
+            T_body = self.world.T_map_target(x, y, yaw)
+            all_markers = [T_body @ mm.T_body_marker for mm in self.world.markers]
+            if all_markers:
+                c = T_opt[:3, 3]
+
+                def facing(T: np.ndarray) -> float:
+                    d = c - T[:3, 3]
+                    return float(T[:3, 2] @ d) / max(float(np.linalg.norm(d)), 1e-9)
+
+                marker_T = max(all_markers, key=facing)
+                los, fov = self._visibility(T_opt, marker_T)
+        dock_T = self.world.T_map_dock
+        dock_los = dock_fov = False
+        if dock_T is not None:
+            dock_los, dock_fov = self._visibility(T_opt, dock_T)
+        s = self.base.state
+        return GroundTruth(
+            stamp=self.t, robot=Pose2D(s.x, s.y, s.yaw), robot_v=s.v, robot_w=s.w, T_map_optical=T_opt,
+            target=target, target_moving=moving, T_map_target_marker=marker_T, target_in_los=los,
+            target_in_fov=fov, T_map_dock=None if dock_T is None else dock_T.copy(), dock_in_los=dock_los,
+            dock_in_fov=dock_fov, collisions=self.base.contacts, nav_status=self.navigator.status,
+            T_map_target_markers=all_markers, collision_log=list(self.base.contact_log),
+        )  # fmt: skip
+
+
+def _add_noise(img: np.ndarray, plus: np.ndarray, minus: np.ndarray) -> np.ndarray:
+    """img + noise with saturation, using the pre-split positive and negative parts (uint8 arithmetic)."""
+    return cv2.subtract(cv2.add(img, plus), minus)

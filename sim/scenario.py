@@ -1,0 +1,349 @@
+"""Scenario files: the room, what is in it, what moves, and how the robot senses it.
+
+A scenario is YAML under ``sim/scenarios/`` validated by the models below (unknown keys are errors,
+every error is one line naming the file and the dotted key). Geometry that cannot be simulated — a
+robot starting inside a pillar, a waypoint outside the room — is rejected at load time with the key
+that is wrong, because a run that starts from an impossible state only produces confusing metrics.
+
+Frames: the room's south-west inner corner is the map origin, x east, y north, z up; yaw in degrees
+counter-clockwise from +x. The sim's world frame *is* the map frame.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from mission.core.config import StrictModel, load_model, validate_model
+from mission.core.errors import ConfigError
+from sim.geometry import Footprint
+from sim.markers import dictionary_size, quad_side
+
+SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
+
+Vec2 = tuple[float, float]
+Vec3 = tuple[float, float, float]
+RGB = tuple[float, float, float]
+
+
+class Room(StrictModel):
+    size: Vec2 = (8.0, 8.0)  # inner size x, y (m); the room spans [0, sx] × [0, sy]
+    wall_height: float = Field(1.0, gt=0)
+    wall_thickness: float = Field(0.1, gt=0)
+    wall_color: RGB = (0.82, 0.80, 0.74)
+    floor_color: RGB = (0.55, 0.55, 0.57)
+
+    @model_validator(mode="after")
+    def _positive(self) -> Room:
+        if min(self.size) <= 0.5:
+            raise ValueError(f"room size must be > 0.5 m per side, got {list(self.size)}")
+        return self
+
+
+class Obstacle(StrictModel):
+    """A box or an upright cylinder standing on the floor."""
+
+    shape: Literal["box", "cylinder"] = "box"
+    x: float
+    y: float
+    yaw_deg: float = 0.0  # boxes only
+    size: Vec3 = (0.5, 0.5, 1.0)  # box: full extents x, y, z (m)
+    radius: float = Field(0.15, gt=0)  # cylinder
+    height: float = Field(1.0, gt=0)  # cylinder
+    color: RGB = (0.45, 0.47, 0.52)
+    name: str | None = None
+
+    @property
+    def top(self) -> float:
+        return self.size[2] if self.shape == "box" else self.height
+
+
+class Jitter(StrictModel):
+    xy_m: float = Field(0.0, ge=0)
+    yaw_deg: float = Field(0.0, ge=0)
+
+
+class RobotSpec(StrictModel):
+    x: float = 1.0
+    y: float = 1.0
+    yaw_deg: float = 0.0
+    radius: float = Field(0.22, gt=0.05, le=1.0)  # round base: the collision footprint
+    height: float = Field(0.28, gt=0)
+    max_v: float = Field(0.6, gt=0)  # m/s
+    max_w: float = Field(2.0, gt=0)  # rad/s
+    acc_v: float = Field(2.5, gt=0)  # m/s², Nav2 DWB's acc_lim_x
+    acc_w: float = Field(3.2, gt=0)  # rad/s², Nav2 DWB's acc_lim_theta
+    color: RGB = (0.15, 0.15, 0.17)
+
+
+class Marker(StrictModel):
+    face: Literal["front", "back", "left", "right"] = "back"  # box faces: front = +x of the target body
+    dictionary: str = "DICT_APRILTAG_36h11"
+    id: int = Field(7, ge=0)
+    size_m: float = Field(0.20, gt=0)  # side of the black square (what a detector's marker_size means)
+    quiet_cells: int = Field(2, ge=1, le=4)  # white border around the black square, in code cells
+    height_m: float | None = None  # centre height above the floor; default: camera height, capped by the box
+
+
+class Waypoint(StrictModel):
+    x: float
+    y: float
+    pause_s: float = Field(0.0, ge=0)
+
+
+class TargetSpec(StrictModel):
+    """A box carrying markers that drives along waypoints (a person-sized stand-in for the followed thing)."""
+
+    x: float = 3.0
+    y: float = 1.0
+    yaw_deg: float = 0.0
+    size: Vec3 = (0.40, 0.40, 0.70)
+    color: RGB = (0.85, 0.08, 0.08)  # red: the VLM stub looks for a "red box"
+    label: str = "red box"
+    markers: list[Marker] = Field(default_factory=lambda: [Marker(face="back"), Marker(face="left"),
+                                                           Marker(face="right")])  # fmt: skip
+    waypoints: list[Waypoint] = Field(default_factory=list)
+    speed_mps: float = Field(0.35, gt=0)
+    turn_rate_dps: float = Field(120.0, gt=0)
+    start_delay_s: float = Field(2.0, ge=0)
+    loop: bool = False  # after the last waypoint drive back to the first and around again
+
+
+class DockSpec(StrictModel):
+    """A wall-mounted tag; the approach axis is the tag's normal (yaw_deg: the direction it faces)."""
+
+    x: float
+    y: float
+    yaw_deg: float  # direction the tag face points, i.e. the robot approaches along yaw_deg + 180°
+    z: float | None = None  # tag centre height; default: camera height
+    dictionary: str = "DICT_APRILTAG_36h11"
+    id: int = Field(0, ge=0)
+    size_m: float = Field(0.15, gt=0)
+    quiet_cells: int = Field(2, ge=1, le=4)
+
+
+class Lighting(StrictModel):
+    direction: Vec3 = (0.4, -0.3, 1.0)  # towards the light
+    ambient: float = Field(0.6, ge=0, le=1)
+    diffuse: float = Field(0.4, ge=0, le=1)
+    specular: float = Field(0.05, ge=0, le=1)
+    image_noise_sigma: float = Field(2.0, ge=0)  # Gaussian noise (grey levels) added to every image
+
+
+class Mount(StrictModel):
+    """Camera optical centre in the base frame (x forward, y left, z up); pitch down positive."""
+
+    x: float = 0.17
+    y: float = 0.0
+    z: float = 0.35
+    pitch_deg: float = 0.0
+
+
+class CameraSpec(StrictModel):
+    width: int = Field(640, ge=16, le=4096)
+    height: int = Field(480, ge=16, le=4096)
+    vfov_deg: float = Field(60.0, gt=5, lt=170)
+    rate_hz: float = Field(15.0, gt=0, le=120)
+    renderer: Literal["tiny", "egl"] = "tiny"
+    depth: bool = False
+    near_m: float = Field(0.05, gt=0)
+    far_m: float = Field(20.0, gt=0)
+    max_range_m: float = Field(6.0, gt=0)  # ground truth "in FOV" also needs the marker within this range
+    mount: Mount = Field(default_factory=Mount)
+
+
+class LidarSpec(StrictModel):
+    beams: int = Field(360, ge=8, le=4096)
+    range_min_m: float = Field(0.12, ge=0)
+    range_max_m: float = Field(8.0, gt=0)
+    rate_hz: float = Field(10.0, gt=0, le=100)
+    height_m: float = Field(0.20, gt=0)  # scan plane above the floor
+    noise_sigma_m: float = Field(0.005, ge=0)
+
+
+class MapSpec(StrictModel):
+    resolution: float = Field(0.05, gt=0.005, le=0.5)
+
+
+class NavSpec(StrictModel):
+    """The Nav2 stand-in (sim/navigator.py)."""
+
+    inflation_m: float = Field(0.08, ge=0)  # clearance added to the robot radius when planning
+    goal_tolerance_m: float = Field(0.15, gt=0)
+    yaw_tolerance_rad: float = Field(0.2, gt=0)
+    max_v: float = Field(0.5, gt=0)
+    max_w: float = Field(1.5, gt=0)
+    lookahead_m: float = Field(0.45, gt=0)
+    replan_period_s: float = Field(2.0, gt=0)
+    stuck_timeout_s: float = Field(8.0, gt=0)  # no progress for this long → failed
+
+
+class RandomSpec(StrictModel):
+    """Per-seed variation (seed N of `mission run --seed N`)."""
+
+    start_xy_m: float = Field(0.10, ge=0)
+    start_yaw_deg: float = Field(5.0, ge=0)
+    timing_frac: float = Field(0.15, ge=0, lt=1)  # target speed, pauses and start delay scaled by 1 ± this
+    marker_shift_m: float = Field(0.005, ge=0)  # marker mounted off-centre on its face by up to this
+    marker_tilt_deg: float = Field(1.0, ge=0)  # and rotated in its plane by up to this
+
+
+class Success(StrictModel):
+    """What the runner checks at the end: follow (keep following), dock (docked within tolerance), mission."""
+
+    kind: Literal["follow", "dock", "mission", "tree"] = "tree"
+    standoff_m: float = Field(0.30, gt=0)  # docking: camera-to-tag distance the dock means
+
+
+class Scenario(StrictModel):
+    name: str
+    description: str = ""
+    duration_s: float = Field(60.0, gt=0)
+    tree: str = "mission.xml"
+    success: Success = Field(default_factory=Success)
+    room: Room = Field(default_factory=Room)
+    obstacles: list[Obstacle] = Field(default_factory=list)  # static: in the pre-built map
+    unknown_obstacles: list[Obstacle] = Field(default_factory=list)  # not in the map; the lidar sees them
+    robot: RobotSpec = Field(default_factory=RobotSpec)
+    target: TargetSpec | None = None
+    dock: DockSpec | None = None
+    lighting: Lighting = Field(default_factory=Lighting)
+    camera: CameraSpec = Field(default_factory=CameraSpec)
+    lidar: LidarSpec = Field(default_factory=LidarSpec)
+    map: MapSpec = Field(default_factory=MapSpec)
+    navigation: NavSpec = Field(default_factory=NavSpec)
+    random: RandomSpec = Field(default_factory=RandomSpec)
+
+
+# --------------------------------------------------------------------------------------------------
+# Geometry checks
+# --------------------------------------------------------------------------------------------------
+
+
+def obstacle_footprint(ob: Obstacle) -> Footprint:
+    """The obstacle's outline on the floor."""
+    if ob.shape == "cylinder":
+        return Footprint("circle", ob.x, ob.y, r=ob.radius, name=ob.name or "")
+    return Footprint("box", ob.x, ob.y, math.radians(ob.yaw_deg), ob.size[0] / 2, ob.size[1] / 2, name=ob.name or "")
+
+
+def obstacle_distance(ob: Obstacle, x: float, y: float) -> float:
+    """Signed floor distance from (x, y) to the obstacle's footprint (negative inside)."""
+    return obstacle_footprint(ob).distance(x, y)
+
+
+def _check_point(
+    sc: Scenario, x: float, y: float, clearance: float, key: str, file: str | None, *, unknown: bool = True
+) -> None:
+    sx, sy = sc.room.size
+    if not (clearance <= x <= sx - clearance and clearance <= y <= sy - clearance):
+        raise ConfigError(
+            f"({x:g}, {y:g}) is outside the room [0, {sx:g}] × [0, {sy:g}] (with {clearance:g} m clearance)",
+            file=file,
+            key=key,
+        )
+    groups = [("obstacles", sc.obstacles)] + ([("unknown_obstacles", sc.unknown_obstacles)] if unknown else [])
+    for group, obs in groups:
+        for i, ob in enumerate(obs):
+            d = obstacle_distance(ob, x, y)
+            if d < clearance:
+                what = ob.name or f"{group}[{i}]"
+                raise ConfigError(
+                    f"({x:g}, {y:g}) is {'inside' if d < 0 else 'too close to'} {what} "
+                    f"(needs {clearance:g} m clearance)",
+                    file=file,
+                    key=key,
+                )
+
+
+def _check_code(dictionary_name: str, marker_id: int, key: str, file: str | None) -> None:
+    try:
+        n = dictionary_size(dictionary_name)
+    except ValueError as err:
+        raise ConfigError(str(err), file=file, key=f"{key}.dictionary") from None
+    if marker_id >= n:
+        raise ConfigError(f"id {marker_id} is not in {dictionary_name} (ids 0..{n - 1})", file=file, key=f"{key}.id")
+
+
+def check_geometry(sc: Scenario, file: str | None = None) -> None:
+    """Reject scenarios whose start states or paths are impossible (robot or target inside things)."""
+    _check_point(sc, sc.robot.x, sc.robot.y, sc.robot.radius, "robot", file)
+    for group in ("obstacles", "unknown_obstacles"):
+        for i, ob in enumerate(getattr(sc, group)):
+            if ob.shape == "box" and min(ob.size) <= 0:
+                raise ConfigError(f"box size must be > 0, got {list(ob.size)}", file=file, key=f"{group}[{i}].size")
+            sx, sy = sc.room.size
+            if not (0 <= ob.x <= sx and 0 <= ob.y <= sy):
+                raise ConfigError(f"({ob.x:g}, {ob.y:g}) is outside the room", file=file, key=f"{group}[{i}]")
+    if sc.target is not None:
+        t = sc.target
+        half = 0.5 * math.hypot(t.size[0], t.size[1])
+        _check_point(sc, t.x, t.y, half, "target", file)
+        for i, wp in enumerate(t.waypoints):
+            _check_point(sc, wp.x, wp.y, half, f"target.waypoints[{i}]", file)
+        if math.hypot(t.x - sc.robot.x, t.y - sc.robot.y) < half + sc.robot.radius:
+            raise ConfigError("target starts on top of the robot", file=file, key="target")
+        for i, m in enumerate(t.markers):
+            _check_code(m.dictionary, m.id, f"target.markers[{i}]", file)
+            face_w = t.size[1] if m.face in ("front", "back") else t.size[0]
+            side = quad_side(m.dictionary, m.size_m, m.quiet_cells)
+            if side > min(face_w, t.size[2]) + 1e-9:
+                raise ConfigError(
+                    f"marker with quiet zone ({side:.3g} m) does not fit on the {m.face} face "
+                    f"({face_w:g} × {t.size[2]:g} m)",
+                    file=file,
+                    key=f"target.markers[{i}].size_m",
+                )
+    if sc.dock is not None:
+        sx, sy = sc.room.size
+        d = sc.dock
+        _check_code(d.dictionary, d.id, "dock", file)
+        if not (-1e-6 <= d.x <= sx + 1e-6 and -1e-6 <= d.y <= sy + 1e-6):
+            raise ConfigError(f"({d.x:g}, {d.y:g}) is outside the room", file=file, key="dock")
+    if sc.camera.far_m <= sc.camera.near_m:
+        raise ConfigError("far_m must be greater than near_m", file=file, key="camera.far_m")
+    if sc.lidar.range_max_m <= sc.lidar.range_min_m:
+        raise ConfigError("range_max_m must be greater than range_min_m", file=file, key="lidar.range_max_m")
+
+
+# --------------------------------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------------------------------
+
+
+def shipped_scenarios() -> list[str]:
+    """Names of the scenarios that ship with the package."""
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+
+
+def scenario_path(name_or_path: str) -> Path:
+    """A bare name is a shipped scenario; anything path-like (or an existing file) is a path."""
+    p = Path(name_or_path)
+    looks_like_path = p.suffix in (".yaml", ".yml") or "/" in name_or_path or p.is_file()
+    if looks_like_path:
+        return p
+    candidate = SCENARIO_DIR / f"{name_or_path}.yaml"
+    if not candidate.is_file():
+        raise ConfigError(
+            f"unknown scenario {name_or_path!r}; shipped: {', '.join(shipped_scenarios())} (or give a YAML path)",
+            key="scenario",
+        )
+    return candidate
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    """A validated scenario from a shipped name (``follow_open``) or a YAML path."""
+    path = scenario_path(name_or_path)
+    sc = load_model(Scenario, path)
+    check_geometry(sc, str(path))
+    return sc
+
+
+def scenario_from_dict(data: dict, *, file: str | None = None) -> Scenario:
+    """Validate an in-memory scenario (tests, generated sweeps) with the same checks as a file."""
+    sc = validate_model(Scenario, data, file=file)
+    check_geometry(sc, file)
+    return sc
