@@ -1,0 +1,319 @@
+"""The live web view: `mission run --serve` (and the ROS node) serve the mission page on 127.0.0.1.
+
+Standard library only: a ThreadingHTTPServer, server-sent events for the ticks, no CDN. Endpoints:
+
+* ``/``              the page (mission.viz.html, live mode) with the run's history so far;
+* ``/events``        server-sent events: ``header``, one ``tick`` per tick (id = tick), ``end``;
+                     ``?after=N`` or the browser's Last-Event-ID resumes without gaps;
+* ``/camera.jpg``    the newest camera frame with detection overlays (mission.viz.overlay), JPEG;
+* ``/tree.svg``      the tree with the latest statuses; ``POST /api/tree.svg`` draws a posted tree
+                     (the page's "Open log…");
+* ``/api/header``, ``/api/history?after=N``   JSON, for tools and tests.
+
+It binds 127.0.0.1 only, never another interface. The server starts when the observer is created, so a
+port already in use is reported before the simulation spends time starting.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import sys
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
+from urllib.parse import parse_qs, urlparse
+
+from mission.core import blackboard as bbk
+from mission.core.errors import MissionError
+from mission.viz.html import render_page, tree_svg_for_page
+from mission.viz.model import VizNode, apply_tick, from_snapshot
+from mission.viz.overlay import draw_detections, encode_jpeg
+from mission.viz.probe import probe_for, release
+from mission.viz.svg import render_svg
+from mission.viz.tick_log import header as make_header
+
+HOST = "127.0.0.1"
+MAX_HISTORY = 20_000  # ticks kept for scrubbing (≈1.5 kB each)
+PAGE_HISTORY = 3_000  # ticks embedded in a freshly loaded page; older ones stay scrubbable via the API
+
+
+def _dumps(obj: Any) -> str:
+    return json.dumps(obj, separators=(",", ":"), ensure_ascii=False, default=str)
+
+
+class LiveView:
+    """A TickObserver that serves the live page. `realtime` paces a simulated run to wall-clock speed."""
+
+    def __init__(
+        self, port: int = 8765, *, realtime: bool = False, speed: float = 1.0, hold: bool = False, quiet: bool = False
+    ) -> None:
+        self.realtime = realtime
+        self.speed = max(1e-3, float(speed))
+        self.hold = hold
+        self.quiet = quiet
+        self._cv = threading.Condition()
+        self._header: dict[str, Any] | None = None
+        self._tree: VizNode | None = None
+        self._svg_live: str | None = None
+        self._history: list[dict[str, Any]] = []
+        self._frame: tuple[int, Any, list[Any]] | None = None  # (tick, Frame, detections)
+        self._jpeg: tuple[int, bytes] | None = None
+        self._ended = False
+        self._closing = False
+        self._probe: Any = None
+        self._pace0: tuple[float, float] | None = None
+        self.server = _bind(port, self)
+        self.port = int(self.server.server_address[1])
+        self.url = f"http://{HOST}:{self.port}/"
+        self._thread = threading.Thread(target=self.server.serve_forever, name="mission-live-view", daemon=True)
+        self._thread.start()
+
+    # -- TickObserver -----------------------------------------------------------------------------
+    def on_start(self, runner: Any, adapter: Any) -> None:
+        self._probe = probe_for(runner)
+        tree = self._probe.static
+        with self._cv:
+            self._header = make_header(runner, adapter, self._probe)
+            self._tree = tree
+            self._svg_live = tree_svg_for_page(tree, live=True)
+            self._history.clear()
+            self._ended = False
+            self._cv.notify_all()
+        if not self.quiet:
+            print(f"mission: live view at {self.url}", file=sys.stderr, flush=True)
+
+    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+        if self._probe is None:
+            return
+        rec = self._probe.record(runner, ground_truth)
+        frame = runner.get(bbk.FRAME)
+        with self._cv:
+            self._history.append(rec)
+            if len(self._history) > MAX_HISTORY:
+                del self._history[: len(self._history) - MAX_HISTORY]
+            if frame is not None:
+                self._frame = (rec["tick"], frame, list(runner.get(bbk.DETECTIONS, []) or []))
+            self._cv.notify_all()
+        if self.realtime:
+            self._pace(rec.get("t") or 0.0)
+
+    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+        with self._cv:
+            self._ended = True
+            self._cv.notify_all()
+        if self._probe is not None:
+            release(runner)
+            self._probe = None
+        if self.hold and not self._closing:
+            print(f"mission: run finished; the live view stays at {self.url} — Ctrl-C to stop", file=sys.stderr)
+            try:
+                while not self._closing:
+                    with self._cv:
+                        self._cv.wait(1.0)
+            except KeyboardInterrupt:
+                pass
+        self.close()
+
+    def _pace(self, sim_t: float) -> None:
+        """Sleep so simulated time runs at `speed` × wall-clock time (a live view you can watch)."""
+        now = time.monotonic()
+        if self._pace0 is None:
+            self._pace0 = (now, sim_t)
+            return
+        wall0, sim0 = self._pace0
+        ahead = (sim_t - sim0) / self.speed - (now - wall0)
+        if ahead > 0:
+            time.sleep(min(ahead, 1.0))
+
+    # -- data for handlers --------------------------------------------------------------------------
+    def page(self) -> str:
+        with self._cv:
+            header = self._header
+            hist = self._history[-PAGE_HISTORY:]
+            svg_tree = self._tree
+        if svg_tree is None:
+            return render_page("live", None, header=None, title="mission — waiting for the run")
+        root = from_snapshot(header["tree"]) if header else svg_tree
+        if hist:
+            apply_tick(root, hist[-1]["nodes"])
+        return render_page("live", root, header=header, ticks=hist, title=f"mission — {root.name}")
+
+    def history(self, after: int) -> list[dict[str, Any]]:
+        with self._cv:
+            return [r for r in self._history if r["tick"] > after]
+
+    def header(self) -> dict[str, Any] | None:
+        with self._cv:
+            return self._header
+
+    def camera_jpeg(self) -> bytes | None:
+        with self._cv:
+            frame = self._frame
+            cached = self._jpeg
+        if frame is None:
+            return None
+        if cached is not None and cached[0] == frame[0]:
+            return cached[1]
+        tick, fr, dets = frame
+        data = encode_jpeg(draw_detections(fr.image, dets, getattr(fr, "intrinsics", None)))
+        with self._cv:
+            self._jpeg = (tick, data)
+        return data
+
+    def tree_svg(self) -> str | None:
+        with self._cv:
+            header, last = self._header, (self._history[-1] if self._history else None)
+        if header is None:
+            return None
+        root = from_snapshot(header["tree"])
+        if last is not None:
+            apply_tick(root, last["nodes"])
+        return render_svg(root, feedback=True, title=f"{root.name} — tick {last['tick'] if last else 0}")
+
+    def stream(self, handler: BaseHTTPRequestHandler, after: int) -> None:
+        """Send events until the client goes away or the server closes."""
+        sent_header = None
+        last_beat = time.monotonic()
+        sent_end = False
+        while True:
+            with self._cv:
+                if self._closing:
+                    return
+                header = self._header
+                new = [r for r in self._history if r["tick"] > after] if self._history else []
+                ended = self._ended
+                if header is sent_header and not new and (ended == sent_end):
+                    self._cv.wait(1.0)
+                    header = self._header
+                    new = [r for r in self._history if r["tick"] > after]
+                    ended = self._ended
+            chunks: list[str] = []
+            if header is not None and header is not sent_header:
+                chunks.append(f"event: header\ndata: {_dumps({'created': header.get('created')})}\n\n")
+                sent_header = header
+            for r in new:
+                chunks.append(f"id: {r['tick']}\nevent: tick\ndata: {_dumps(r)}\n\n")
+                after = r["tick"]
+            if ended and not sent_end:
+                chunks.append("event: end\ndata: {}\n\n")
+                sent_end = True
+            if not chunks and time.monotonic() - last_beat > 10:
+                chunks.append(": keep-alive\n\n")
+            if chunks:
+                handler.wfile.write("".join(chunks).encode("utf-8"))
+                handler.wfile.flush()
+                last_beat = time.monotonic()
+
+    # -- lifecycle ------------------------------------------------------------------------------------
+    def close(self) -> None:
+        with self._cv:
+            if self._closing:
+                return
+            self._closing = True
+            self._cv.notify_all()
+        self.server.shutdown()
+        self.server.server_close()
+        self._thread.join(timeout=5)
+
+
+class _Handler(BaseHTTPRequestHandler):
+    server_version = "mission-live-view"
+    protocol_version = "HTTP/1.1"
+
+    @property
+    def view(self) -> LiveView:
+        return self.server.view  # type: ignore[attr-defined, no-any-return]
+
+    def log_message(self, format: str, *args: Any) -> None:  # quiet: the run's output is what matters
+        pass
+
+    def _send(self, code: int, body: bytes, ctype: str, cache: bool = False) -> None:
+        self.send_response(code)
+        self.send_header("Content-Type", ctype)
+        self.send_header("Content-Length", str(len(body)))
+        self.send_header("Cache-Control", "max-age=60" if cache else "no-store")
+        self.end_headers()
+        if self.command != "HEAD":
+            self.wfile.write(body)
+
+    def _json(self, obj: Any) -> None:
+        self._send(200, _dumps(obj).encode("utf-8"), "application/json")
+
+    def do_HEAD(self) -> None:
+        self.do_GET()
+
+    def do_GET(self) -> None:
+        url = urlparse(self.path)
+        query = parse_qs(url.query)
+        try:
+            if url.path in ("/", "/index.html"):
+                self._send(200, self.view.page().encode("utf-8"), "text/html; charset=utf-8")
+            elif url.path == "/events":
+                after = int(self.headers.get("Last-Event-ID") or query.get("after", ["-1"])[0])
+                self.send_response(200)
+                self.send_header("Content-Type", "text/event-stream")
+                self.send_header("Cache-Control", "no-store")
+                self.send_header("Connection", "close")
+                self.end_headers()
+                self.close_connection = True
+                self.view.stream(self, after)
+            elif url.path == "/camera.jpg":
+                data = self.view.camera_jpeg()
+                if data is None:
+                    self._send(404, b"no camera frame yet", "text/plain")
+                else:
+                    self._send(200, data, "image/jpeg")
+            elif url.path == "/tree.svg":
+                svg = self.view.tree_svg()
+                if svg is None:
+                    self._send(404, b"the run has not started", "text/plain")
+                else:
+                    self._send(200, svg.encode("utf-8"), "image/svg+xml")
+            elif url.path == "/api/header":
+                self._json(self.view.header())
+            elif url.path == "/api/history":
+                self._json(self.view.history(int(query.get("after", ["-1"])[0])))
+            elif url.path == "/healthz":
+                self._send(200, b"ok", "text/plain")
+            else:
+                self._send(404, b"not found", "text/plain")
+        except (BrokenPipeError, ConnectionResetError):
+            pass
+        except ValueError as err:
+            self._send(400, f"bad request: {err}".encode(), "text/plain")
+
+    def do_POST(self) -> None:
+        url = urlparse(self.path)
+        if url.path != "/api/tree.svg":
+            self._send(404, b"not found", "text/plain")
+            return
+        try:
+            length = int(self.headers.get("Content-Length") or 0)
+            if length > 5_000_000:
+                raise ValueError("tree too large")
+            tree = json.loads(self.rfile.read(length))
+            root = from_snapshot(tree)
+            self._send(200, tree_svg_for_page(root, live=True).encode("utf-8"), "image/svg+xml")
+        except (ValueError, KeyError, TypeError, AttributeError) as err:
+            self._send(400, f"expected a tree (a tick log header's `tree`): {err}".encode(), "text/plain")
+
+
+class _Server(ThreadingHTTPServer):
+    daemon_threads = True
+    allow_reuse_address = True
+
+
+def _bind(port: int, view: LiveView) -> _Server:
+    try:
+        server = _Server((HOST, int(port)), _Handler)
+    except OSError as err:
+        if err.errno == errno.EADDRINUSE:
+            raise MissionError(
+                f"--port {port}: {HOST}:{port} is already in use (another `mission run --serve`?); "
+                "choose another with --port N, or --port 0 for any free port"
+            ) from None
+        raise MissionError(f"--port {port}: cannot serve on {HOST}:{port} ({err.strerror or err})") from None
+    server.view = view  # type: ignore[attr-defined]
+    return server
