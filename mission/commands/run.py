@@ -20,7 +20,24 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
         from mission.live_status import LiveStatus
 
         observers.append(LiveStatus(label))
-    for flag in ("record", "record_bag", "log", "serve"):
+    # Viewers (mission.viz): each fails here, before the simulation starts, on a bad path or a busy port.
+    if getattr(args, "serve", False):
+        from mission.viz.web import LiveView
+
+        observers.append(LiveView(args.port, realtime=True, hold=sys.stdin.isatty()))
+    if getattr(args, "log", None):
+        from mission.viz.tick_log import TickLog
+
+        observers.append(TickLog(args.log))
+    if getattr(args, "record", None):
+        from mission.viz.recording import Recorder
+
+        observers.append(Recorder(args.record))
+    if getattr(args, "report", None):
+        from mission.viz.report_trees import TransitionTrees
+
+        observers.append(TransitionTrees(args.report))
+    for flag in ("record_bag",):
         if getattr(args, flag, None):
             raise ConfigError(f"--{flag.replace('_', '-')} is not available in this build yet")
     return observers
