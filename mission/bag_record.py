@@ -103,10 +103,10 @@ class BagRecorder:
     def write_frame(self, frame: Frame) -> None:
         """The image (bgr8, or mono8 for a mono frame), its camera info and its depth, at the frame's stamp."""
         encoding = "mono8" if frame.image.ndim == 2 else "bgr8"
-        self._write("image", array_to_image(self.msgs, frame.image, encoding, frame.stamp, frame.frame_id), frame.stamp)
-        if frame.intrinsics is not None:
+        if frame.intrinsics is not None:  # before the image, as camera drivers publish them
             info = intrinsics_to_camera_info(self.msgs, frame.intrinsics, frame.stamp, frame.frame_id)
             self._write("camera_info", info, frame.stamp)
+        self._write("image", array_to_image(self.msgs, frame.image, encoding, frame.stamp, frame.frame_id), frame.stamp)
         if frame.depth is not None:
             depth = array_to_image(self.msgs, frame.depth, "32FC1", frame.stamp, frame.frame_id)
             self._write("depth", depth, frame.stamp)

@@ -26,6 +26,8 @@ from mission.core.types import Detection, Frame
 from mission.ros.messages import BagMessages
 from mission.ros.world_io import CachedWorld, RosTopics
 
+LOOKAHEAD_S = 0.05  # how long after an image its camera info / depth may have been logged
+
 
 @dataclass
 class FrameResult:
@@ -71,6 +73,8 @@ class BagWorld(CachedWorld):
         self.path = Path(path)
         self.reader: AnyReader | None = None
         self._messages: Iterator[tuple[Any, int, bytes]] | None = None
+        self._pending: tuple[Any, int, bytes] | None = None
+        self.lookahead_ns = round(LOOKAHEAD_S * 1e9)
         self.commands: dict[str, int] = {}
         self.clock = 0.0
         self.first_stamp: float | None = None
@@ -95,17 +99,27 @@ class BagWorld(CachedWorld):
         self._messages = iter(self.reader.messages(connections=conns))
 
     def step(self) -> bool:
-        """Feed messages until one image was read; False when the bag is exhausted."""
+        """Feed messages up to the next image, plus the non-image messages logged up to ``LOOKAHEAD_S``
+        after it (a robot's camera info and depth are often logged just after their image); False at the
+        end of the bag."""
         assert self._messages is not None and self.reader is not None, "call setup() first"
-        for conn, timestamp, raw in self._messages:
+        image_time: int | None = None
+        while True:
+            item = self._pending if self._pending is not None else next(self._messages, None)
+            self._pending = None
+            if item is None:
+                return image_time is not None
+            conn, timestamp, raw = item
+            late = timestamp > image_time + self.lookahead_ns if image_time is not None else False
+            if image_time is not None and (late or conn.topic == self.topics.image_topic):
+                self._pending = item  # belongs to the next step
+                return True
             self.clock = timestamp * 1e-9
             if self.first_stamp is None:
                 self.first_stamp = self.clock
-            msg = self.reader.deserialize(raw, conn.msgtype)
-            self._handlers[conn.topic](msg, conn.topic)
+            self._handlers[conn.topic](self.reader.deserialize(raw, conn.msgtype), conn.topic)
             if conn.topic == self.topics.image_topic:
-                return True
-        return False
+                image_time = timestamp
 
     def now(self) -> float:
         return self.clock

@@ -90,6 +90,8 @@ def ros(tmp_path_factory):
         camera = FakeCamera(client)
         try:
             camera.wait_for_subscriber()
+            camera.scene = scene("empty")  # the camera runs; the node has its calibration before any marker
+            wait_for(lambda: last_heartbeat(client).get("received", {}).get("camera_info", 0) > 0, 10, "camera info")
             yield node, client, camera
         except BaseException:
             print(node.log())
@@ -141,6 +143,8 @@ def test_marker_detected_is_edge_triggered_and_the_pose_is_within_2_percent(ros)
         assert abs(d - TRUE_DISTANCE) / TRUE_DISTANCE < 0.02, f"distance {d:.4f} m vs true {TRUE_DISTANCE:.4f} m"
         assert p.header.frame_id == FRAME
     assert client.messages("/aruco_poses")[-1].header.frame_id == FRAME
+
+    assert last_heartbeat(client)["fallback_intrinsics"] == 0, "the poses used the published camera info"
 
     tf_msgs = client.messages("/tf")
     frames = {(t.header.frame_id, t.child_frame_id) for m in tf_msgs for t in m.transforms}
