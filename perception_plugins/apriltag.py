@@ -1,0 +1,294 @@
+"""The `apriltag` perception source: AprilTags → attributed, disambiguated 6-DoF detections.
+
+* Two detectors behind one param (perception_plugins/apriltag_backends.py): ``apriltag3``
+  (pupil-apriltags, the default: ~4× more accurate corners and faster, see BENCHMARKS.md) and ``opencv``
+  (cv2.aruco with the matching ``DICT_APRILTAG_*``). Both report corners in OpenCV's convention, so the
+  same tag gives the same corners and, through the shared square-fiducial code
+  (perception_plugins/square_pose.py: both IPPE poses + temporal flip disambiguation per id), the same pose.
+* Tag attribution, as the localisation listener of the design notes (seeds/003): a ``tags`` table maps an
+  id to the entity carrying it (``402: autobot03``, ``53: {name: traffic_sign, static: true}``), with a
+  per-tag size and the static transform tag → entity base. The detection's ``label`` is that name.
+* Static transforms and the reported frame. With the TF convention of mission.core.se3 (``T_a_b`` maps
+  points in b into a), a tag seen by our camera gives ``T_camera_tag``; the tag is mounted on its entity
+  (``T_tag_entity``, a right multiplication) and our camera on our robot (``T_base_camera``, a left
+  multiplication)::
+
+      T_base_entity = T_base_camera @ T_camera_tag @ T_tag_entity
+
+  ``report_frame: camera`` (default, what the mission tree expects) reports T_camera_tag in the camera
+  optical frame, marker z out of the face, plus ``extra["T_camera_entity"]`` when the tag has a
+  T_tag_entity. ``report_frame: base`` reports T_base_entity in ``base_frame``.
+* Stamps: every detection carries its frame's stamp (moving entities need it); entities marked
+  ``static`` in the table are flagged ``extra["static"] = True`` so a consumer may fuse them over time.
+* Decode quality: ``extra["hamming"]`` and ``extra["decision_margin"]``; tags above ``max_hamming`` or
+  below ``min_decision_margin`` are dropped, and the confidence is the pose confidence of square_pose
+  times ``0.5 ** hamming`` times ``1 − exp(−decision_margin / 25)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from pydantic import Field, PositiveFloat, field_validator, model_validator
+
+from mission.core import se3
+from mission.core.config import StrictModel, validate_model
+from mission.core.errors import ConfigError
+from mission.core.types import CameraIntrinsics, Detection, Frame
+from perception_plugins import square_pose
+from perception_plugins.apriltag_backends import (
+    APRILTAG3_MAX_HAMMING,
+    SUPPORTED_FAMILIES,
+    Apriltag3Backend,
+    OpenCvBackend,
+    RawTag,
+)
+from perception_plugins.aruco import to_grey
+
+log = logging.getLogger(__name__)
+
+
+class TransformSpec(StrictModel):
+    """A rigid transform in config: ``xyz`` (m) and either ``quat`` (x, y, z, w) or ``rpy`` (rad).
+
+    ``rpy`` is URDF's: roll about x, pitch about y, yaw about z, fixed axes (R = Rz(yaw)·Ry(pitch)·Rx(roll)).
+    """
+
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    quat: tuple[float, float, float, float] | None = None
+    rpy: tuple[float, float, float] | None = None
+
+    @model_validator(mode="after")
+    def _one_rotation(self) -> TransformSpec:
+        if self.quat is not None and self.rpy is not None:
+            raise ValueError("give either quat or rpy, not both")
+        if self.quat is not None and not 1e-6 < math.sqrt(sum(q * q for q in self.quat)) < 1e6:
+            raise ValueError(f"quat {list(self.quat)} cannot be normalised")
+        return self
+
+    def matrix(self) -> np.ndarray:
+        if self.quat is not None:
+            rot = se3.quat_to_matrix(self.quat)
+        elif self.rpy is not None:
+            r, p, y = self.rpy
+            rot = se3.rot_z(y) @ se3.rot_y(p) @ se3.rot_x(r)
+        else:
+            rot = np.eye(3)
+        return se3.transform(rot, self.xyz)
+
+
+class TagSpec(StrictModel):
+    """One row of the attribution table: who carries tag <id>, how big it is, how it is mounted."""
+
+    name: str = Field(min_length=1)
+    size_m: PositiveFloat | None = None  # None = the source's tag_size_m
+    static: bool = False  # the entity never moves (a sign, a dock): its stamp does not matter
+    T_tag_entity: TransformSpec | None = None  # tag frame → entity base frame (None = the tag is the entity)
+
+
+class AprilTagParams(StrictModel):
+    """Params of the `apriltag` source (config ``perception.sources[i].params``)."""
+
+    family: str = "tag36h11"
+    backend: Literal["apriltag3", "opencv"] = "apriltag3"
+    tag_size_m: PositiveFloat = 0.15  # black-border side (m) of tags the table does not size
+    tags: dict[int, TagSpec] = Field(default_factory=dict)  # id → entity; "402: autobot03" is short for {name: …}
+    ignore_unknown: bool = False  # drop tags that are not in the table
+    camera_mount: TransformSpec | None = None  # T_base_camera: robot base → camera optical frame
+    report_frame: Literal["camera", "base"] = "camera"
+    base_frame: str = Field("base_link", min_length=1)  # frame_id of detections when report_frame is base
+    decimate: float = Field(2.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate (opencv: not used)
+    threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)
+    refine_edges: bool = True  # apriltag3 refine_edges; opencv: sub-pixel corner refinement
+    max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
+    min_decision_margin: float = Field(0.0, ge=0.0)  # drop weaker decodes (grey levels)
+    disambiguation: Literal["temporal", "naive"] = "temporal"  # flip choice, as the aruco source
+
+    @field_validator("tags", mode="before")
+    @classmethod
+    def _short_rows(cls, v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: ({"name": row} if isinstance(row, str) else row) for k, row in v.items()}
+        return v
+
+    @model_validator(mode="after")
+    def _needs_mount(self) -> AprilTagParams:
+        if self.report_frame == "base" and self.camera_mount is None:
+            raise ValueError("report_frame 'base' needs camera_mount (the robot base → camera optical transform)")
+        return self
+
+
+def _check_backend(p: AprilTagParams) -> None:
+    supported = SUPPORTED_FAMILIES[p.backend]
+    if p.family not in supported:
+        raise ConfigError(
+            f"family {p.family!r} is not supported by backend {p.backend!r}; supported: {', '.join(supported)}",
+            key="family",
+        )
+    if p.backend == "apriltag3" and p.max_hamming > APRILTAG3_MAX_HAMMING:
+        raise ConfigError(
+            f"backend 'apriltag3' corrects at most {APRILTAG3_MAX_HAMMING} bits, got {p.max_hamming}",
+            key="max_hamming",
+        )
+
+
+def _params(params: dict) -> AprilTagParams:
+    try:
+        return validate_model(AprilTagParams, params)
+    except ConfigError as err:
+        if err.key == "(top level)":  # a model-level check: name the key it is about
+            key = "camera_mount" if "camera_mount" in err.detail else None
+            raise ConfigError(err.detail.removeprefix("value error, "), key=key) from None
+        raise
+
+
+def decode_confidence(hamming: int, decision_margin: float) -> float:
+    """0..1 from AprilTag's decode quality: halves per corrected bit; a weak margin (< ~25 grey levels) costs."""
+    return float(0.5 ** max(0, hamming) * (1.0 - math.exp(-max(0.0, decision_margin) / 25.0)))
+
+
+def _pose7(t: np.ndarray) -> list[float]:
+    pos, quat = se3.to_pos_quat(t)
+    return [round(float(x), 6) for x in (*pos, *quat)]
+
+
+class AprilTagSource:
+    """AprilTags (AprilTag 3 or OpenCV), attributed to named entities, with static-transform composition."""
+
+    description: ClassVar[str] = (
+        "AprilTags (tag36h11/25h9/16h5/Standard41h12; AprilTag 3 or OpenCV): attributed entity names, "
+        "static transforms, disambiguated 6-DoF pose"
+    )
+
+    def __init__(self, params: dict, name: str = "apriltag") -> None:
+        self.name = name
+        self.params = p = _params(params)
+        _check_backend(p)
+        self.T_base_camera = p.camera_mount.matrix() if p.camera_mount is not None else None
+        self._T_tag_entity = {
+            i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None
+        }
+        if p.backend == "apriltag3":
+            self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
+                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.refine_edges
+            )
+        else:
+            self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=p.refine_edges)
+        self._disambiguator = square_pose.TemporalDisambiguator()
+        self._warned: set[str] = set()
+        self.counters: dict[str, int] = {}
+
+    # -- lookups -----------------------------------------------------------------------------------
+    def tag_size(self, tag_id: int) -> float:
+        row = self.params.tags.get(tag_id)
+        return float(row.size_m if row is not None and row.size_m is not None else self.params.tag_size_m)
+
+    def entity(self, tag_id: int) -> str | None:
+        """The attributed entity name of a tag id (None when the table does not know it)."""
+        row = self.params.tags.get(tag_id)
+        return row.name if row is not None else None
+
+    def _intrinsics(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
+        k = frame.intrinsics
+        if k is not None and k.is_valid():
+            return k, False
+        if "intrinsics" not in self._warned:
+            self._warned.add("intrinsics")
+            log.warning("%s: camera intrinsics missing or invalid; using the fallback pinhole fx = fy = 0.9·width "
+                        "(degraded pose accuracy)", self.name)
+        return CameraIntrinsics.fallback(frame.width, frame.height), True
+
+    def _count(self, key: str) -> None:
+        self.counters[key] = self.counters.get(key, 0) + 1
+
+    # -- the tick ----------------------------------------------------------------------------------
+    def process(self, frame: Frame) -> list[Detection]:
+        grey = to_grey(frame.image)
+        raw = self._backend.detect(grey)
+        if not raw:
+            return []
+        intr, degraded = self._intrinsics(frame)
+        out = []
+        for tag in raw:
+            det = self._detection(frame, tag, intr, degraded)
+            if det is not None:
+                out.append(det)
+        return out
+
+    def _detection(self, frame: Frame, tag: RawTag, intr: CameraIntrinsics, degraded: bool) -> Detection | None:
+        p = self.params
+        if tag.hamming > p.max_hamming:
+            self._count("rejected_hamming")
+            return None
+        if tag.decision_margin < p.min_decision_margin:
+            self._count("rejected_margin")
+            return None
+        row = p.tags.get(tag.tag_id)
+        if row is None and p.ignore_unknown:
+            self._count("ignored_unknown")
+            return None
+        size = self.tag_size(tag.tag_id)
+        hyps = square_pose.solve_square(tag.corners, size, intr.matrix, intr.dist_coeffs)
+        if not hyps:
+            self._count("pose_failed")
+            return None
+        if p.disambiguation == "temporal":
+            choice = self._disambiguator.choose(tag.tag_id, frame.stamp, hyps)
+        else:
+            choice = square_pose.choose_naive(hyps)
+        best = choice.chosen
+        T_camera_tag = best.T
+        side_px = square_pose.pixel_side(tag.corners)
+        err = best.reprojection_error if math.isfinite(best.reprojection_error) else math.inf
+        confidence = square_pose.confidence(err, side_px, choice.ambiguity) * decode_confidence(
+            tag.hamming, tag.decision_margin
+        )
+        T_tag_entity = self._T_tag_entity.get(tag.tag_id)
+        extra: dict[str, Any] = {
+            "precision": "precise",
+            "hamming": tag.hamming,
+            "decision_margin": round(tag.decision_margin, 2),
+            "static": bool(row.static) if row is not None else False,
+            "family": p.family,
+            "backend": p.backend,
+            "tag_size_m": size,
+            "ambiguity": round(choice.ambiguity, 4),
+            "error_ratio": round(choice.error_ratio, 4),
+            "track_frames": choice.track_frames,
+            "pixel_size": round(side_px, 2),
+            "intrinsics": "fallback" if degraded else "calibrated",
+        }
+        if p.report_frame == "base":
+            assert self.T_base_camera is not None
+            # robot base → camera (left), camera → tag (measured), tag → entity base (right)
+            reported = se3.compose(self.T_base_camera, T_camera_tag)
+            if T_tag_entity is not None:
+                reported = se3.compose(reported, T_tag_entity)
+            frame_id = p.base_frame
+            extra["T_camera_tag"] = _pose7(T_camera_tag)
+        else:
+            reported = T_camera_tag
+            frame_id = frame.frame_id
+            if T_tag_entity is not None:
+                extra["T_camera_entity"] = _pose7(se3.compose(T_camera_tag, T_tag_entity))
+        pos, quat = se3.to_pos_quat(reported)
+        return Detection(
+            source=self.name,
+            marker_id=tag.tag_id,
+            label=row.name if row is not None else None,
+            corners=tag.corners,
+            position=pos,
+            orientation=quat,
+            confidence=float(min(1.0, max(0.0, confidence))),
+            reprojection_error=err,
+            stamp=frame.stamp,
+            frame_id=frame_id,
+            extra=extra,
+        )
+
+    def close(self) -> None:
+        self._backend.close()
+        self._disambiguator.reset()
