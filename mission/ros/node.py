@@ -27,14 +27,13 @@ from typing import Any
 
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
-from mission.core.errors import ConfigError, MissionError
+from mission.core.errors import MissionError
 from mission.core.perception import PerceptionSource
 from mission.core.types import Detection, Frame
 from mission.ros import dds
 
 NODE_NAME = "mission_tree"
 PERCEPTION_ONLY_TREE = Path(__file__).resolve().parents[2] / "ros" / "perception_only.xml"
-FALLBACK_DICTIONARY = "DICT_4X4_250"
 TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
 
 # name → (default, description): the node's ROS parameters (README's table is generated from this)
@@ -61,7 +60,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
 }
 
 
-def build_config(params: dict[str, Any], log: logging.Logger | Any) -> tuple[MissionConfig, str | None]:
+def build_config(params: dict[str, Any]) -> tuple[MissionConfig, str | None]:
     """The mission config: the YAML file when `config` is set, else an ArUco source from the ROS params."""
     config_file = params["config"] or None
     if config_file:
@@ -76,20 +75,6 @@ def build_config(params: dict[str, Any], log: logging.Logger | Any) -> tuple[Mis
     if int(params["target_marker_id"]) >= 0:
         config.perception.targets["target"] = TargetSpec(marker_id=int(params["target_marker_id"]))
     return config, config_file
-
-
-def create_sources(config: MissionConfig, from_ros_params: bool, log: Any) -> list[PerceptionSource]:
-    """The perception sources; an unknown dictionary from the ROS params falls back to DICT_4X4_250."""
-    from perception_plugins import registry
-
-    try:
-        return registry.create_all(config.perception.sources)
-    except ConfigError as err:
-        if not (from_ros_params and err.key and "dictionary" in err.key):
-            raise
-        log.warning(f"parameter dictionary: {err.detail}; falling back to {FALLBACK_DICTIONARY}")
-        config.perception.sources[0].params["dictionary"] = FALLBACK_DICTIONARY
-        return registry.create_all(config.perception.sources)
 
 
 class MissionNode:
@@ -132,12 +117,14 @@ class MissionNode:
         from mission.runner import TreeRunner
 
         p, n = self.params, self.node
-        config, config_file = build_config(p, self.log)
+        config, config_file = build_config(p)
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
         if self.perception_only:
             tree = str(PERCEPTION_ONLY_TREE)
-        self.sources = create_sources(config, from_ros_params=config_file is None, log=self.log)
+        from perception_plugins import registry
+
+        self.sources = registry.create_all(config.perception.sources)  # an unknown dictionary: the plugin warns
         topics = RosTopics(
             image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
             odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
