@@ -86,8 +86,10 @@ class HeadlessChromium:
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
-            pass_fds=(3, 4),  # kept open through close_fds, which runs after preexec_fn
-            preexec_fn=wire_fds,
+            # fds 3 and 4 are made in the child by dup2 (inheritable); every other fd Python opened is
+            # non-inheritable (PEP 446) and closes at exec, so close_fds (which would close 3 and 4) is off.
+            close_fds=False,
+            preexec_fn=wire_fds,  # only dup2: safe between fork and exec
         )
         os.close(cmd_r)
         os.close(out_w)

@@ -172,7 +172,9 @@ def flatten_subtrees(root: VizNode) -> VizNode:
         n.children = [flat(c) for c in n.children]
         return n
 
-    return _renumber(flat(root))
+    flat_root = flat(root)
+    flat_root.subtree = None  # the main tree is the whole picture, not a subtree of it
+    return _renumber(flat_root)
 
 
 def merge_static(live: VizNode, static: VizNode) -> bool:

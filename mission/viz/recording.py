@@ -170,7 +170,7 @@ class Recorder:
         map_img = self._view.draw(robot, target, goal_p, self._robot_trail[-2000:], self._target_trail[-2000:],
                                   estimates)  # fmt: skip
         annotate_scale(map_img, self._view)
-        fields = [f"t = {t:6.1f} s"]
+        fields = [f"t = {t:.1f} s"]
         if robot is not None and target is not None:
             fields.append(f"target {math.hypot(target[0] - robot[0], target[1] - robot[1]):4.1f} m")
         branch = " › ".join(runner.active_branch()[-3:]) if hasattr(runner, "active_branch") else ""

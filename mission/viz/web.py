@@ -44,12 +44,25 @@ def _dumps(obj: Any) -> str:
 
 
 class LiveView:
-    """A TickObserver that serves the live page. `realtime` paces a simulated run to wall-clock speed."""
+    """A TickObserver that serves the live page.
+
+    `realtime` paces a simulated run to `speed` × wall-clock time; `hold` keeps serving after the run until
+    Ctrl-C (an interactive `mission run --serve`); `close_at_end` False leaves the server up for the caller
+    to :meth:`close` (tests, screenshots, a ROS node that restarts trees).
+    """
 
     def __init__(
-        self, port: int = 8765, *, realtime: bool = False, speed: float = 1.0, hold: bool = False, quiet: bool = False
+        self,
+        port: int = 8765,
+        *,
+        realtime: bool = False,
+        speed: float = 1.0,
+        hold: bool = False,
+        close_at_end: bool = True,
+        quiet: bool = False,
     ) -> None:
         self.realtime = realtime
+        self.close_at_end = close_at_end
         self.speed = max(1e-3, float(speed))
         self.hold = hold
         self.quiet = quiet
@@ -114,7 +127,8 @@ class LiveView:
                         self._cv.wait(1.0)
             except KeyboardInterrupt:
                 pass
-        self.close()
+        if self.close_at_end or self.hold:
+            self.close()
 
     def _pace(self, sim_t: float) -> None:
         """Sleep so simulated time runs at `speed` × wall-clock time (a live view you can watch)."""
@@ -173,22 +187,20 @@ class LiveView:
         return render_svg(root, feedback=True, title=f"{root.name} — tick {last['tick'] if last else 0}")
 
     def stream(self, handler: BaseHTTPRequestHandler, after: int) -> None:
-        """Send events until the client goes away or the server closes."""
-        sent_header = None
-        last_beat = time.monotonic()
+        """Send events until the client goes away or the server closes (what is pending is sent first)."""
+        sent_header: dict[str, Any] | None = None
         sent_end = False
+        last_beat = time.monotonic()
         while True:
             with self._cv:
-                if self._closing:
-                    return
-                header = self._header
-                new = [r for r in self._history if r["tick"] > after] if self._history else []
-                ended = self._ended
-                if header is sent_header and not new and (ended == sent_end):
-                    self._cv.wait(1.0)
-                    header = self._header
+                while True:
+                    header, ended, closing = self._header, self._ended, self._closing
                     new = [r for r in self._history if r["tick"] > after]
-                    ended = self._ended
+                    if new or closing or (header is not sent_header) or (ended and not sent_end):
+                        break
+                    if time.monotonic() - last_beat > 10:
+                        break
+                    self._cv.wait(1.0)
             chunks: list[str] = []
             if header is not None and header is not sent_header:
                 chunks.append(f"event: header\ndata: {_dumps({'created': header.get('created')})}\n\n")
@@ -199,12 +211,13 @@ class LiveView:
             if ended and not sent_end:
                 chunks.append("event: end\ndata: {}\n\n")
                 sent_end = True
-            if not chunks and time.monotonic() - last_beat > 10:
+            if not chunks:
                 chunks.append(": keep-alive\n\n")
-            if chunks:
-                handler.wfile.write("".join(chunks).encode("utf-8"))
-                handler.wfile.flush()
-                last_beat = time.monotonic()
+            handler.wfile.write("".join(chunks).encode("utf-8"))
+            handler.wfile.flush()
+            last_beat = time.monotonic()
+            if closing:
+                return
 
     # -- lifecycle ------------------------------------------------------------------------------------
     def close(self) -> None:

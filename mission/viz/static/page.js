@@ -292,7 +292,10 @@
       const h = JSON.parse(ev.data);
       if (!app.header || h.created !== app.header.created) location.reload();
     });
-    src.addEventListener("end", () => { $("conn").textContent = "run finished"; $("mode-badge").textContent = "finished"; });
+    src.addEventListener("end", () => {
+      src.close(); // the server stops after the run: do not reconnect
+      $("conn").textContent = "run finished"; $("mode-badge").textContent = "finished";
+    });
     src.onopen = () => { $("conn").textContent = "connected"; };
     src.onerror = () => { $("conn").textContent = "disconnected — retrying"; };
   }
