@@ -14,6 +14,7 @@ plays the result.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -66,6 +67,7 @@ class BagRecorder:
         self.counts: dict[str, int] = {k: 0 for k in DEFAULT_TOPICS}
         self._writer: Writer | None = None
         self._connections: dict[str, Any] = {}
+        self._last_stamp: dict[str, float] = {}
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def open(self) -> BagRecorder:
@@ -120,10 +122,10 @@ class BagRecorder:
     def record(
         self, *, frame: Frame | None = None, state: RobotState | None = None, scan: LaserScan | None = None
     ) -> None:
-        """One tick's worth of sensors (any may be None: nothing new this tick)."""
-        if state is not None:
-            self.write_state(state)
-        if scan is not None:
-            self.write_scan(scan)
-        if frame is not None:
-            self.write_frame(frame)
+        """One tick's worth of sensors (any may be None). A message whose stamp is not newer than the last
+        one recorded on its topic is skipped, so a runner may pass the blackboard's values every tick."""
+        for key, item, write in (("odom", state, self.write_state), ("scan", scan, self.write_scan),
+                                 ("image", frame, self.write_frame)):  # fmt: skip
+            if item is not None and item.stamp > self._last_stamp.get(key, -math.inf):
+                self._last_stamp[key] = item.stamp
+                write(item)
