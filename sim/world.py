@@ -63,9 +63,19 @@ def _rgba(c: tuple[float, float, float]) -> list[float]:
 class World:
     """Owns one pybullet DIRECT client and the bodies of one scenario."""
 
-    def __init__(self, scenario: Scenario, marker_jitter: list[np.ndarray] | None = None, renderer: str = "tiny"):
+    def __init__(
+        self,
+        scenario: Scenario,
+        marker_jitter: list[np.ndarray] | None = None,
+        renderer: str = "tiny",
+        composite_room: bool | None = None,
+    ):
         self.sc = scenario
         self.renderer = renderer
+        # TinyRenderer's cost is per covered pixel and the floor and walls cover most of every image, so
+        # with it they are painted analytically behind the rendered objects (see RoomPainter).
+        self.composite_room = (renderer == "tiny") if composite_room is None else composite_room
+        self.painter: RoomPainter | None = None
         self._marker_jitter = marker_jitter or []
         self.p = pybullet()
         self.cid = -1
@@ -91,11 +101,12 @@ class World:
             sc = self.sc
             sx, sy = sc.room.size
             t = sc.room.wall_thickness
-            self.bodies.floor = self._box(
-                (sx / 2, sy / 2, -0.01), (sx / 2 + t + 1.0, sy / 2 + t + 1.0, 0.01), 0.0, sc.room.floor_color
-            )
+            if not self.composite_room:
+                self.bodies.floor = self._box(
+                    (sx / 2, sy / 2, -0.01), (sx / 2 + t + 1.0, sy / 2 + t + 1.0, 0.01), 0.0, sc.room.floor_color
+                )
             for ob in wall_obstacles(sc):
-                self.bodies.walls.append(self._obstacle(ob))
+                self.bodies.walls.append(self._obstacle(ob, visual=not self.composite_room))
             self.bodies.obstacles = [self._obstacle(ob) for ob in sc.obstacles]
             self.bodies.unknown = [self._obstacle(ob) for ob in sc.unknown_obstacles]
             if sc.dock is not None:
@@ -103,19 +114,26 @@ class World:
             if sc.target is not None:
                 self._build_target()
             self._build_robot()
+            if self.composite_room:
+                self.painter = RoomPainter(sc, self._probe_colors())
 
-    def _box(self, pos, half, yaw, color, collide: bool = True) -> int:
+    def _box(self, pos, half, yaw, color, collide: bool = True, visual: bool = True) -> int:
         p = self.p
-        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=list(half), rgbaColor=_rgba(color), physicsClientId=self.cid)
+        if visual:
+            vis = p.createVisualShape(
+                p.GEOM_BOX, halfExtents=list(half), rgbaColor=_rgba(color), physicsClientId=self.cid
+            )
+        else:  # pybullet draws the collision shape of a body without a visual: give it an invisible speck
+            vis = p.createVisualShape(p.GEOM_SPHERE, radius=1e-4, rgbaColor=_rgba(color), physicsClientId=self.cid)
         col = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half), physicsClientId=self.cid) if collide else -1
         q = p.getQuaternionFromEuler([0, 0, yaw])
         return p.createMultiBody(0, col, vis, list(pos), q, physicsClientId=self.cid)
 
-    def _obstacle(self, ob: Obstacle) -> int:
+    def _obstacle(self, ob: Obstacle, visual: bool = True) -> int:
         p = self.p
         if ob.shape == "box":
             half = (ob.size[0] / 2, ob.size[1] / 2, ob.size[2] / 2)
-            return self._box((ob.x, ob.y, half[2]), half, math.radians(ob.yaw_deg), ob.color)
+            return self._box((ob.x, ob.y, half[2]), half, math.radians(ob.yaw_deg), ob.color, visual=visual)
         vis = p.createVisualShape(
             p.GEOM_CYLINDER, radius=ob.radius, length=ob.height, rgbaColor=_rgba(ob.color), physicsClientId=self.cid
         )
@@ -190,6 +208,40 @@ class World:
         self.bodies.robot = p.createMultiBody(0, -1, vis, [r.x, r.y, r.height / 2], [0, 0, 0, 1],
                                               physicsClientId=self.cid)  # fmt: skip
 
+    def _probe_colors(self) -> dict[str, np.ndarray]:
+        """How TinyRenderer shades the floor and each wall under this lighting (one tiny render each).
+
+        A probe quad with the surface's colour and normal is put far outside the room and looked at
+        from 1 m; the centre pixel is the colour the painter uses, so painted and rendered surfaces
+        match exactly (flat shading: the colour depends on the normal and the light only).
+        """
+        p, sc = self.p, self.sc
+        far = np.array([1000.0, 1000.0, 1000.0])
+        probes = {"floor": ((0.0, 0.0, 1.0), sc.room.floor_color)}
+        for name, n in (("west", (1, 0, 0)), ("east", (-1, 0, 0)), ("south", (0, 1, 0)), ("north", (0, -1, 0))):
+            probes[name] = (n, sc.room.wall_color)
+        out = {}
+        light = sc.lighting
+        for name, (n, color) in probes.items():
+            nv = np.asarray(n, dtype=float)
+            body = self._box(far.tolist(), (1.0, 1.0, 1.0), 0.0, color, collide=False)
+            # Look at the face of the probe cube whose outward normal is n, from 1 m along n, slightly oblique.
+            face = far + nv * 1.0
+            eye = face + nv * 1.0 + (np.array([0.3, 0.2, 0.0]) if nv[2] != 0 else np.array([0.0, 0.0, 0.2]))
+            up = [0, 1, 0] if nv[2] != 0 else [0, 0, 1]
+            view = p.computeViewMatrix(eye.tolist(), face.tolist(), up, physicsClientId=self.cid)
+            proj = p.computeProjectionMatrixFOV(20, 1.0, 0.05, 10.0, physicsClientId=self.cid)
+            _, _, rgba, _, _ = p.getCameraImage(
+                8, 8, view, proj, shadow=0, renderer=p.ER_TINY_RENDERER,
+                lightDirection=list(light.direction), lightAmbientCoeff=light.ambient,
+                lightDiffuseCoeff=light.diffuse, lightSpecularCoeff=light.specular,
+                flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=self.cid,
+            )  # fmt: skip
+            px = np.asarray(rgba, dtype=np.uint8).reshape(8, 8, 4)[4, 4, :3]
+            out[name] = px[::-1].copy()  # BGR
+            p.removeBody(body, physicsClientId=self.cid)
+        return out
+
     # -- moving things -------------------------------------------------------------------------------
     def set_robot_pose(self, x: float, y: float, yaw: float) -> None:
         q = self.p.getQuaternionFromEuler([0, 0, yaw])
@@ -230,12 +282,14 @@ class World:
             )  # fmt: skip
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(cam.height, cam.width, 4)
         bgr = np.ascontiguousarray(rgba[:, :, 2::-1])
+        d = np.asarray(zbuf, dtype=np.float32).reshape(cam.height, cam.width)
         z = None
         if depth:
-            d = np.asarray(zbuf, dtype=np.float32).reshape(cam.height, cam.width)
             n, f = cam.near_m, cam.far_m
             z = (f * n / (f - (f - n) * d)).astype(np.float32)
             z[d >= 1.0] = np.nan  # nothing within the far plane
+        if self.painter is not None:
+            self.painter.paint(bgr, z, d >= 1.0, T_map_optical, cam)
         return bgr, z
 
     def ray_fractions(self, froms: np.ndarray, tos: np.ndarray) -> np.ndarray:
@@ -293,3 +347,101 @@ def intrinsics_for(cam: CameraSpec, renderer: str) -> CameraIntrinsics:
                                                   cx=cam.width / 2 - 0.5, cy=cam.height / 2 - 0.5)  # fmt: skip
     return CameraIntrinsics.from_vertical_fov(cam.width, cam.height, cam.vfov_deg,
                                               cx=cam.width / 2, cy=cam.height / 2 - 1)  # fmt: skip
+
+
+class RoomPainter:
+    """Paints the floor and the room's walls into the pixels TinyRenderer left empty.
+
+    Exact for a convex room seen from inside: a pixel shows a wall or the floor exactly when no object
+    is in front of it, and the floor and walls are the farthest surfaces. Each pixel's ray is
+    intersected with the floor plane and the four inner wall planes; above the walls is the sky
+    (TinyRenderer's white). Depth is filled in too when it is asked for.
+    """
+
+    def __init__(self, sc: Scenario, colors: dict[str, np.ndarray]) -> None:
+        self.sx, self.sy = sc.room.size
+        self.wall_h = sc.room.wall_height
+        self.colors = colors
+        self._rays: dict[tuple[int, int, float], np.ndarray] = {}
+
+    def _camera_rays(self, cam: CameraSpec) -> np.ndarray:
+        """Per-pixel ray directions (optical frame, z = 1), one row per pixel, for this camera."""
+        key = (cam.width, cam.height, cam.vfov_deg)
+        if key not in self._rays:
+            k = intrinsics_for(cam, "tiny")
+            u, v = np.meshgrid(np.arange(cam.width, dtype=np.float32), np.arange(cam.height, dtype=np.float32))
+            rays = np.stack([(u - k.cx) / k.fx, (v - k.cy) / k.fy, np.ones_like(u)], axis=-1)
+            self._rays[key] = rays.reshape(-1, 3)
+        return self._rays[key]
+
+    def paint(
+        self, bgr: np.ndarray, depth: np.ndarray | None, empty: np.ndarray, T_map_optical: np.ndarray, cam: CameraSpec
+    ) -> None:
+        """Fill the `empty` pixels of `bgr` (and `depth`) with the floor, the walls or the sky."""
+        if not empty.any():
+            return
+        k = intrinsics_for(cam, "tiny")
+        ex, ey, ez = (float(v) for v in T_map_optical[:3, 3])
+        R = T_map_optical[:3, :3]
+        h, w = bgr.shape[:2]
+        if abs(R[2, 0]) > 1e-9 or abs(R[2, 2]) > 1e-9:
+            return self._paint_general(bgr, depth, empty, T_map_optical, cam)
+        # Level camera (no pitch, no roll): a column's rays share one horizontal direction, so the wall a
+        # column sees and the rows where it meets the floor and its top edge follow from one division.
+        u = np.arange(w, dtype=np.float64)
+        hd = (R[:, 0:1] * ((u - k.cx) / k.fx) + R[:, 2:3]).T  # map direction of row cy per column (W×3)
+        dx, dy = hd[:, 0], hd[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(dx > 1e-12, (self.sx - ex) / dx, np.where(dx < -1e-12, -ex / dx, np.inf))
+            ty = np.where(dy > 1e-12, (self.sy - ey) / dy, np.where(dy < -1e-12, -ey / dy, np.inf))
+        t_wall = np.minimum(tx, ty)  # optical z-depth of the wall in each column
+        v_top = k.cy - k.fy * (self.wall_h - ez) / t_wall
+        v_bot = k.cy + k.fy * ez / t_wall
+        rows = np.arange(h, dtype=np.float64)[:, None]
+        floor = rows > v_bot[None, :]
+        wall = ~floor & (rows >= v_top[None, :])
+        col = np.where(
+            (tx <= ty)[:, None],
+            np.where((dx < 0)[:, None], self.colors["west"], self.colors["east"]),
+            np.where((dy < 0)[:, None], self.colors["south"], self.colors["north"]),
+        ).astype(np.uint8)
+        np.copyto(bgr, self.colors["floor"], where=(empty & floor)[:, :, None])
+        np.copyto(bgr, np.broadcast_to(col[None, :, :], bgr.shape), where=(empty & wall)[:, :, None])
+        if depth is not None:
+            with np.errstate(divide="ignore"):
+                tf = ez * k.fy / (rows - k.cy)
+            fill = np.where(floor, tf, np.where(wall, t_wall[None, :], np.nan))
+            fill = np.where(fill <= cam.far_m, fill, np.nan).astype(np.float32)
+            np.copyto(depth, fill, where=empty)
+        return None
+
+    def _paint_general(
+        self, bgr: np.ndarray, depth: np.ndarray | None, empty: np.ndarray, T_map_optical: np.ndarray, cam: CameraSpec
+    ) -> None:
+        """Any camera orientation: intersect every empty pixel's ray with the floor and wall planes."""
+        idx = np.flatnonzero(empty.ravel())
+        rays = self._camera_rays(cam)[idx]
+        d = rays @ T_map_optical[:3, :3].T.astype(np.float32)  # map-frame directions, optical z = 1
+        ex, ey, ez = (float(v) for v in T_map_optical[:3, 3])
+        dx, dy, dz = d[:, 0], d[:, 1], d[:, 2]
+        inf = np.float32(np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(dx > 0, (self.sx - ex) / dx, np.where(dx < 0, -ex / dx, inf))
+            ty = np.where(dy > 0, (self.sy - ey) / dy, np.where(dy < 0, -ey / dy, inf))
+            tf = np.where(dz < 0, -ez / dz, inf)
+        t_wall = np.minimum(tx, ty)
+        wall_z = ez + t_wall * dz
+        floor = tf <= t_wall
+        wall = ~floor & (wall_z <= self.wall_h)
+        flat = bgr.reshape(-1, 3)
+        flat[idx[floor]] = self.colors["floor"]
+        xw = wall & (tx <= ty)
+        yw = wall & (tx > ty)
+        flat[idx[xw & (dx < 0)]] = self.colors["west"]
+        flat[idx[xw & (dx > 0)]] = self.colors["east"]
+        flat[idx[yw & (dy < 0)]] = self.colors["south"]
+        flat[idx[yw & (dy > 0)]] = self.colors["north"]
+        if depth is not None:
+            dflat = depth.reshape(-1)
+            t = np.where(floor, tf, np.where(wall, t_wall, np.nan)).astype(np.float32)
+            dflat[idx] = np.where(t <= cam.far_m, t, np.nan)
