@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 import xml.etree.ElementTree as ET
 
@@ -85,7 +86,7 @@ def test_layout_is_tidy_no_overlaps_and_parents_centred_over_children():
         by_row.setdefault(box.y, []).append(box)
     for boxes in by_row.values():
         boxes.sort(key=lambda b: b.x)
-        for a, b in zip(boxes, boxes[1:], strict=False):
+        for a, b in itertools.pairwise(boxes):
             assert a.x + a.w <= b.x, "boxes in one row overlap"
     for n in root.walk():
         if n.children:

@@ -79,7 +79,8 @@ def test_overlay_draws_outline_axes_and_id_and_survives_odd_detections():
     k = CameraIntrinsics.from_vertical_fov(320, 240, 45.0)
     corners = np.array([[120, 80], [200, 80], [200, 160], [120, 160]], float)
     good = Detection("aruco", 7, None, corners, np.array([0.0, 0.0, 1.0]), np.array([1.0, 0, 0, 0]), 1.0, 0.1, 0.0, "c")
-    no_corners = Detection("vlm", None, "person", None, np.array([np.nan] * 3), np.array([0, 0, 0, 1.0]), 0.5, 0, 0, "c")
+    nan3 = np.array([np.nan] * 3)
+    no_corners = Detection("vlm", None, "person", None, nan3, np.array([0, 0, 0, 1.0]), 0.5, 0, 0, "c")
     behind = Detection("aruco", 3, None, corners + 50, np.array([0, 0, -1.0]), np.array([0, 0, 0, 1.0]), 1, 0, 0, "c")
     out = draw_detections(img, [good, no_corners, behind], k)
     assert out.shape == (240, 320, 3) and img.shape == (240, 320)  # a copy, input untouched

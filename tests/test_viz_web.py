@@ -47,9 +47,8 @@ def test_live_page_follows_the_tree_and_a_recorded_log_can_be_scrubbed(tmp_path)
             step(runner, world, observers, 1)
             browser.wait_for("document.body && document.body.dataset.tick === '1'")
 
-            assert browser.evaluate("Array.from(document.querySelectorAll('#tree .node')).map(g => g.dataset.name)") == (
-                WATCH_NODES
-            )
+            names = browser.evaluate("Array.from(document.querySelectorAll('#tree .node')).map(g => g.dataset.name)")
+            assert names == WATCH_NODES
             shown = browser.evaluate("document.getElementById('tree').textContent")
             assert all(name in shown for name in WATCH_NODES)
             following = browser.evaluate(STATUSES_JS)

@@ -254,6 +254,23 @@ def test_a_restarted_source_keeps_the_quota_and_rate_limit(tmp_path, clock):
     third.close()
 
 
+def test_with_the_frame_clock_budget_and_latency_run_on_frame_stamps_and_nothing_is_persisted(tmp_path):
+    src = VlmStubSource({"state_file": str(tmp_path / "q.json"), "clock": "frame", "latency_s": 0.5,
+                         "publish_rate_limit_hz": 1.0, "miss_rate": 0.0, "pixel_noise": 0.0}, name="vlm")  # fmt: skip
+    frame = view(0.0)[0]
+    calls, answers = [], []
+    for i in range(31):  # 3 s of 10 Hz frames
+        src.process(dataclasses.replace(frame, stamp=i / 10))
+        assert src.wait_idle(timeout=10.0)  # the worker is done, but the answer is due at stamp + 0.5 s
+        calls.append(src.model_calls)
+        answers.append(src.status().get("answers", 0))
+    assert calls[0] == 1 and calls[9] == 1 and calls[10] == 2 and calls[20] == 3  # one call per second of stamps
+    assert answers[4] == 0 and answers[5] == 1  # answered 0.5 s (of stamps) after the call
+    assert src.latch.latched
+    assert not (tmp_path / "q.json").exists()
+    src.close()
+
+
 # -- the model call is off the tick ----------------------------------------------------------------
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import py_trees
 
 from mission.core import blackboard as bbk
 from mission.core import se3
@@ -75,7 +76,7 @@ class MarkerWorld:
     def setup(self) -> None:
         pass
 
-    def sense(self, bb) -> None:  # noqa: ANN001 — a py_trees blackboard client
+    def sense(self, bb: py_trees.blackboard.Client) -> None:
         if self.marker_visible:
             image = render_marker_view(T_CAM_MARKER, marker_id=7, intrinsics=self.intrinsics, rng=self._rng).image
         else:
@@ -89,7 +90,7 @@ class MarkerWorld:
         bbk.set_(bb, bbk.FRAME, Frame(image=image, stamp=self.t, intrinsics=self.intrinsics))
         bbk.set_(bb, bbk.FRAME_SEQ, self.seq)
 
-    def act(self, bb) -> None:  # noqa: ANN001 — the robot stands still; commands are only recorded by the tree
+    def act(self, bb: py_trees.blackboard.Client) -> None:  # the robot stands still
         pass
 
     def advance(self, dt: float) -> None:

@@ -111,7 +111,8 @@ class TransitionTrees:
         return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>mission report — {html.escape(str(out.get('scenario', '')))}</title>
 <style>
-body {{ font-family: 'DejaVu Sans', Verdana, Arial, sans-serif; margin: 0; background: #eef0f3; color: #202124; font-size: 13px; }}
+body {{ font-family: 'DejaVu Sans', Verdana, Arial, sans-serif; margin: 0; background: #eef0f3; color: #202124;
+  font-size: 13px; }}
 header {{ background: #1f2633; color: #e8eaed; padding: 12px 20px; display: flex; gap: 16px; align-items: center; }}
 header h1 {{ font-size: 18px; margin: 0; }}
 .verdict {{ padding: 3px 12px; border-radius: 12px; font-weight: bold; background: {verdict_colour}; color: #fff; }}
@@ -121,7 +122,8 @@ main {{ padding: 14px 20px; }}
 table td {{ padding: 2px 10px 2px 0; }} table td:first-child {{ color: #6b7280; }}
 img.pic {{ max-height: 330px; max-width: 100%; }}
 h2 {{ font-size: 15px; margin: 18px 0 8px; }}
-.moment {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); margin: 0 0 14px; padding: 10px 14px; }}
+.moment {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); margin: 0 0 14px;
+  padding: 10px 14px; }}
 .moment img {{ max-width: 100%; }}
 .pill {{ color: #fff; border-radius: 10px; padding: 1px 9px; font-weight: bold; }}
 .muted {{ color: #6b7280; }}
