@@ -35,6 +35,8 @@ SETTLE_DETECTIONS = 2  # consecutive fresh detections inside tolerance before de
 # noise), and declares success when it gets there, or after SETTLE_S inside tolerance without getting there.
 TIGHT_DISTANCE, TIGHT_LATERAL, TIGHT_SKEW = 0.5, 0.7, 0.5
 SETTLE_S = 1.5
+TIGHT_BACKOFFS = 2  # re-approaches allowed for reaching the tight lateral band
+DEADBAND = 0.3  # fraction of distance_tol_m within which the servo stops moving forward (turns only)
 
 
 class FloorTagFilter:
@@ -224,7 +226,10 @@ class VisualServoDock(MissionLeaf):
             self._within_since = None
 
         remaining = off.standoff_m - self.standoff_m
-        if self.phase == "approach" and remaining < self.distance_tol_m and abs(off.lateral_m) > self.lateral_tol_m:
+        # Arriving with a lateral offset the servo cannot remove in place: back off and come in again. Aim for
+        # the tight band the first times, then settle for the tolerance (no endless re-approaches).
+        lateral_limit = (TIGHT_LATERAL if self.backoffs < TIGHT_BACKOFFS else 1.0) * self.lateral_tol_m
+        if self.phase == "approach" and remaining < self.distance_tol_m and abs(off.lateral_m) > lateral_limit:
             self.phase = "backoff"
             self.backoffs += 1
         elif self.phase == "backoff" and remaining >= self.gains.backoff_m:
@@ -234,7 +239,7 @@ class VisualServoDock(MissionLeaf):
             doing = f"backing off to re-approach (lateral off by more than {100 * self.lateral_tol_m:.0f} cm)"
         else:
             cmd = approach_command(
-                off, self.standoff_m, self.max_v, self.max_w, self.gains, deadband_m=0.5 * self.distance_tol_m
+                off, self.standoff_m, self.max_v, self.max_w, self.gains, deadband_m=DEADBAND * self.distance_tol_m
             )
             doing = "approaching"
         self.drive(cmd.v, cmd.w)
