@@ -1,7 +1,8 @@
 """The compact terminal status of a running mission: sim time, state, target distance, active branch.
 
 On a terminal it is one line redrawn in place (rich); in a log (CI, a pipe) it prints a line per state
-change and a heartbeat every `every_s` simulated seconds — progress without flooding.
+change and a heartbeat every `every_s` simulated seconds — progress without flooding. When the run has a
+known length (`total_s`, else the scenario's duration) the line starts with a progress bar.
 """
 
 from __future__ import annotations
@@ -19,8 +20,12 @@ from mission.core import blackboard as bbk
 class LiveStatus:
     """A TickObserver (mission.observers) that shows progress."""
 
-    def __init__(self, label: str, stream: TextIO | None = None, every_s: float = 10.0) -> None:
+    def __init__(
+        self, label: str, stream: TextIO | None = None, every_s: float = 10.0, total_s: float | None = None
+    ) -> None:
         self.label = label
+        self.total_s = total_s
+        self._t0: float | None = None
         self.stream = stream or sys.stderr
         self.every_s = every_s
         self._console = Console(file=self.stream, highlight=False)
@@ -32,9 +37,21 @@ class LiveStatus:
         state = runner.get(bbk.STATE, "") or "…"
         dist = "" if gt.target is None else f"target {gt.robot.distance_to(gt.target):4.1f} m  "
         branch = " › ".join(runner.active_branch()[-3:])
-        return f"[{self.label}] t={gt.stamp:6.1f}s  {state:<7} {dist}{branch}"
+        return f"[{self.label}] {self._bar(gt.stamp)}t={gt.stamp:6.1f}s  {state:<7} {dist}{branch}"
+
+    def _bar(self, stamp: float, width: int = 16) -> str:
+        """`▕██████░░░░▏ 40% ` of the run's known length, or nothing when the length is not known."""
+        if not self.total_s or self.total_s <= 0:
+            return ""
+        if self._t0 is None:
+            self._t0 = stamp
+        frac = min(1.0, max(0.0, (stamp - self._t0) / self.total_s))
+        full = round(frac * width)
+        return f"▕{'█' * full}{'░' * (width - full)}▏{frac * 100:3.0f}% "
 
     def on_start(self, runner: Any, adapter: Any) -> None:
+        if self.total_s is None:  # a scenario's own length, when the world has one
+            self.total_s = getattr(getattr(adapter, "scenario", None), "duration_s", None)
         if self._console.is_terminal:
             self._live = Live(Text(""), console=self._console, refresh_per_second=8, transient=True)
             self._live.start()

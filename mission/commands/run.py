@@ -19,7 +19,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
     if not args.quiet:
         from mission.live_status import LiveStatus
 
-        observers.append(LiveStatus(label))
+        observers.append(LiveStatus(label, total_s=args.max_duration))
     # Viewers (mission.viz): each fails here, before the simulation starts, on a bad path or a busy port.
     if getattr(args, "serve", False):
         from mission.viz.web import LiveView

@@ -117,10 +117,10 @@ header {{ background: #1f2633; color: #e8eaed; padding: 12px 20px; display: flex
 header h1 {{ font-size: 18px; margin: 0; }}
 .verdict {{ padding: 3px 12px; border-radius: 12px; font-weight: bold; background: {verdict_colour}; color: #fff; }}
 main {{ padding: 14px 20px; }}
-.row {{ display: flex; gap: 14px; flex-wrap: wrap; align-items: flex-start; }}
+.row {{ display: flex; gap: 14px; flex-wrap: wrap; align-items: stretch; }}
 .card {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); padding: 10px 14px; }}
 table td {{ padding: 2px 10px 2px 0; }} table td:first-child {{ color: #6b7280; }}
-img.pic {{ max-height: 330px; max-width: 100%; }}
+img.pic {{ height: 250px; max-width: 100%; }}
 h2 {{ font-size: 15px; margin: 18px 0 8px; }}
 .moment {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); margin: 0 0 14px;
   padding: 10px 14px; }}
