@@ -6,7 +6,9 @@ The design notes' Gemini Robotics-ER node, with the model behind a small client 
 * a model call runs on a worker thread, never on the tick: ``process()`` submits a request when the
   budget allows and returns what is ready;
 * the budget — ``publish_rate_limit_hz`` between calls and ``daily_quota`` per UTC day — is recorded in
-  ``state_file`` *before* each call, atomically, so a crash loop cannot burn the quota;
+  ``state_file`` *before* each call, atomically, so a crash loop cannot burn the quota; with
+  ``clock: frame`` (simulation) budget and latency run on frame stamps instead and nothing is persisted,
+  so a seeded sim run repeats whatever the machine's speed;
 * each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
   Canny + PCA in-plane axis (x axis) — perception_plugins/depth_pose.py;
 * answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
@@ -39,7 +41,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures import wait as wait_futures
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -66,6 +68,9 @@ class VlmStubParams(StrictModel):
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
     daily_quota: int = Field(20, ge=0)  # model calls per UTC day, shared by everything using state_file
     state_file: str | None = None  # None = $XDG_CACHE_HOME/mission/vlm_quota_<client>.json
+    # "wall": budget and latency in wall-clock time, budget persisted (a real model); "frame": in frame
+    # stamps, nothing persisted — a simulation's time base, so seeded sim runs repeat whatever the CPU speed
+    clock: Literal["wall", "frame"] = "wall"
     # the stub's imitation of a remote model
     latency_s: float = Field(1.0, ge=0.0)
     miss_rate: float = Field(0.05, ge=0.0, le=1.0)
@@ -111,6 +116,7 @@ class _Answer:
 
 def _make_client(p: VlmStubParams) -> VlmClient:
     if p.client == "stub":
+        latency = p.latency_s if p.clock == "wall" else 0.0  # frame clock: the source holds answers instead
         if parse_label(p.target_label).colour is None:
             raise ConfigError(
                 f"the stub client finds objects by colour: name one of {', '.join(known_colours())} "
@@ -118,7 +124,7 @@ def _make_client(p: VlmStubParams) -> VlmClient:
                 key="target_label",
             )
         return ColourShapeClient(
-            latency_s=p.latency_s,
+            latency_s=latency,
             miss_rate=p.miss_rate,
             pixel_noise=p.pixel_noise,
             seed=p.seed,
@@ -160,6 +166,9 @@ class VlmStubSource:
         self._client: VlmClient = client if client is not None else _make_client(p)
         client_kind = "stub" if p.client == "stub" else p.client.replace(":", ".")
         path = Path(p.state_file).expanduser() if p.state_file else default_state_file(client_kind)
+        if p.clock == "frame":
+            path = None  # frame stamps restart with every run: a budget in them is per run, not persisted
+        self._last_stamp = 0.0
         self._min_interval = 1.0 / p.publish_rate_limit_hz
         self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval)
         self.latch = OneShotLatch(
@@ -170,6 +179,7 @@ class VlmStubSource:
         self._lock = threading.RLock()
         self._executor: ThreadPoolExecutor | None = None
         self._pending: Future[_Answer] | None = None
+        self._pending_stamp = 0.0
         self._next_attempt = -math.inf  # wall time; paces attempts that fail before a call is made
         self._next_emit: float | None = None  # frame-stamp schedule of republishing
         self._stale_frames = 0
@@ -199,14 +209,15 @@ class VlmStubSource:
         if fut is None:
             return True
         done, _ = wait_futures([fut], timeout=timeout)
-        with self._lock:
-            self._collect()
+        if self.params.clock == "wall":  # with the frame clock the answer is due at a frame stamp
+            with self._lock:
+                self._collect()
         return bool(done)
 
     def status(self) -> dict[str, Any]:
         """What the source is doing, for logs and viewers."""
         with self._lock:
-            now = self._clock()
+            now = self._now()
             return {
                 "state": self.state,
                 "latched": self.latch.latched,
@@ -224,6 +235,7 @@ class VlmStubSource:
     def process(self, frame: Frame) -> list[Detection]:
         """Detections for this frame (the latched target, re-expressed in this camera pose); never blocks."""
         with self._lock:
+            self._last_stamp = float(frame.stamp)
             self._collect()
             if not self.params.latch_in_map:
                 out = [self._unlatched_detection(a, frame) for a in self._fresh]
@@ -271,7 +283,7 @@ class VlmStubSource:
             self._log_once("bad_depth", "depth %s does not match image %s; frame skipped",
                            frame.depth.shape[:2], frame.image.shape[:2])
             return
-        now = self._clock()
+        now = self._now()
         refusal = self.quota.refusal(now)
         if refusal is None and now < self._next_attempt:
             refusal = QuotaStore.RATE_LIMITED
@@ -307,6 +319,7 @@ class VlmStubSource:
         if self._executor is None:
             self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"vlm-{self.name}")
         self._pending = self._executor.submit(self._ask, request)
+        self._pending_stamp = float(frame.stamp)
         self.state = "waiting_for_model"
 
     def _ask(self, req: _Request) -> _Answer:
@@ -325,11 +338,16 @@ class VlmStubSource:
             return _Answer(req, "no_depth", pixel=(u, v))
         return _Answer(req, "ok", pose, best.confidence, (u, v))
 
+    def _now(self) -> float:
+        return self._clock() if self.params.clock == "wall" else self._last_stamp
+
     def _collect(self) -> None:
         """Take the model's answer if it is ready: count it, and add it to the consensus (or the outbox)."""
         fut = self._pending
         if fut is None or not fut.done():
             return
+        if self.params.clock == "frame" and self._last_stamp < self._pending_stamp + self.params.latency_s:
+            return  # the simulated model has not answered yet (latency in frame time)
         self._pending = None
         try:
             answer = fut.result()
