@@ -33,7 +33,7 @@ from mission.core.types import DockSetpoint
 SETTLE_DETECTIONS = 2  # consecutive fresh detections inside tolerance before declaring success
 # Inside tolerance the servo keeps refining toward these fractions of the tolerances (margin for measurement
 # noise), and declares success when it gets there, or after SETTLE_S inside tolerance without getting there.
-TIGHT_DISTANCE, TIGHT_LATERAL, TIGHT_SKEW = 0.5, 0.7, 0.5
+TIGHT_DISTANCE, TIGHT_LATERAL, TIGHT_SKEW = 0.3, 0.7, 0.5
 SETTLE_S = 1.5
 TIGHT_BACKOFFS = 2  # re-approaches allowed for reaching the tight lateral band
 DEADBAND = 0.3  # fraction of distance_tol_m within which the servo stops moving forward (turns only)
