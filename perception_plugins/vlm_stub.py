@@ -180,7 +180,7 @@ class VlmStubSource:
         self._executor: ThreadPoolExecutor | None = None
         self._pending: Future[_Answer] | None = None
         self._pending_stamp = 0.0
-        self._next_attempt = -math.inf  # wall time; paces attempts that fail before a call is made
+        self._next_attempt = -math.inf  # budget-clock time; paces attempts that fail before a call is made
         self._next_emit: float | None = None  # frame-stamp schedule of republishing
         self._stale_frames = 0
         self._fresh: list[_Answer] = []  # unlatched mode: answers not yet emitted
@@ -296,7 +296,7 @@ class VlmStubSource:
         anchor = self._anchor(frame)
         if p.latch_in_map and anchor is None:
             self._next_attempt = now + self._min_interval
-            self.counters["failed_latch_attempts"] += 1
+            self.counters["anchor_failures"] += 1
             if self.latch.anchor_failed():
                 self.state = "breaker_open"
                 self._log_once("breaker", "no camera pose in %r for %d attempts: circuit breaker open, "
