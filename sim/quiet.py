@@ -43,6 +43,9 @@ def quiet() -> Iterator[None]:
         finally:
             _depth -= 1
             if _depth == 0:
+                for stream in (sys.stdout, sys.stderr):
+                    with contextlib.suppress(Exception):
+                        stream.flush()
                 out, err = _saved
                 os.dup2(out, 1)
                 os.dup2(err, 2)
