@@ -118,8 +118,14 @@ class TickProbe:
     def _post(self, tree: py_trees.trees.BehaviourTree) -> None:
         tick_us = (time.perf_counter() - self._t0) * 1e6
         own = self._timing.own
+        # A node that is not running keeps its last feedback in py_trees ("following target" on a stopped
+        # FollowTarget); viewers would show it as current, so an INVALID node's feedback is left out.
         nodes = [
-            [n.status.name, n.feedback_message or "", None if n.id not in own else round(own[n.id] * 1e6, 1)]
+            [
+                n.status.name,
+                (n.feedback_message or "") if n.status is not py_trees.common.Status.INVALID else "",
+                None if n.id not in own else round(own[n.id] * 1e6, 1),
+            ]
             for n in self.nodes
         ]
         reads: dict[str, set[str]] = {}

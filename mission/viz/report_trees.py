@@ -122,9 +122,10 @@ main {{ padding: 14px 20px; }}
 table td {{ padding: 2px 10px 2px 0; }} table td:first-child {{ color: #6b7280; }}
 img.pic {{ height: 250px; max-width: 100%; }}
 h2 {{ font-size: 15px; margin: 18px 0 8px; }}
-.moment {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); margin: 0 0 14px;
+.moment {{ background: #fff; border-radius: 8px; box-shadow: 0 1px 3px rgba(0,0,0,.12); margin: 0;
   padding: 10px 14px; }}
-.moment img {{ max-width: 100%; }}
+.moments {{ display: grid; grid-template-columns: repeat(auto-fill, minmax(560px, 1fr)); gap: 14px; }}
+.moment img {{ width: 100%; }}
 .pill {{ color: #fff; border-radius: 10px; padding: 1px 9px; font-weight: bold; }}
 .muted {{ color: #6b7280; }}
 </style></head><body>
@@ -135,6 +136,6 @@ h2 {{ font-size: 15px; margin: 18px 0 8px; }}
 <div class="card"><img class="pic" src="trajectories.png" alt="trajectories"></div>
 <div class="card"><img class="pic" src="timeline.png" alt="timeline"></div></div>
 <h2>The tree at each state transition</h2>
-{''.join(cards) or '<p class="muted">no ticks recorded</p>'}
+<div class="moments">{''.join(cards) or '<p class="muted">no ticks recorded</p>'}</div>
 </main></body></html>
 """

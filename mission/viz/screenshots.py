@@ -35,7 +35,7 @@ def _run(scenario: str, seconds: float, observers: list) -> Path:
     return report
 
 
-def live_view(out: Path, scenario: str, seconds: float, width: int = 1360, height: int = 820) -> Path:
+def live_view(out: Path, scenario: str, seconds: float, width: int = 1600, height: int = 860) -> Path:
     """The live page at the end of `seconds` of `scenario` (the page is opened after the run: same view)."""
     from mission.viz.web import LiveView
 
@@ -51,7 +51,7 @@ def live_view(out: Path, scenario: str, seconds: float, width: int = 1360, heigh
         view.close()
 
 
-def report_page(out: Path, scenario: str, seconds: float, width: int = 1360, height: int = 1100) -> Path:
+def report_page(out: Path, scenario: str, seconds: float, width: int = 1400, height: int = 1000) -> Path:
     """The top of report.html of a run of `scenario`."""
     report = _run(scenario, seconds, [])
     with HeadlessChromium() as browser:
