@@ -4,7 +4,8 @@ blackboard keys each node read and wrote, the mission state and where things are
 One :class:`TickProbe` per running tree, shared by every viewer (tick log, live page, report trees), so
 the tree is instrumented once however many viewers watch it. It adds a py_trees visitor (timing) and a
 post-tick handler (statuses, blackboard activity) — it observes and never changes what the tree does.
-Cost: about 1 µs per ticked node for timing plus the activity stream's list appends.
+Cost, measured on the 8-node test tree (2-core machine): ≈0.1 ms more per tree tick with the
+instrumentation, ≈0.15 ms to build a record — under 0.5 % of a 15 Hz tick period.
 
 Node ids are pre-order indices (:mod:`mission.viz.model`); a record's ``nodes`` rows are
 ``[status, feedback, own_us]`` in that order (``own_us`` is null for nodes not ticked this tick).
