@@ -129,3 +129,26 @@ class BagRecorder:
             if item is not None and item.stamp > self._last_stamp.get(key, -math.inf):
                 self._last_stamp[key] = item.stamp
                 write(item)
+
+
+class BagObserver:
+    """A run observer (mission.observers.TickObserver) that records the sensors the tree saw each tick.
+
+    ``mission run --record-bag PATH``: ``observers.append(BagObserver(PATH))``. It reads the newest
+    frame, robot state and scan from the runner's blackboard after every tick (the values the adapter
+    wrote in ``sense()``), so it works with any world adapter.
+    """
+
+    def __init__(self, path: str | Path, *, storage: str | None = None) -> None:
+        self.recorder = BagRecorder(path, storage=storage)
+
+    def on_start(self, runner: Any, adapter: Any) -> None:
+        self.recorder.open()
+
+    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+        from mission.core import blackboard as bbk
+
+        self.recorder.record(frame=runner.get(bbk.FRAME), state=runner.get(bbk.ROBOT_STATE), scan=runner.get(bbk.SCAN))
+
+    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+        self.recorder.close()

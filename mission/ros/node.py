@@ -35,7 +35,7 @@ NODE_NAME = "mission_tree"
 PERCEPTION_ONLY_TREE = Path(__file__).resolve().parents[2] / "ros" / "perception_only.xml"
 TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
 
-# name → (default, description): the node's ROS parameters (README's table is generated from this)
+# name → (default, description): the node's ROS parameters (the README's table lists the same)
 PARAMETERS: dict[str, tuple[Any, str]] = {
     "image_topic": ("/camera/image_raw", "camera images (bgr8, rgb8, mono8)"),
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
