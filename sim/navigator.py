@@ -104,15 +104,21 @@ class Costmap:
         ok = (rows >= 0) & (rows < self.static.shape[0]) & (cols >= 0) & (cols < self.static.shape[1])
         return rows[ok], cols[ok]
 
-    def nearest_comfortable(self, rc: tuple[int, int]) -> tuple[int, int] | None:
-        """The closest cell to rc outside the inflation (rc itself when it already is)."""
+    def nearest_comfortable(self, rc: tuple[int, int], toward: tuple[int, int]) -> tuple[int, int] | None:
+        """The closest cell to rc outside the inflation (rc itself when it already is).
+
+        Among cells (almost) equally close to rc, the one nearest `toward` (the robot) wins, so a goal
+        on an obstacle ends on the robot's side of it rather than behind it.
+        """
         if self.in_bounds(rc) and not self.inflated[rc]:
             return rc
         free = np.argwhere(~self.inflated)
         if len(free) == 0:
             return None
-        d2 = (free[:, 0] - rc[0]) ** 2 + (free[:, 1] - rc[1]) ** 2
-        r, c = free[int(np.argmin(d2))]
+        d = np.hypot(free[:, 0] - rc[0], free[:, 1] - rc[1])
+        near = free[d <= d.min() + 1.5]
+        d_robot = (near[:, 0] - toward[0]) ** 2 + (near[:, 1] - toward[1]) ** 2
+        r, c = near[int(np.argmin(d_robot))]
         return int(r), int(c)
 
     def segment_clear(self, a: tuple[float, float], b: tuple[float, float], *, comfortable: bool = True) -> bool:
@@ -221,7 +227,7 @@ class Navigator:
         self._planned_at = now
         self._planned_version = cm.version
         self.plans += 1
-        goal_rc = cm.nearest_comfortable(cm.cell(self.goal.x, self.goal.y))
+        goal_rc = cm.nearest_comfortable(cm.cell(self.goal.x, self.goal.y), cm.cell(pose.x, pose.y))
         if goal_rc is None:
             return self._fail("no free space near the goal")
         gx, gy = cm.grid.cell_to_world(*goal_rc)
