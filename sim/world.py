@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from mission.core import se3
@@ -281,7 +282,7 @@ class World:
                 flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=self.cid,
             )  # fmt: skip
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(cam.height, cam.width, 4)
-        bgr = np.ascontiguousarray(rgba[:, :, 2::-1])
+        bgr = cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR)
         d = np.asarray(zbuf, dtype=np.float32).reshape(cam.height, cam.width)
         z = None
         if depth:
@@ -363,6 +364,13 @@ class RoomPainter:
         self.wall_h = sc.room.wall_height
         self.colors = colors
         self._rays: dict[tuple[int, int, float], np.ndarray] = {}
+        self._floor: np.ndarray | None = None
+
+    def _floor_image(self, h: int, w: int) -> np.ndarray:
+        if self._floor is None or self._floor.shape[:2] != (h, w):
+            self._floor = np.empty((h, w, 3), dtype=np.uint8)
+            self._floor[:] = self.colors["floor"]
+        return self._floor
 
     def _camera_rays(self, cam: CameraSpec) -> np.ndarray:
         """Per-pixel ray directions (optical frame, z = 1), one row per pixel, for this camera."""
@@ -405,8 +413,12 @@ class RoomPainter:
             np.where((dx < 0)[:, None], self.colors["west"], self.colors["east"]),
             np.where((dy < 0)[:, None], self.colors["south"], self.colors["north"]),
         ).astype(np.uint8)
-        np.copyto(bgr, self.colors["floor"], where=(empty & floor)[:, :, None])
-        np.copyto(bgr, np.broadcast_to(col[None, :, :], bgr.shape), where=(empty & wall)[:, :, None])
+        # cv2 does the full-frame copies (3–4× faster than numpy's masked copies): the wall colours of each
+        # column stretched down the image, the floor over them below the wall's foot, then into the empty
+        # pixels that are not sky (TinyRenderer leaves the sky white already).
+        bg = cv2.resize(col[None, :, :], (w, h), interpolation=cv2.INTER_NEAREST)
+        cv2.copyTo(self._floor_image(h, w), floor.view(np.uint8), bg)
+        cv2.copyTo(bg, (empty & (floor | wall)).view(np.uint8), bgr)
         if depth is not None:
             with np.errstate(divide="ignore"):
                 tf = ez * k.fy / (rows - k.cy)
