@@ -9,7 +9,9 @@ and never the robot itself. Marker quads have no collision shape either: a ray t
 
 from __future__ import annotations
 
+import contextlib
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import cv2
@@ -90,6 +92,10 @@ class World:
         p = self.p
         with quiet():
             self.cid = p.connect(p.DIRECT)
+        # Disconnect (quietly) at interpreter exit if the owner never called close(): the EGL plugin
+        # prints a goodbye line when a client is torn down.
+        self._finalizer = weakref.finalize(self, _disconnect, p, self.cid)
+        with quiet():
             if self.renderer == "egl":
                 import pkgutil
 
@@ -309,9 +315,13 @@ class World:
 
     def close(self) -> None:
         if self.cid >= 0:
-            with quiet():
-                self.p.disconnect(physicsClientId=self.cid)
+            self._finalizer()
             self.cid = -1
+
+
+def _disconnect(p: object, cid: int) -> None:
+    with quiet(), contextlib.suppress(Exception):
+        p.disconnect(physicsClientId=cid)  # type: ignore[attr-defined]
 
 
 def wall_obstacles(sc: Scenario) -> list[Obstacle]:

@@ -8,6 +8,7 @@ import pytest
 import yaml
 
 from mission.core.errors import ConfigError
+from sim.config import apply_overrides
 from sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
 
 SHIPPED = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner"]
@@ -117,3 +118,16 @@ def test_a_marker_too_big_for_its_face_is_rejected() -> None:
     with pytest.raises(ConfigError) as err:
         scenario_from_dict(data)
     assert str(err.value).startswith("target.markers[0].size_m: marker with quiet zone (0.375 m) does not fit")
+
+
+def test_a_config_sim_section_overrides_scenario_keys_and_names_its_own_bad_keys() -> None:
+    base = load_scenario("follow_open")
+    sc = apply_overrides(base, {"camera": {"renderer": "egl", "width": 320, "height": 240}}, file="run.yaml")
+    assert (sc.camera.renderer, sc.camera.width, sc.camera.height, sc.camera.rate_hz) == ("egl", 320, 240, 15.0)
+    assert sc.target == base.target  # untouched sections stay as they were
+    with pytest.raises(ConfigError) as err:
+        apply_overrides(base, {"camera": {"widht": 320}}, file="run.yaml")
+    assert str(err.value) == "run.yaml: sim.camera.widht: unknown key"
+    with pytest.raises(ConfigError) as err:
+        apply_overrides(base, {"robot": {"x": 50.0}}, file="run.yaml")
+    assert str(err.value).startswith("run.yaml: sim.robot: (50, 2) is outside the room")
