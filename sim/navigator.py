@@ -7,8 +7,8 @@
 * Planner: 8-connected A* on the map grid, then string-pulled to a few corners. A goal in an occupied
   or inflated cell is moved to the nearest comfortable free cell (the follow target stands in space
   the robot should not enter).
-* Controller: pure pursuit with a turn-in-place threshold, slowing near the goal, a look-ahead safety
-  stop against lethal cells, then a turn to the goal yaw.
+* Controller: pure pursuit towards the next path corner with a turn-in-place threshold, slowing near
+  the goal, a look-ahead safety stop against lethal cells, then a turn to the goal yaw.
 * Replans on a new goal, when the path crosses a newly seen obstacle, and periodically; fails when no
   path exists or no progress is made for `stuck_timeout_s`. Cancel returns to idle.
 
@@ -300,24 +300,17 @@ class Navigator:
         return Twist(0.0, math.copysign(min(self.max_w, max(0.3, 2.0 * abs(err))), err))
 
     def _lookahead_point(self, pose: Pose2D) -> tuple[float, float]:
-        # Drop path corners already passed, then walk the look-ahead distance along the rest.
-        px, py = pose.x, pose.y
-        while len(self.path) > 2:
-            bx, by = self.path[1]
-            if math.hypot(bx - px, by - py) < self.spec.lookahead_m * 0.5:
-                self.path.pop(0)
-                continue
-            break
-        remaining = self.spec.lookahead_m
-        cur = (px, py)
-        for nxt in self.path[1:]:
-            seg = math.hypot(nxt[0] - cur[0], nxt[1] - cur[1])
-            if seg >= remaining:
-                f = remaining / seg
-                return cur[0] + f * (nxt[0] - cur[0]), cur[1] + f * (nxt[1] - cur[1])
-            remaining -= seg
-            cur = nxt
-        return self.path[-1]
+        """The next path corner, dropped once the robot is within half the look-ahead of it.
+
+        Aiming at corners rather than at a point further along the path keeps the robot on the
+        string-pulled segments, which keep the inflation distance from obstacles; cutting corners
+        round an obstacle's edge is what brings a pure-pursuit robot into it.
+        """
+        while len(self.path) > 2 and math.hypot(self.path[1][0] - pose.x, self.path[1][1] - pose.y) < (
+            0.5 * self.spec.lookahead_m
+        ):
+            self.path.pop(0)
+        return self.path[1] if len(self.path) > 1 else self.path[-1]
 
     def _pursue(self, pose: Pose2D, dist: float) -> Twist:
         lx, ly = self._lookahead_point(pose)
@@ -330,8 +323,8 @@ class Navigator:
         ld = max(math.hypot(dx, dy), 1e-3)
         w = max(-self.max_w, min(self.max_w, 2.0 * v * math.sin(alpha) / ld))
         if self._unsafe(pose, v, w):
-            self._planned_at = -math.inf  # replan next period
-            return Twist(0.0, w)
+            self._planned_at = -math.inf  # replan next period; meanwhile turn towards the aim point
+            return Twist(0.0, math.copysign(min(self.max_w, max(0.3, 1.5 * abs(alpha))), alpha))
         return Twist(v, w)
 
     def _unsafe(self, pose: Pose2D, v: float, w: float) -> bool:
