@@ -91,7 +91,8 @@ class Marker(StrictModel):
 class Waypoint(StrictModel):
     x: float
     y: float
-    pause_s: float = Field(0.0, ge=0)
+    pause_s: float = Field(0.0, ge=0)  # wait here before going on
+    speed_mps: float | None = Field(None, gt=0)  # speed on the leg towards this waypoint (default: target's)
 
 
 class TargetSpec(StrictModel):

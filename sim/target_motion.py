@@ -53,15 +53,17 @@ class TargetPath:
             segs.append(Segment(t, t + d, "wait", x, y, yaw, x, y, yaw))
             t += d
         turn_rate = math.radians(spec.turn_rate_dps)
-        points = [(w.x, w.y, w.pause_s) for w in spec.waypoints]
+        points = [(w.x, w.y, w.pause_s, w.speed_mps or spec.speed_mps) for w in spec.waypoints]
         if spec.loop and points:
-            lap = [*points, (spec.x, spec.y, 0.0)]
+            lap = [*points, (spec.x, spec.y, 0.0, spec.speed_mps)]
             ring = [(spec.x, spec.y), *[(p[0], p[1]) for p in lap]]
-            lap_s = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in itertools.pairwise(ring)) / spec.speed_mps
+            lap_s = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in itertools.pairwise(ring)) / max(
+                p[3] for p in lap
+            )
             lap_s += sum(p[2] for p in lap) + 1e-3
             laps = min(1000, math.ceil((horizon_s + 60.0) / lap_s))  # enough laps to outlast any run
             points = lap * laps
-        for wx, wy, pause in points:
+        for wx, wy, pause, speed in points:
             dist = math.hypot(wx - x, wy - y)
             if dist > 1e-6:
                 heading = math.atan2(wy - y, wx - x)
@@ -71,7 +73,7 @@ class TargetPath:
                     segs.append(Segment(t, t + d, "turn", x, y, yaw, x, y, heading))
                     t += d
                 yaw = heading
-                d = dist / (spec.speed_mps * jitter())
+                d = dist / (speed * jitter())
                 segs.append(Segment(t, t + d, "move", x, y, yaw, wx, wy, yaw))
                 t += d
                 x, y = wx, wy
