@@ -100,7 +100,7 @@ def test_the_map_holds_walls_and_static_obstacles_but_not_unknown_obstacles_or_t
 
     assert cell(2.95, 4.0) == 100  # pillar B
     assert cell(-0.05, 3.0) == 100  # the west wall
-    assert cell(6.0, 3.0) == 0  # the crate: an unknown obstacle
+    assert cell(5.8, 3.0) == 0  # the crate: an unknown obstacle
     assert cell(2.5, 2.2) == 0  # where the target starts
     assert cell(4.0, 6.0) == 0  # open floor
     assert cell(-0.2, -0.2) == -1  # beyond the walls: unknown
