@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from mission.core import blackboard as bbk
+from mission.core.errors import MissionError
 from mission.core.types import NavGoal, Pose2D
 from sim.adapter import SimAdapter
 from sim.scenario import load_scenario
@@ -109,7 +110,7 @@ def closed_loop(duration_s: float) -> dict[str, Any]:
 def egl_available() -> bool:
     try:
         render_times(64, 48, "egl", 1)
-    except RuntimeError:
+    except MissionError:
         return False
     return True
 

@@ -20,6 +20,7 @@ import py_trees
 
 from mission.core import blackboard as bbk
 from mission.core import se3
+from mission.core.errors import ConfigError
 from mission.core.types import (
     CameraIntrinsics,
     Frame,
@@ -52,7 +53,7 @@ class SimAdapter:
         self.seed = int(seed)
         self.renderer = renderer or scenario.camera.renderer
         if self.renderer not in ("tiny", "egl"):
-            raise ValueError(f"renderer must be 'tiny' or 'egl', got {self.renderer!r}")
+            raise ConfigError(f"expected 'tiny' or 'egl', got {self.renderer!r}", key="camera.renderer")
         cam = scenario.camera
         self.intrinsics: CameraIntrinsics = intrinsics_for(cam, self.renderer)
         m = cam.mount

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from mission.core import se3
+from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics
 from sim.geometry import Footprint
 from sim.markers import marker_asset, quad_side
@@ -101,10 +102,13 @@ class World:
 
                 loader = pkgutil.get_loader("eglRenderer")
                 if loader is None:
-                    raise RuntimeError("pybullet's eglRenderer plugin is not installed")
+                    raise ConfigError("egl: pybullet's eglRenderer plugin is not installed", key="camera.renderer")
                 plugin = p.loadPlugin(loader.get_filename(), "_eglRendererPlugin", physicsClientId=self.cid)
                 if plugin < 0:
-                    raise RuntimeError("pybullet could not load the EGL renderer plugin")
+                    raise ConfigError(
+                        "egl: pybullet could not load its EGL renderer plugin (no EGL/Mesa?); use 'tiny'",
+                        key="camera.renderer",
+                    )
             sc = self.sc
             sx, sy = sc.room.size
             t = sc.room.wall_thickness
