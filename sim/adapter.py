@@ -73,6 +73,7 @@ class SimAdapter:
         self.t = 0.0
         self._tau = 0.0  # the target's own progress clock (stops while the robot is in its way)
         self._target_pose = (0.0, 0.0, 0.0)
+        self._target_blocked = False  # waiting because the robot stands in its way
         self._cmd = Twist(0.0, 0.0)
         self._mode = "stop"  # "stop" | "twist" | "nav"
         self._goal_seq: int | None = None
@@ -249,7 +250,9 @@ class SimAdapter:
         if gap < TARGET_ROBOT_GAP_M and pose != self._target_pose:
             now_gap = self._target_footprint(*self._target_pose).distance(s.x, s.y) - self.scenario.robot.radius
             if gap < now_gap:  # only wait when moving would bring it closer to the robot
+                self._target_blocked = True
                 return
+        self._target_blocked = False
         self._tau += h
         self._target_pose = pose
 
@@ -308,7 +311,7 @@ class SimAdapter:
         if self.target_path is not None:
             x, y, yaw = self._target_pose
             target = Pose2D(x, y, yaw)
-            moving = self.target_path.moving(self._tau)
+            moving = self.target_path.moving(self._tau) and not self._target_blocked
             T_body = self.world.T_map_target(x, y, yaw)
             all_markers = [T_body @ mm.T_body_marker for mm in self.world.markers]
             if all_markers:
@@ -331,4 +334,5 @@ class SimAdapter:
             target_in_fov=fov, T_map_dock=None if dock_T is None else dock_T.copy(), dock_in_los=dock_los,
             dock_in_fov=dock_fov, collisions=self.base.contacts, nav_status=self.navigator.status,
             T_map_target_markers=all_markers, collision_log=list(self.base.contact_log),
+            target_blocked=self._target_blocked,
         )  # fmt: skip

@@ -35,7 +35,8 @@ class GroundTruth:
     collisions: int
     nav_status: str
     T_map_target_markers: list[np.ndarray] = field(default_factory=list)
-    collision_log: list[str] = field(default_factory=list)
+    collision_log: list[str] = field(default_factory=list)  # what the robot ran into, one entry per contact
+    target_blocked: bool = False  # the target is waiting because the robot stands in its way
 
     @property
     def target_visible(self) -> bool:

@@ -142,3 +142,19 @@ def test_marker_mounting_jitter_moves_the_marker_in_its_face_plane_only() -> Non
     assert back[0, 3] == pytest.approx(3.0 - 0.205)  # still 5 mm off the back face
     assert abs(back[1, 3] - 4.0) <= 0.005 and abs(back[2, 3] - 0.35) <= 0.005
     assert math.degrees(se3.rotation_angle(back[:3, :3], np.array([[0, 0, -1], [-1, 0, 0], [0, 1, 0]]))) <= 1.0
+
+
+def test_the_target_waits_for_a_robot_standing_in_its_way_instead_of_driving_through_it() -> None:
+    target = {"x": 2.0, "y": 4.0, "speed_mps": 0.5, "start_delay_s": 0.0, "waypoints": [{"x": 7.0, "y": 4.0}]}
+    adapter = SimAdapter(scenario(robot={"x": 4.5, "y": 4.0, "yaw_deg": 180.0}, target=target,
+                                  random={"start_xy_m": 0, "start_yaw_deg": 0, "timing_frac": 0}))  # fmt: skip
+    adapter.setup()
+    try:
+        while adapter.t < 8.0:
+            adapter.advance(TICK)
+        truth = adapter.ground_truth()
+    finally:
+        adapter.close()
+    assert truth.target_blocked and not truth.target_moving
+    assert 4.5 - 0.22 - 0.2 - 0.06 <= truth.target.x <= 4.5 - 0.22 - 0.2  # a few cm short of the robot
+    assert truth.collisions == 0
