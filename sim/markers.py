@@ -20,10 +20,11 @@ import cv2
 import numpy as np
 
 PIXELS_PER_CELL = 32
-# White cells around the black border. One is the minimum; with one, OpenCV's SUBPIX refinement at ~3 m
-# (3–4 px per cell) sometimes snaps a corner to the quad's outer corner (+4.5 px, 10 % range error);
-# two removed those outliers in renders (sim/README: measured in the marker-fidelity test).
-QUIET_CELLS = 2
+# White cells around the black border (FIELD_NOTES: one). Measured on renders at 3 m: OpenCV's default
+# detector with SUBPIX sometimes snaps a corner onto the quad's outer corner with one cell (+4.5 px,
+# ~10 % range error) and not with two; the project's aruco and apriltag sources give the same errors
+# with one or two. Scenarios can ask for more per marker (`quiet_cells`).
+QUIET_CELLS = 1
 
 
 def cache_dir() -> Path:

@@ -84,7 +84,7 @@ class Marker(StrictModel):
     dictionary: str = "DICT_APRILTAG_36h11"
     id: int = Field(7, ge=0)
     size_m: float = Field(0.20, gt=0)  # side of the black square (what a detector's marker_size means)
-    quiet_cells: int = Field(2, ge=1, le=4)  # white border around the black square, in code cells
+    quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
     height_m: float | None = None  # centre height above the floor; default: camera height, capped by the box
 
 
@@ -123,7 +123,7 @@ class DockSpec(StrictModel):
     dictionary: str = "DICT_APRILTAG_36h11"
     id: int = Field(0, ge=0)
     size_m: float = Field(0.15, gt=0)
-    quiet_cells: int = Field(2, ge=1, le=4)
+    quiet_cells: int = Field(1, ge=1, le=4)
 
 
 class Lighting(StrictModel):

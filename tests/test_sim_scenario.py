@@ -117,7 +117,7 @@ def test_a_marker_too_big_for_its_face_is_rejected() -> None:
     data = {"name": "x", "target": {"x": 3.0, "y": 3.0, "size": [0.3, 0.3, 0.6], "markers": [{"size_m": 0.25}]}}
     with pytest.raises(ConfigError) as err:
         scenario_from_dict(data)
-    assert str(err.value).startswith("target.markers[0].size_m: marker with quiet zone (0.375 m) does not fit")
+    assert str(err.value).startswith("target.markers[0].size_m: marker with quiet zone (0.312 m) does not fit")
 
 
 def test_a_config_sim_section_overrides_scenario_keys_and_names_its_own_bad_keys() -> None:
