@@ -10,6 +10,7 @@ and never the robot itself. Marker quads have no collision shape either: a ray t
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -98,12 +99,10 @@ class World:
         self._finalizer = weakref.finalize(self, _disconnect, p, self.cid)
         with quiet():
             if self.renderer == "egl":
-                import pkgutil
-
-                loader = pkgutil.get_loader("eglRenderer")
-                if loader is None:
+                spec = importlib.util.find_spec("eglRenderer")
+                if spec is None or spec.origin is None:
                     raise ConfigError("egl: pybullet's eglRenderer plugin is not installed", key="camera.renderer")
-                plugin = p.loadPlugin(loader.get_filename(), "_eglRendererPlugin", physicsClientId=self.cid)
+                plugin = p.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=self.cid)
                 if plugin < 0:
                     raise ConfigError(
                         "egl: pybullet could not load its EGL renderer plugin (no EGL/Mesa?); use 'tiny'",
