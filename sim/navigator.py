@@ -71,9 +71,23 @@ class Costmap:
     def in_bounds(self, rc: tuple[int, int]) -> bool:
         return self.grid.in_bounds(*rc)
 
-    def lethal_at(self, x: float, y: float) -> bool:
-        rc = self.cell(x, y)
-        return not self.in_bounds(rc) or bool(self.lethal[rc])
+    def clearance_at(self, x: float, y: float) -> float:
+        """Distance (m) from (x, y) to the nearest obstacle cell, interpolated between cell centres (so it
+        changes smoothly as the robot moves, not in 5 cm steps); 0 outside the map."""
+        r, c = self.grid.world_to_grid(x, y)
+        r0, c0 = math.floor(r - 0.5), math.floor(c - 0.5)
+        h, w = self.dist.shape
+        if r0 < 0 or c0 < 0 or r0 + 1 >= h or c0 + 1 >= w:
+            return 0.0
+        fr, fc = r - 0.5 - r0, c - 0.5 - c0
+        d = self.dist
+        top = d[r0, c0] * (1 - fc) + d[r0, c0 + 1] * fc
+        bottom = d[r0 + 1, c0] * (1 - fc) + d[r0 + 1, c0 + 1] * fc
+        return float(top * (1 - fr) + bottom * fr)
+
+    @property
+    def lethal_radius(self) -> float:
+        return self.robot_radius + LETHAL_MARGIN_M
 
     def update_scan(self, pose: Pose2D, scan: LaserScan) -> None:
         """Mark lidar hits, clear cells the beams passed through, and refresh the distance field."""
@@ -328,15 +342,21 @@ class Navigator:
         return Twist(v, w)
 
     def _unsafe(self, pose: Pose2D, v: float, w: float) -> bool:
-        """Would driving (v, ω) for the safety horizon enter a lethal cell?"""
+        """Would driving (v, ω) for the safety horizon bring the robot closer to an obstacle than allowed?
+
+        Moves that do not reduce the clearance are always allowed, so a robot that ended up close to
+        something (the grid is coarser than the world) can still drive away from it.
+        """
+        cm = self.costmap
         x, y, yaw = pose.x, pose.y, pose.yaw
         steps = 6
         dt = SAFETY_HORIZON_S / steps
-        start_lethal = self.costmap.lethal_at(x, y)
+        now = cm.clearance_at(x, y)
         for _ in range(steps):
             yaw += w * dt
             x += v * dt * math.cos(yaw)
             y += v * dt * math.sin(yaw)
-            if self.costmap.lethal_at(x, y) and not start_lethal:
+            ahead = cm.clearance_at(x, y)
+            if ahead < cm.lethal_radius and ahead < now - 0.005:
                 return True
         return False
