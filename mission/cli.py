@@ -58,7 +58,9 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
 
 def _add_tree(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="mission config YAML")
-    p.add_argument("ros_args", nargs=argparse.REMAINDER, help="--ros-args … passed to rclpy")
+    p.epilog = "ROS arguments follow --ros-args, e.g. `mission tree --ros-args -p image_topic:=/cam/image`"
+    # `--ros-args -p name:=value …` is collected by main() (argparse cannot take options it does not know).
+    p.set_defaults(ros_args=[])
 
 
 def _add_replay(p: argparse.ArgumentParser) -> None:
@@ -87,7 +89,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        if args.verb != "tree" or "--ros-args" not in extra:
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        # Everything from --ros-args on goes to rclpy, as `ros2 run mission tree --ros-args …` does.
+        args.ros_args = extra[extra.index("--ros-args"):]
     try:
         module = importlib.import_module(f"mission.commands.{args.verb}")
     except ModuleNotFoundError as err:

@@ -21,6 +21,7 @@ from mission.metrics import MetricsRecorder
 from mission.observers import TickObserver
 from mission.runner import TreeRunner
 from sim.adapter import SimAdapter
+from sim.config import apply_overrides
 from sim.scenario import Scenario, load_scenario
 
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
@@ -108,6 +109,7 @@ def run_scenario(
     scenario = load_scenario(scenario_name)
     config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
     config = load_config(config_path)
+    scenario = apply_overrides(scenario, config.sim, file=str(config_path))
     adapter = SimAdapter(scenario, seed=seed)
     runner = TreeRunner(config, adapter, choose_tree(tree, config, scenario), config_file=config_path)
     observers = observers or []

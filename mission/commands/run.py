@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from mission.core.errors import ConfigError
 from mission.observers import TickObserver
 from mission.report import plot_timeline, plot_trajectories, write_json
 from mission.sim_run import run_scenario
@@ -37,9 +36,10 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
         from mission.viz.report_trees import TransitionTrees
 
         observers.append(TransitionTrees(args.report))
-    for flag in ("record_bag",):
-        if getattr(args, flag, None):
-            raise ConfigError(f"--{flag.replace('_', '-')} is not available in this build yet")
+    if getattr(args, "record_bag", None):
+        from mission.bag_record import BagObserver
+
+        observers.append(BagObserver(args.record_bag))
     return observers
 
 

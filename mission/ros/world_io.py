@@ -18,6 +18,7 @@ RUNNING from the moment a goal is sent, SUCCEEDED once the robot is within ``goa
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -94,16 +95,24 @@ class CachedWorld:
 
     def sense(self, bb: py_trees.blackboard.Client) -> None:
         frame = self.cache.take_frame()
+        state = self.cache.robot_state()
+        extrinsics = self.topics.camera_extrinsics()
         if frame is not None:
+            if state is not None:
+                # Where the camera was in the map when the image was taken (latching sources need it).
+                p = state.pose
+                frame = dataclasses.replace(
+                    frame, T_anchor_camera=se3.compose(se3.planar(p.x, p.y, p.yaw), extrinsics),
+                    anchor_frame=self.topics.map_frame,
+                )  # fmt: skip
             self._frame_seq += 1
             bbk.set_(bb, bbk.FRAME, frame)
             bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
         bbk.set_(bb, bbk.CLOCK, self.now())
-        state = self.cache.robot_state()
         bbk.set_(bb, bbk.ROBOT_STATE, state)
         bbk.set_(bb, bbk.SCAN, self.cache.scan)
         bbk.set_(bb, bbk.MAP, self.cache.map)
-        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.topics.camera_extrinsics())
+        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, extrinsics)
         goal, tol = self._goal, self.topics.goal_tolerance_m
         reached = goal is not None and state is not None and state.pose.distance_to(goal.pose) <= tol
         if reached and self._goal_status == NavStatus.RUNNING:
