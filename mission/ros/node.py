@@ -56,6 +56,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_info_tolerance_s": (0.1, "largest stamp difference when pairing image ↔ camera info / depth"),
     "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0], "camera body frame in base_frame: x y z roll pitch yaw"),
     "goal_tolerance_m": (0.25, "distance at which a sent goal counts as reached"),
+    "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
 }
 
 
@@ -103,6 +104,7 @@ class MissionNode:
         self._last_tree_pub = -math.inf
         self._tree_pending = False
         self._tick_errors: set[str] = set()
+        self.live_view: Any = None
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -162,6 +164,12 @@ class MissionNode:
             self.log.warning(f"/tf disabled: {tf.detail}")
         self.edge = VisibilityEdge()
 
+        if int(p["serve_port"]) > 0:
+            from mission.viz.web import LiveView
+
+            self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
+            self.live_view.on_start(self.runner, self.adapter)
+            self.log.info(f"live view at {self.live_view.url}")
         tick_hz = float(p["tick_hz"]) or float(config.run.tick_hz)
         self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)
         self.heartbeat_timer = n.create_timer(1.0, self._on_heartbeat)
@@ -177,6 +185,8 @@ class MissionNode:
             self.runner.tick()
             self._publish_perception()
             self._publish_tree()
+            if self.live_view is not None:
+                self.live_view.on_tick(self.runner, self.adapter, None)
         except Exception as err:  # a failing tick must not take the node down: count, log once per kind
             self._ticks_failed += 1
             kind = f"{type(err).__name__}: {err}"
@@ -289,6 +299,8 @@ class MissionNode:
             self.rclpy.spin(self.node)
 
     def close(self) -> None:
+        if self.live_view is not None:
+            self.live_view.close()
         if self.runner is not None:
             try:
                 self.runner.close()
