@@ -39,7 +39,7 @@ def _add_run(p: argparse.ArgumentParser) -> None:
 
 
 def _add_detect(p: argparse.ArgumentParser) -> None:
-    p.add_argument("images", nargs="+", metavar="IMAGE")
+    p.add_argument("images", nargs="+", metavar="IMAGE", help="image files (PNG, JPEG, …)")
     p.add_argument("--source", default="aruco", help="perception plugin name (default aruco)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="plugin param, YAML value (repeatable), e.g. --set marker_size_m=0.15")
@@ -49,9 +49,10 @@ def _add_detect(p: argparse.ArgumentParser) -> None:
 
 
 def _add_viz(p: argparse.ArgumentParser) -> None:
-    p.add_argument("tree", nargs="?", default=None, metavar="TREE.xml")
-    p.add_argument("--format", default="unicode", choices=["unicode", "ascii", "dot", "svg", "png", "html"])
-    p.add_argument("-o", "--output", default=None, metavar="FILE")
+    p.add_argument("tree", nargs="?", default=None, metavar="TREE.xml", help="a tree file or a shipped tree name")
+    p.add_argument("--format", default="unicode", choices=["unicode", "ascii", "dot", "svg", "png", "html"],
+                   help="unicode|ascii|dot|svg|png|html (svg/html need no Graphviz; png uses `dot` when present)")
+    p.add_argument("-o", "--output", default=None, metavar="FILE", help="write here instead of stdout")
     p.add_argument("--log", default=None, metavar="FILE", help="a JSON-lines tick log from `mission run --log`")
     p.add_argument("--tick", type=int, default=None, help="with --log: render the tree as it was at tick N")
 
@@ -64,7 +65,7 @@ def _add_tree(p: argparse.ArgumentParser) -> None:
 
 
 def _add_replay(p: argparse.ArgumentParser) -> None:
-    p.add_argument("bag", metavar="BAG")
+    p.add_argument("bag", metavar="BAG", help="a rosbag2 directory (sqlite3 or mcap)")
     p.add_argument("--config", default=None, help="mission config YAML")
     p.add_argument("--rate", type=float, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")

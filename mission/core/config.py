@@ -93,35 +93,38 @@ def load_model(model: type[M], path: str | Path) -> M:
 class SourceConfig(StrictModel):
     """One perception source: which plugin, its instance name, and its own params (validated by the plugin)."""
 
-    plugin: str
+    plugin: str  # entry-point name (`mission plugins` lists them)
     name: str | None = None  # defaults to the plugin name; must be unique when a plugin is used twice
-    params: dict[str, Any] = Field(default_factory=dict)
+    params: dict[str, Any] = Field(default_factory=dict)  # the plugin's own params (Perception plugins below)
 
 
 class TargetSpec(StrictModel):
     """What a named target looks like to perception; unset fields match anything."""
 
-    marker_id: int | None = None
-    label: str | None = None
+    marker_id: int | None = None  # fiducial id (aruco / apriltag detections)
+    label: str | None = None  # detection label (an AprilTag's entity name, the VLM's target_label)
     source: str | None = None  # instance name of the source that must have produced the detection
 
 
 class PerceptionConfig(StrictModel):
-    sources: list[SourceConfig] = Field(
+    """Which sources run on every frame, how their detections combine, and what the named targets look like."""
+
+    sources: list[SourceConfig] = Field(  # the plugins run on every frame, in order
         default_factory=lambda: [SourceConfig(plugin="aruco", params={"dictionary": "DICT_4X4_250"})]
     )
     # "all": every source's detections are used; "hybrid": when a precise source (aruco/apriltag) sees a
     # target, detections of the same target from coarse sources (vlm) are dropped (long-range discovery
     # by the VLM, close-range precision from the fiducial).
-    policy: Literal["all", "hybrid"] = "hybrid"
-    targets: dict[str, TargetSpec] = Field(
+    policy: Literal["all", "hybrid"] = "hybrid"  # hybrid: a fiducial's detection of a target beats a VLM's
+    targets: dict[str, TargetSpec] = Field(  # target name (as the tree's `target` ports use it) → what it looks like
         default_factory=lambda: {"target": TargetSpec(marker_id=7), "dock": TargetSpec(marker_id=0)}
     )
 
 
 class RunConfig(StrictModel):
+    """How the tree is ticked."""
+
     tick_hz: float = Field(15.0, gt=0, le=200)  # one perception pass per tick: match the camera rate
-    max_duration_s: float = Field(180.0, gt=0)
 
 
 class MissionConfig(StrictModel):
@@ -130,7 +133,7 @@ class MissionConfig(StrictModel):
     tree: str = "mission.xml"  # a path, or a file name under trees/
     perception: PerceptionConfig = Field(default_factory=PerceptionConfig)
     run: RunConfig = Field(default_factory=RunConfig)
-    sim: dict[str, Any] = Field(default_factory=dict)  # validated by the sim (sim/config.py)
+    sim: dict[str, Any] = Field(default_factory=dict)  # scenario keys overridden for this config (see Scenario keys)
 
 
 def load_config(path: str | Path | None) -> MissionConfig:

@@ -1,0 +1,240 @@
+"""The README's reference tables, generated from the code that defines them.
+
+Config keys, plugin params, scenario keys, ROS parameters, behaviours and CLI flags are declared once
+(pydantic models, the ROS parameter table, the behaviour registry, the argparse parser); this module
+renders them as markdown between ``<!-- reference:NAME -->`` … ``<!-- /reference:NAME -->`` markers so
+the README cannot drift from the code. ``python -m mission.reference`` rewrites README.md;
+``--check`` only reports (a test runs it).
+
+A field's description is its trailing ``# comment`` in the model's source — the comment a developer
+reads is the one a user reads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import re
+import sys
+import typing
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+_BLOCK = re.compile(r"(<!-- reference:(?P<name>[\w-]+) -->\n).*?(<!-- /reference:(?P=name) -->)", re.S)
+_FIELD_COMMENT = re.compile(r"^\s+(\w+)\s*:[^#\n]*#\s*(.+?)\s*$")
+
+
+def _comments(model: type[BaseModel]) -> dict[str, str]:
+    """field name → trailing comment on its line in the class source (the model's own documentation)."""
+    try:
+        source = inspect.getsource(model)
+    except (OSError, TypeError):
+        return {}
+    out: dict[str, str] = {}
+    for line in source.splitlines():
+        m = _FIELD_COMMENT.match(line)
+        if m and m.group(1) in model.model_fields and m.group(1) not in out:
+            out[m.group(1)] = m.group(2).removeprefix("noqa").strip()
+    return out
+
+
+def _submodel(annotation: Any) -> type[BaseModel] | None:
+    for a in (annotation, *typing.get_args(annotation)):
+        if isinstance(a, type) and issubclass(a, BaseModel):
+            return a
+    return None
+
+
+def _type_name(annotation: Any) -> str:
+    if typing.get_origin(annotation) is typing.Literal:
+        return " \\| ".join(repr(a) for a in typing.get_args(annotation))
+    text = getattr(annotation, "__name__", None) if not typing.get_args(annotation) else None
+    text = text or str(annotation).replace("typing.", "")
+    return re.sub(r"\b[\w.]+\.(\w+)", r"\1", text).replace("|", "\\|")
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, BaseModel):
+        return value.model_dump(exclude_none=True)
+    if isinstance(value, list | tuple):
+        return type(value)(_plain(v) for v in value)
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+def _default(field: Any) -> str:
+    if field.default is PydanticUndefined and field.default_factory is None:
+        return "*required*"
+    value = _plain(field.get_default(call_default_factory=True))
+    return f"`{value!r}`".replace("|", "\\|")
+
+
+def model_rows(model: type[BaseModel], prefix: str = "") -> list[tuple[str, str, str, str]]:
+    """(dotted key, type, default, meaning) for every field, descending into nested sections."""
+    rows: list[tuple[str, str, str, str]] = []
+    notes = _comments(model)
+    for name, field in model.model_fields.items():
+        key = prefix + name
+        sub = _submodel(field.annotation)
+        is_list = typing.get_origin(field.annotation) in (list, dict) or isinstance(field.default, list | dict)
+        if sub is not None and not is_list:
+            doc = (sub.__doc__ or "").strip().splitlines()
+            rows.append((key, "section", "", notes.get(name) or (doc[0] if doc else "")))
+            rows.extend(model_rows(sub, key + "."))
+        else:
+            rows.append((key, _type_name(field.annotation), _default(field), notes.get(name, "")))
+    return rows
+
+
+def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell.replace("\n", " ") for cell in row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def model_table(model: type[BaseModel], prefix: str = "") -> str:
+    rows = [(f"`{k}`", t, d, m) for k, t, d, m in model_rows(model, prefix)]
+    return _table(("key", "type", "default", "meaning"), rows)
+
+
+# -- the blocks ----------------------------------------------------------------------------------------
+def config_block() -> str:
+    from mission.core.config import MissionConfig, SourceConfig, TargetSpec
+
+    return (
+        model_table(MissionConfig)
+        + "\nEach entry of `perception.sources`:\n\n"
+        + model_table(SourceConfig)
+        + "\nEach value of `perception.targets` (unset fields match anything):\n\n"
+        + model_table(TargetSpec)
+    )
+
+
+def plugins_block() -> str:
+    from perception_plugins import registry
+
+    parts = []
+    for name in registry.known_names():
+        cls = registry.load_class(name)
+        params = _params_model(cls)
+        parts.append(f"#### `{name}`\n\n{getattr(cls, 'description', '')}\n\n")
+        parts.append(model_table(params) if params is not None else "(no params)\n")
+        parts.append("\n")
+    return "".join(parts).rstrip("\n") + "\n"
+
+
+def _params_model(cls: type) -> type[BaseModel] | None:
+    module = sys.modules[cls.__module__]
+    models = [v for k, v in vars(module).items() if k.endswith("Params") and isinstance(v, type)
+              and issubclass(v, BaseModel) and v.__module__ == module.__name__]  # fmt: skip
+    return models[0] if len(models) == 1 else None
+
+
+def scenario_block() -> str:
+    from sim import scenario as sc
+
+    items = []
+    for label, model in (("each of `obstacles` / `unknown_obstacles`", sc.Obstacle),
+                         ("each of `target.markers`", sc.Marker), ("each of `target.waypoints`", sc.Waypoint)):  # fmt: skip
+        items.append(f"\n{label[0].upper() + label[1:]}:\n\n" + model_table(model))
+    return model_table(sc.Scenario) + "".join(items)
+
+
+def ros_block() -> str:
+    from mission.ros.node import PARAMETERS
+
+    return _table(("parameter", "default", "meaning"),
+                  [(f"`{k}`", f"`{d!r}`", doc) for k, (d, doc) in PARAMETERS.items()])  # fmt: skip
+
+
+def behaviours_block() -> str:
+    from behaviours.ports import REQUIRED
+    from behaviours.registry import all_behaviours
+
+    rows = []
+    for tag, cls in sorted(all_behaviours().items()):
+        ports = getattr(cls, "PORTS", {})
+        cells = [
+            f"`{n}`: {p.type.__name__} = "
+            + ("*required*" if p.default is REQUIRED else f"`{p.default!r}`")
+            + (f" — {p.doc}" if p.doc else "")
+            for n, p in ports.items()
+        ]
+        doc = (cls.__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
+        rows.append((f"`{tag}`", getattr(cls, "NODE_TYPE", "Action"), "<br>".join(cells) or "—", doc))
+    return _table(("tag", "type", "ports (type = default — meaning)", "what it does"), rows)
+
+
+def cli_block() -> str:
+    from mission.cli import VERBS, build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    parts = []
+    for verb, help_text in VERBS.items():
+        p = sub.choices[verb]
+        rows = []
+        for action in p._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            flag = ", ".join(action.option_strings) or action.metavar or action.dest
+            if action.option_strings and action.nargs != 0:
+                flag += f" {action.metavar or action.dest.upper()}"
+            default = "" if action.default in (None, False, argparse.SUPPRESS, []) else f"`{action.default}`"
+            rows.append((f"`{flag}`", default, (action.help or "").replace("|", "\\|")))
+        parts.append(f"#### `mission {verb}` — {help_text}\n\n")
+        parts.append(_table(("argument", "default", "meaning"), rows) if rows else "(no arguments)\n")
+        if p.epilog:
+            parts.append(f"\n{p.epilog}\n")
+        parts.append("\n")
+    return "".join(parts).rstrip("\n") + "\n"
+
+
+BLOCKS: dict[str, Callable[[], str]] = {
+    "cli": cli_block,
+    "config": config_block,
+    "plugins": plugins_block,
+    "scenario": scenario_block,
+    "behaviours": behaviours_block,
+    "ros-parameters": ros_block,
+}
+
+
+def render(text: str) -> str:
+    """`text` with every reference block regenerated (unknown block names are an error)."""
+
+    def fill(m: re.Match[str]) -> str:
+        name = m.group("name")
+        if name not in BLOCKS:
+            raise KeyError(f"unknown reference block {name!r}; known: {', '.join(BLOCKS)}")
+        return m.group(1) + "\n" + BLOCKS[name]() + "\n" + m.group(3)
+
+    return _BLOCK.sub(fill, text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Regenerate the README's reference tables from the code.")
+    parser.add_argument("--check", action="store_true", help="report a stale README, change nothing (exit 1)")
+    parser.add_argument("path", nargs="?", default=str(README))
+    args = parser.parse_args(argv)
+    path = Path(args.path)
+    text = path.read_text(encoding="utf-8")
+    new = render(text)
+    if new == text:
+        return 0
+    if args.check:
+        print(f"{path}: reference tables are stale; run `python -m mission.reference`", file=sys.stderr)
+        return 1
+    path.write_text(new, encoding="utf-8")
+    print(f"{path}: reference tables regenerated")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
