@@ -414,6 +414,24 @@ def test_includes_are_relative_to_the_including_file_and_a_diamond_is_not_a_cycl
     assert tick(root) == Status.SUCCESS
 
 
+def test_a_users_tree_outside_trees_can_include_a_shipped_subtree_by_name(tmp_path):
+    patrol = write(
+        tmp_path,
+        "patrol.xml",
+        """
+        <include path="follow.xml"/>
+        <BehaviorTree ID="Patrol">
+          <Sequence><Explore target="target" waypoints="2,2;6,2"/><SubTree ID="Follow"/></Sequence>
+        </BehaviorTree>
+        """,
+    )
+    nodes = {(n.tag, Path(n.file).name) for n in describe_tree(patrol).walk()}
+    assert ("FollowTarget", "follow.xml") in nodes and ("Explore", "patrol.xml") in nodes
+    wrong = write(tmp_path, "wrong.xml", '<include path="folow.xml"/><BehaviorTree ID="W"><Explore/></BehaviorTree>')
+    with pytest.raises(TreeError, match=r"wrong\.xml:2: .*included file not found: .*name a shipped tree: .*follow\.xml"):
+        validate_tree(wrong)
+
+
 # ---------------------------------------------------------------------------------- the errors
 A_TREE = (
     '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <Sequence>\n      {node}\n    </Sequence>\n'

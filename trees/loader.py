@@ -169,6 +169,8 @@ def _read_include(
     if not rel:
         raise TreeError(el.error('missing path; expected <include path="other.xml"/>'))
     target = (including.parent / rel).resolve()
+    if not target.is_file() and not Path(rel).is_absolute() and (TREES_DIR / rel).is_file():
+        target = (TREES_DIR / rel).resolve()  # a shipped subtree (follow.xml) from a user's own tree file
     chain = [*stack, including]
     if target in chain:
         cycle = " → ".join(display_path(p) for p in [*chain[chain.index(target) :], target])
@@ -176,7 +178,10 @@ def _read_include(
     if target in files:  # already read through another include (a diamond, not a cycle)
         return
     if not target.is_file():
-        raise TreeError(el.error(f"included file not found: {display_path(target)} (paths are relative to this file)"))
+        raise TreeError(el.error(
+            f"included file not found: {display_path(target)} "
+            f"(paths are relative to this file, or name a shipped tree: {', '.join(shipped_trees())})"
+        ))  # fmt: skip
     _read_file(target, chain, trees, files)
 
 
