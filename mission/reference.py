@@ -140,9 +140,10 @@ def scenario_block() -> str:
     from sim import scenario as sc
 
     items = []
-    for label, model in (("each of `obstacles` / `unknown_obstacles`", sc.Obstacle),
-                         ("each of `target.markers`", sc.Marker), ("each of `target.waypoints`", sc.Waypoint)):  # fmt: skip
-        items.append(f"\n{label[0].upper() + label[1:]}:\n\n" + model_table(model))
+    lists = (("Each of `obstacles` / `unknown_obstacles`", sc.Obstacle), ("Each of `target.markers`", sc.Marker),
+             ("Each of `target.waypoints`", sc.Waypoint))  # fmt: skip
+    for label, model in lists:
+        items.append(f"\n{label}:\n\n" + model_table(model))
     return model_table(sc.Scenario) + "".join(items)
 
 
