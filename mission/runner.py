@@ -66,7 +66,8 @@ class TreeRunner:
         self.tree_path = resolve_tree(self.tree_name, self.config_file)
         validate_tree(self.tree_path)
         if self._own_sources:
-            self.sources = registry.create_all(self.config.perception.sources)
+            file = None if self.config_file is None else str(self.config_file)
+            self.sources = registry.create_all(self.config.perception.sources, file=file)
         deps = Dependencies(
             sources=self.sources, targets=dict(self.config.perception.targets), policy=self.config.perception.policy
         )

@@ -56,28 +56,28 @@ def load_class(name: str) -> type:
         raise PluginError(f"perception plugin {name!r} ({eps[name].value}) failed to load: {err}") from err
 
 
-def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources") -> PerceptionSource:
-    """Instantiate one configured source; param errors name the config key."""
+def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: str | None = None) -> PerceptionSource:
+    """Instantiate one configured source; param errors name the config file (when given) and key."""
     cls = load_class(cfg.plugin)
     name = cfg.name or cfg.plugin
     try:
         return cls(dict(cfg.params), name=name)
     except ConfigError as err:
         key = f"{key_prefix}.params.{err.key}" if err.key else f"{key_prefix}.params"
-        raise ConfigError(err.detail, file=err.file, key=key) from None
+        raise ConfigError(err.detail, file=err.file or file, key=key) from None
 
 
-def create_all(cfgs: list[SourceConfig]) -> list[PerceptionSource]:
+def create_all(cfgs: list[SourceConfig], *, file: str | None = None) -> list[PerceptionSource]:
     """Instantiate every configured source, closing the ones already made if a later one fails."""
     names = [c.name or c.plugin for c in cfgs]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
         raise ConfigError(f"duplicate source name(s) {sorted(dup)}; give each a distinct `name`",
-                          key="perception.sources")
+                          file=file, key="perception.sources")
     made: list[PerceptionSource] = []
     try:
         for i, c in enumerate(cfgs):
-            made.append(create(c, key_prefix=f"perception.sources[{i}]"))
+            made.append(create(c, key_prefix=f"perception.sources[{i}]", file=file))
     except Exception:
         for s in made:
             s.close()

@@ -125,7 +125,8 @@ class MissionNode:
             tree = str(PERCEPTION_ONLY_TREE)
         from perception_plugins import registry
 
-        self.sources = registry.create_all(config.perception.sources)  # an unknown dictionary: the plugin warns
+        # a bad param is an error naming the config file and key; an unknown dictionary only warns
+        self.sources = registry.create_all(config.perception.sources, file=config_file)
         topics = RosTopics(
             image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
             odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
