@@ -172,7 +172,7 @@ def replay(
         result.mission_state = str(runner.get(bbk.STATE, "") or "")
         result.stats = {**dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}), **world.cache.stats.to_json()}
         result.commands = dict(world.commands)
-        result.bag_s = world.clock - (world.first_stamp or world.clock)
+        result.bag_s = 0.0 if world.first_stamp is None else world.clock - world.first_stamp
     finally:
         runner.close()
     result.wall_s = time.monotonic() - start

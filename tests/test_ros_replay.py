@@ -194,6 +194,7 @@ def test_a_simulated_run_recorded_with_the_bag_observer_replays_frame_for_frame(
     assert counts["image"] >= 10 and counts["odom"] >= counts["image"] and counts["scan"] >= 1
     result = replay(tmp_path / "run", load_config(CONFIG), config_file=CONFIG)
     assert len(result.frames) == counts["image"]
+    assert result.bag_s > 1.0  # the recording's span, also when the sim's clock starts at 0
     assert all(d.marker_id == 7 for f in result.frames for d in f.detections) and result.frames[-1].detections
 
 
