@@ -1,0 +1,71 @@
+"""The benchmarks `mission bench` knows: name, what it measures, and which runs include it.
+
+Each entry points at a module ``bench/<module>.py`` with ``run(quick: bool, out: pathlib.Path) -> dict``.
+Modules are imported only when their benchmark runs, so a missing optional one (``soak``, written
+separately) fails with a clear message and never stops the others.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mission.core.errors import MissionError
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    name: str
+    module: str  # bench.<module>
+    description: str
+    in_quick: bool = True  # part of `mission bench --quick`
+    in_full: bool = True  # part of `mission bench` without --only
+
+    def load(self) -> Callable[[bool, Path], dict[str, Any]]:
+        """The module's ``run`` function; a MissionError naming the file when it does not exist."""
+        try:
+            mod = importlib.import_module(f"bench.{self.module}")
+        except ModuleNotFoundError as err:
+            if err.name == f"bench.{self.module}":
+                raise MissionError(
+                    f"benchmark {self.name!r} is not available: bench/{self.module}.py does not exist in this checkout"
+                ) from None
+            raise
+        run = getattr(mod, "run", None)
+        if not callable(run):
+            raise MissionError(f"benchmark {self.name!r}: bench/{self.module}.py has no run(quick, out) function")
+        return run  # type: ignore[no-any-return]
+
+
+BENCHMARKS: tuple[Benchmark, ...] = (
+    Benchmark("perception", "perception", "frames/s of the aruco/apriltag sources vs the raw library calls they wrap"),
+    Benchmark("pose", "pose_accuracy", "pose error by range × angle vs the raw library's naive IPPE pose"),
+    Benchmark("apriltag_backends", "apriltag_backends", "AprilTag 3 (pupil) vs OpenCV backend: accuracy and speed"),
+    Benchmark("tree", "tree_tick", "µs per tick of mission.xml on scripted inputs vs a bare py_trees tree"),
+    Benchmark("latency", "latency", "frame → command on the blackboard, p50/p99, vs the detector alone"),
+    Benchmark("sim", "sim_bench", "render ms/frame per resolution/renderer; closed-loop sim-s per wall-s"),
+    Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),
+    Benchmark("ros", "ros_transport", "image → /detected_aruco_pose latency over shared-memory DDS at 30 Hz"),
+    Benchmark("soak", "soak", "long-running soak test (only with --only soak)", in_quick=False, in_full=False),
+)
+
+BY_NAME = {b.name: b for b in BENCHMARKS}
+
+
+def select(only: str | None, quick: bool) -> list[Benchmark]:
+    """The benchmarks to run: the named ones (in registry order), else the default set for the mode.
+
+    An unknown name is a MissionError listing the known ones.
+    """
+    if only:
+        names = [n.strip() for n in only.split(",") if n.strip()]
+        unknown = [n for n in names if n not in BY_NAME]
+        if unknown:
+            raise MissionError(
+                f"unknown benchmark {', '.join(repr(n) for n in unknown)}; known: {', '.join(BY_NAME)}"
+            )
+        return [b for b in BENCHMARKS if b.name in names]
+    return [b for b in BENCHMARKS if (b.in_quick if quick else b.in_full)]
