@@ -20,6 +20,7 @@ Frames: the pose is camera-optical ← marker (OpenCV marker frame: x right, y u
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -53,8 +54,9 @@ class PoseHypothesis:
     tvec: np.ndarray  # (3,) metres
     reprojection_error: float
 
-    @property
+    @functools.cached_property
     def rotation(self) -> np.ndarray:
+        # Cached: the disambiguator, the pose and the detection's quaternion all read it (bench: perception).
         return se3.rvec_to_matrix(self.rvec)
 
     @property
@@ -188,11 +190,12 @@ class TemporalDisambiguator:
         if tr is not None and not (0.0 <= stamp - tr.last_stamp <= self.stale_after_s):
             tr = None
         if tr is not None:
-            same = se3.rotation_angle(tr.rotations[0], rots[0]) + se3.rotation_angle(tr.rotations[1], rots[1])
-            swap = se3.rotation_angle(tr.rotations[0], rots[1]) + se3.rotation_angle(tr.rotations[1], rots[0])
-            if swap < same:
+            a00, a11 = se3.rotation_angle(tr.rotations[0], rots[0]), se3.rotation_angle(tr.rotations[1], rots[1])
+            a01, a10 = se3.rotation_angle(tr.rotations[0], rots[1]), se3.rotation_angle(tr.rotations[1], rots[0])
+            jump = max(a00, a11)
+            if a01 + a10 < a00 + a11:
                 h, e, rots = h[::-1], e[::-1], rots[::-1]
-            jump = max(se3.rotation_angle(tr.rotations[i], rots[i]) for i in range(2))
+                jump = max(a01, a10)
             if jump > math.radians(self.max_jump_deg):
                 tr = None
         if tr is None:
