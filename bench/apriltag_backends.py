@@ -7,7 +7,10 @@ detection rate, corner error (px, mean of the 4 corners' distance to the truth),
 (% of range, median and p90), rotation error (deg, median) and the median time of one ``process``
 call (detect + pose), single-threaded.
 
-Run: ``python -m bench.apriltag_backends [--quick] [--json]``.
+The baseline of each figure is the other backend on the same views (the choice of default is a
+comparison between the two); the times are single-threaded ``process`` calls in the same run.
+
+Run: ``mission bench --only apriltag_backends`` (or ``python -m bench.apriltag_backends [--quick] [--json]``).
 """
 
 from __future__ import annotations
@@ -15,12 +18,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
+from bench.common import Figure
 from mission.core import se3
 from mission.core.types import Frame
 from perception_plugins import synthetic_views as sv
@@ -33,7 +39,8 @@ CONFIGS = {
 }
 
 
-def run(quick: bool = False, seed: int = 0) -> dict[str, Any]:
+def measure(quick: bool = False, seed: int = 0) -> dict[str, Any]:
+    """The per-backend, per-range table (what the script printed before it was a registered benchmark)."""
     ranges = (1.0, 2.0, 3.0)
     n = 10 if quick else 40
     size = 0.15
@@ -74,12 +81,34 @@ def run(quick: bool = False, seed: int = 0) -> dict[str, Any]:
     return {"image": "640x480", "tag": f"tag36h11 {size} m", "views_per_range": n, "results": results}
 
 
+DEFAULT = "apriltag3 (decimate 2)"
+OTHER = "opencv (subpix)"
+
+
+def run(quick: bool, out: Path) -> dict[str, Any]:
+    """Registered benchmark `apriltag_backends`: the default backend's figures beside the other's."""
+    table = measure(quick=quick)
+    res = table["results"]
+    figures = []
+    for rng_label in res[DEFAULT]:
+        a, b = res[DEFAULT][rng_label], res[OTHER][rng_label]
+        for key, label, unit in (("corner_px_mean", "mean corner error", "px"),
+                                 ("trans_pct_median", "median translation error", "% of range"),
+                                 ("time_ms_median", "median time per process()", "ms")):  # fmt: skip
+            ratio = None if a[key] is None or not b[key] else round(a[key] / b[key], 3)
+            figures.append(Figure(f"{DEFAULT} {label} at {rng_label}", a[key], unit,
+                                  baseline=f"{OTHER} backend on the same views", baseline_value=b[key],
+                                  ratio=ratio).to_json())  # fmt: skip
+    return {"title": "AprilTag backends: apriltag3 (pupil-apriltags) vs OpenCV on the same rendered tag36h11 views",
+            "figures": figures, "details": table, "plots": []}  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    out = run(quick=args.quick)
+    out = run(args.quick, Path(tempfile.gettempdir()))["details"]
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
