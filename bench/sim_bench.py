@@ -1,16 +1,18 @@
 """Benchmark: what the simulation costs — render time per frame and simulated seconds per wall second.
 
 * Render: the `follow_open` room seen from poses along the robot's usual path (target near and far,
-  walls, boxes), TinyRenderer at 320×240 and 640×480 (and EGL when its plugin loads), median and p90
-  wall ms per ``SimAdapter.capture()`` (render + floor/wall painting + image noise), single process.
+  walls, boxes), TinyRenderer at 320×240, 640×480 and 1280×720 (and EGL when its plugin loads), median
+  and p90 wall ms per ``SimAdapter.capture()`` (render + floor/wall painting + image noise), single
+  process — against pybullet's bare ``getCameraImage`` with the same matrices, renderer and pose,
+  interleaved in the same loop (so the ratio is our capture's overhead).
 * Sim only: the `follow_open` scenario driven by a scripted follower on ground truth (navigator goals
   at 5 Hz, camera 15 Hz at 640×480, lidar 10 Hz) — the world's own cost without perception or a tree.
 * Closed loop: ``mission run`` 's code path (``mission.sim_run.run_scenario``: aruco perception + the
-  follow tree + the sim) on `follow_open`, simulated seconds per wall second.
+  follow tree + the sim) on `follow_open`, simulated seconds per wall second — against the sim alone.
 
 Wall time on a shared machine varies with load; the load average is reported with the figures.
 
-Run: ``python -m bench.sim_bench [--quick] [--json]``.
+Run: ``mission bench --only sim`` (or ``python -m bench.sim_bench [--quick] [--json]``).
 """
 
 from __future__ import annotations
@@ -19,11 +21,14 @@ import argparse
 import json
 import math
 import os
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from bench.common import Figure, progress
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.types import NavGoal, Pose2D
@@ -41,24 +46,42 @@ def _load() -> float:
 
 
 def render_times(width: int, height: int, renderer: str, frames: int) -> dict[str, float]:
-    """Wall ms per captured frame over RENDER_POSES (each pose rendered `frames` times)."""
+    """Wall ms per captured frame over RENDER_POSES (each pose `frames` times), and of the bare render."""
+    import pybullet as p
+
+    from sim.quiet import quiet
+
     sc = load_scenario("follow_open")
     sc.camera.width, sc.camera.height = width, height
     adapter = SimAdapter(sc, seed=0, renderer=renderer)
     adapter.setup()
-    times = []
+    times, bare = [], []
     try:
-        assert adapter.base is not None
+        assert adapter.base is not None and adapter.world is not None
+        cam, cid = sc.camera, adapter.world.cid
+        flag = p.ER_BULLET_HARDWARE_OPENGL if renderer == "egl" else p.ER_TINY_RENDERER
         for x, y, yaw in RENDER_POSES:
             adapter.base.state.x, adapter.base.state.y, adapter.base.state.yaw = x, y, yaw
             adapter.capture()  # warm up
+            T = adapter.T_map_optical()
+            eye, fwd, up = T[:3, 3], T[:3, 2], -T[:3, 1]
+            view = p.computeViewMatrix(eye.tolist(), (eye + fwd).tolist(), up.tolist(), physicsClientId=cid)
+            proj = p.computeProjectionMatrixFOV(cam.vfov_deg, width / height, cam.near_m, cam.far_m,
+                                                physicsClientId=cid)  # fmt: skip
             for _ in range(frames):
                 t0 = time.perf_counter()
                 adapter.capture()
-                times.append(1000 * (time.perf_counter() - t0))
+                t1 = time.perf_counter()
+                with quiet():
+                    p.getCameraImage(width, height, view, proj, shadow=0, renderer=flag,
+                                     flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=cid)  # fmt: skip
+                t2 = time.perf_counter()
+                times.append(1000 * (t1 - t0))
+                bare.append(1000 * (t2 - t1))
     finally:
         adapter.close()
-    return {"median_ms": round(float(np.median(times)), 1), "p90_ms": round(float(np.percentile(times, 90)), 1)}
+    return {"median_ms": round(float(np.median(times)), 1), "p90_ms": round(float(np.percentile(times, 90)), 1),
+            "bare_median_ms": round(float(np.median(bare)), 1)}  # fmt: skip
 
 
 def sim_only(duration_s: float) -> dict[str, float]:
@@ -115,32 +138,56 @@ def egl_available() -> bool:
     return True
 
 
-def run(quick: bool = False) -> dict[str, Any]:
-    frames = 3 if quick else 10
-    duration = 15.0 if quick else 60.0
+def measure(quick: bool = False) -> dict[str, Any]:
+    frames = 2 if quick else 10
+    duration = 8.0 if quick else 60.0
     out: dict[str, Any] = {"load_average_before": _load(), "render": {}}
-    renderers = ["tiny", "egl"] if egl_available() else ["tiny"]
+    renderers = ["tiny"] if quick else (["tiny", "egl"] if egl_available() else ["tiny"])
+    sizes = ((320, 240), (640, 480)) if quick else ((320, 240), (640, 480), (1280, 720))
     for renderer in renderers:
-        for w, h in ((320, 240), (640, 480)):
+        for w, h in sizes:
             out["render"][f"{renderer} {w}x{h}"] = render_times(w, h, renderer, frames)
+            progress(f"sim: render {renderer} {w}x{h}: {out['render'][f'{renderer} {w}x{h}']}")
     out["sim_only_follow_open"] = sim_only(duration)
+    progress(f"sim: sim only {out['sim_only_follow_open']}")
     out["closed_loop_follow_open"] = closed_loop(duration)
+    progress(f"sim: closed loop {out['closed_loop_follow_open']}")
     out["load_average_after"] = _load()
     return out
 
 
+def run(quick: bool, out: Path) -> dict[str, Any]:
+    """Registered benchmark `sim`: render ms/frame vs bare getCameraImage; closed loop vs the sim alone."""
+    res = measure(quick)
+    figures = []
+    for label, r in res["render"].items():
+        figures.append(Figure(f"capture {label}: median ms per frame", r["median_ms"], "ms",
+                              baseline="bare pybullet getCameraImage, same matrices and pose",
+                              baseline_value=r["bare_median_ms"],
+                              ratio=round(r["median_ms"] / r["bare_median_ms"], 3) if r["bare_median_ms"] else None,
+                              ).to_json())  # fmt: skip
+    cl, so = res["closed_loop_follow_open"], res["sim_only_follow_open"]
+    figures.append(Figure("closed loop (aruco + follow tree + sim) on follow_open", cl["sim_s_per_wall_s"],
+                          "sim-s per wall-s", baseline="the sim alone with a ground-truth follower (no perception, "
+                          "no tree)", baseline_value=so["sim_s_per_wall_s"],
+                          ratio=round(cl["sim_s_per_wall_s"] / so["sim_s_per_wall_s"], 3)).to_json())  # fmt: skip
+    return {"title": "Simulation: render cost per frame and simulated seconds per wall second",
+            "figures": figures, "details": res, "plots": []}  # fmt: skip
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer frames, 15 s runs instead of 60 s")
+    ap.add_argument("--quick", action="store_true", help="fewer frames, TinyRenderer only, 8 s runs instead of 60 s")
     ap.add_argument("--json", action="store_true", help="print JSON")
     args = ap.parse_args()
-    res = run(quick=args.quick)
+    res = run(args.quick, Path(tempfile.gettempdir()))["details"]
     if args.json:
         print(json.dumps(res, indent=2))
         return
     print(f"load average before/after: {res['load_average_before']} / {res['load_average_after']}")
     for label, r in res["render"].items():
-        print(f"render {label:>16}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms per frame")
+        print(f"render {label:>16}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms per frame "
+              f"(bare getCameraImage {r['bare_median_ms']:.1f} ms)")
     for key in ("sim_only_follow_open", "closed_loop_follow_open"):
         r = res[key]
         print(f"{key:>24}: {r['sim_s']:.0f} s simulated in {r['wall_s']:.1f} s wall ({r['cpu_s']:.1f} s CPU) "
