@@ -14,10 +14,12 @@ import numpy as np
 
 from mission.core import se3
 from mission.core.blackboard import MissionState
+from mission.core.docking import dock_offsets
 from mission.core.types import NavGoal, Pose2D, TargetTrack
 
 RANGE_BUCKETS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, 100.0))
 LOSS_STATES = (MissionState.LOST, MissionState.SEARCH)
+OCCLUSION_MIN_S = 0.5  # an occlusion this long must be detected (the design notes' latency bound)
 
 
 class GroundTruthSample(Protocol):
@@ -37,6 +39,8 @@ class GroundTruthSample(Protocol):
 
 @dataclass
 class DockErrors:
+    """How far a dock ended from the wanted pose (magnitudes; signed offsets come from mission.core.docking)."""
+
     lateral_m: float
     distance_m: float  # |stand-off − wanted stand-off|
     standoff_m: float  # measured stand-off (camera optical centre to tag plane along its normal)
@@ -47,17 +51,18 @@ class DockErrors:
 
 
 def dock_errors(T_map_optical: np.ndarray, T_map_dock: np.ndarray, robot_yaw: float, standoff: float) -> DockErrors:
-    """Docking errors of the camera relative to the tag, measured in the floor plane."""
-    n = T_map_dock[:3, 2].copy()  # tag normal (z out of the face)
-    n[2] = 0.0
-    n /= max(np.linalg.norm(n), 1e-9)
-    d = T_map_optical[:3, 3] - T_map_dock[:3, 3]
-    d[2] = 0.0
-    along = float(d @ n)
-    lateral = float(np.linalg.norm(d - along * n))
-    facing = math.atan2(-n[1], -n[0])
-    skew = abs(math.degrees(se3.wrap_angle(robot_yaw - facing)))
-    return DockErrors(lateral_m=lateral, distance_m=abs(along - standoff), standoff_m=along, skew_deg=skew)
+    """Docking errors of the camera relative to the tag, from ground truth.
+
+    Measured with the same geometry the docking behaviours steer by (mission.core.docking.dock_offsets),
+    so the score and the controller cannot disagree about what "docked" means.
+    """
+    off = dock_offsets(T_map_optical, T_map_dock, robot_yaw)
+    return DockErrors(
+        lateral_m=abs(off.lateral_m),
+        distance_m=abs(off.standoff_m - standoff),
+        standoff_m=off.standoff_m,
+        skew_deg=abs(off.skew_deg),
+    )
 
 
 @dataclass
@@ -73,6 +78,12 @@ class LossEvent:
 
 @dataclass
 class Occlusion:
+    """Ground truth: the line of sight to the target broke while the tree was following it.
+
+    Detected means the tree said so — entered LOST (the occlusion state); going to SEARCH instead is a
+    misclassification ("it left the view"), not a detection.
+    """
+
     start: float  # ground truth: line of sight blocked while following
     end: float | None = None  # line of sight clear again
     detected_at: float | None = None  # the tree entered LOST
@@ -144,7 +155,7 @@ class MetricsRecorder:
                 self.occlusions.append(Occlusion(start=t))
             return
         if open_occ is not None:
-            if open_occ.detected_at is None and state in LOSS_STATES:
+            if open_occ.detected_at is None and state == MissionState.LOST:
                 open_occ.detected_at = t
             if gt.target_in_los:
                 open_occ.end = t
@@ -189,7 +200,8 @@ class MetricsRecorder:
 
     def summary(self, duration: float) -> dict[str, Any]:
         latencies = [o.detected_at - o.start for o in self.occlusions if o.detected_at is not None]
-        long_occl = [o for o in self.occlusions if (o.end or duration) - o.start >= 0.5]
+        long_occl = [o for o in self.occlusions if (o.end or duration) - o.start >= OCCLUSION_MIN_S]
+        missed = [o for o in long_occl if o.detected_at is None]
         reacq = [e.end - e.start for e in self.losses if e.end is not None]
         open_losses = [e for e in self.losses if e.end is None]
         pose: dict[str, Any] = {}
@@ -214,6 +226,7 @@ class MetricsRecorder:
             "occlusions": len(self.occlusions),
             "occlusions_over_0_5s": len(long_occl),
             "occlusions_detected": len(latencies),
+            "occlusions_missed": len(missed),
             "occlusion_detection_latency_s": _stats(latencies),
             "loss_events": len(self.losses),
             "loss_events_recovered": len(self.losses) - len(open_losses),

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mission.core import se3
+from mission.core.docking import dock_offsets
 from mission.core.types import NavGoal, Pose2D
 from mission.metrics import MetricsRecorder, dock_errors
 
@@ -94,3 +95,50 @@ def test_goal_jitter_counts_only_goals_while_the_target_stands_still():
                    "FOLLOW", NavGoal(Pose2D(x, y, 0.0), stamp=i * 0.1, seq=i), None)
     sd = rec.summary(4.0)["goal_jitter_sd_m"]
     assert 0.03 < sd < 0.1  # ≈ 0.05·√2, unaffected by the moving stretch
+
+
+def test_an_occlusion_the_tree_calls_search_is_missed_not_detected():
+    # line of sight breaks at 1.0 s and stays broken; the tree says SEARCH ("it left the view") at 1.4 s
+    rec = MetricsRecorder()
+    robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
+    for t, los, state in [(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "SEARCH"),
+                          (3.0, False, "SEARCH"), (3.5, True, "FOLLOW")]:
+        rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
+    s = rec.summary(3.5)
+    assert s["occlusions"] == 1 and s["occlusions_over_0_5s"] == 1
+    assert s["occlusions_detected"] == 0 and s["occlusions_missed"] == 1
+    assert s["occlusion_detection_latency_s"] is None
+    assert s["reacquisition_time_s"]["max"] == pytest.approx(2.1)  # SEARCH entry → FOLLOW
+
+
+def test_each_occlusion_has_its_own_latency_and_a_short_one_need_not_be_detected():
+    rec = MetricsRecorder()
+    robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
+    script = [(0.0, True, "FOLLOW"),
+              (1.0, False, "FOLLOW"), (1.3, True, "FOLLOW"),  # 0.3 s blink behind a thin pole: no LOST needed
+              (2.0, False, "FOLLOW"), (2.3, False, "LOST"), (4.0, True, "LOST"), (4.1, True, "FOLLOW"),
+              (6.0, False, "FOLLOW"), (6.45, False, "LOST"), (9.0, False, "SEARCH"), (12.0, True, "FOLLOW")]
+    for t, los, state in script:
+        rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
+    s = rec.summary(12.0)
+    assert s["occlusions"] == 3 and s["occlusions_over_0_5s"] == 2
+    assert s["occlusions_detected"] == 2 and s["occlusions_missed"] == 0
+    lat = s["occlusion_detection_latency_s"]
+    assert lat["n"] == 2 and lat["max"] == pytest.approx(0.45) and lat["median"] == pytest.approx(0.375)
+    assert s["loss_events"] == 2 and s["loss_events_recovered"] == 2
+    assert s["reacquisition_time_s"]["max"] == pytest.approx(5.55)  # LOST at 6.45 → FOLLOW at 12.0
+
+
+def test_dock_errors_agree_with_the_docking_geometry_the_behaviours_steer_by():
+    tag = wall_tag(1.0, 2.0, math.radians(30))
+    robot = Pose2D(1.0 + 0.33 * math.cos(math.radians(30)) - 0.02 * math.sin(math.radians(30)),
+                   2.0 + 0.33 * math.sin(math.radians(30)) + 0.02 * math.cos(math.radians(30)),
+                   math.radians(30 + 180 - 7))
+    cam = se3.compose(se3.planar(robot.x, robot.y, robot.yaw, 0.3), se3.transform(se3.R_BODY_OPTICAL))
+    off = dock_offsets(cam, tag, robot.yaw)
+    e = dock_errors(cam, tag, robot_yaw=robot.yaw, standoff=0.30)
+    assert off.standoff_m == pytest.approx(0.33) and off.lateral_m == pytest.approx(0.02)
+    assert e.standoff_m == pytest.approx(off.standoff_m)
+    assert e.distance_m == pytest.approx(0.03) and e.lateral_m == pytest.approx(0.02)
+    assert e.skew_deg == pytest.approx(7.0)
+    assert not e.within() and e.within(distance=0.035)
