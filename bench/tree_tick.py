@@ -1,0 +1,230 @@
+"""Benchmark: what one tick of the shipped mission tree costs, against a bare py_trees tree of its shape.
+
+Inputs are scripted: a live `mission_full` run (bench/tick_recording.py) is recorded tick by tick —
+everything the sim adapter wrote to the blackboard, and the detections the perception source returned
+for each frame. The replay feeds those inputs to a fresh ``mission.xml`` (built by the real loader, run
+by the real TreeRunner with a replaying world and a replaying source, so no detector and no renderer
+is timed) and, tick for tick, to a *bare* tree: the same composites and decorators (py_trees classes,
+same memory flags) with leaves that do nothing but return the status the real leaf returned on that
+tick. Both are ticked through ``py_trees.trees.BehaviourTree.tick`` interleaved, so the ratio real/bare
+is the price of our behaviours' work (blackboard access, track keeping, goal smoothing, line-of-sight
+raytraces) and the loader's structure, on the same machine load. Target: ratio ≤ 1.2.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import py_trees
+from py_trees.common import Status
+
+from bench.common import Figure, pct, progress
+from bench.tick_recording import Recording, record
+from mission.core import blackboard as bbk
+from mission.core.config import load_config
+from mission.core.types import Detection, Frame
+from mission.runner import TreeRunner
+from mission.sim_run import shipped_config
+
+TARGET = 1.2
+
+
+class ReplaySource:
+    """A perception source that returns what the recorded source returned for the frame with this stamp."""
+
+    description = "replay of recorded detections (benchmark)"
+
+    def __init__(self, name: str, by_stamp: dict[float, list[Detection]]) -> None:
+        self.name = name
+        self._by_stamp = by_stamp
+
+    def process(self, frame: Frame) -> list[Detection]:
+        return list(self._by_stamp.get(float(frame.stamp), []))
+
+    def close(self) -> None:
+        pass
+
+
+class ReplayWorld:
+    """A WorldAdapter whose sense() writes the recorded inputs of tick `i`; act() and advance() do nothing."""
+
+    def __init__(self, rec: Recording) -> None:
+        self.rec = rec
+        self.i = 0
+
+    def setup(self) -> None:
+        pass
+
+    def sense(self, bb: py_trees.blackboard.Client) -> None:
+        for path, value in self.rec.ticks[self.i].inputs.items():
+            if value is not None:
+                bb.set(path, value, overwrite=True)
+
+    def act(self, bb: py_trees.blackboard.Client) -> None:
+        pass
+
+    def advance(self, dt: float) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class _Clock:
+    i = 0
+
+
+class ScriptedLeaf(py_trees.behaviour.Behaviour):
+    """A bare leaf: returns the status its real counterpart had after tick `clock.i`, and nothing else."""
+
+    def __init__(self, name: str, script: list[Status], clock: type[_Clock]) -> None:
+        super().__init__(name)
+        self.script = script
+        self.clock = clock
+
+    def update(self) -> Status:
+        s = self.script[self.clock.i]
+        return Status.FAILURE if s == Status.INVALID else s
+
+
+def bare_mirror(node: py_trees.behaviour.Behaviour, scripts: dict[int, list[Status]],
+                clock: type[_Clock]) -> py_trees.behaviour.Behaviour:  # fmt: skip
+    """The same shape with py_trees' own classes; leaves replay `scripts[id(real leaf)]`."""
+    comp, deco = py_trees.composites, py_trees.decorators
+    if isinstance(node, comp.Composite):
+        children = [bare_mirror(c, scripts, clock) for c in node.children]
+        if isinstance(node, comp.Parallel):
+            return comp.Parallel(node.name, policy=node.policy, children=children)
+        cls = comp.Sequence if isinstance(node, comp.Sequence) else comp.Selector
+        return cls(node.name, memory=node.memory, children=children)
+    if isinstance(node, deco.Decorator):
+        child = bare_mirror(node.decorated, scripts, clock)
+        if isinstance(node, deco.Retry):
+            return deco.Retry(node.name, child, node.num_failures)
+        base = next(c for c in type(node).__mro__ if c.__module__ == "py_trees.decorators")
+        return base(name=node.name, child=child)
+    return ScriptedLeaf(node.name, scripts[id(node)], clock)
+
+
+def _leaves(root: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Behaviour]:
+    return [n for n in root.iterate() if not n.children and not isinstance(n, py_trees.decorators.Decorator)]
+
+
+def _time_leaves(leaves: list[py_trees.behaviour.Behaviour], spent: dict[str, float]) -> None:
+    """Wrap each leaf's update() to add its wall time to `spent[class name]` (the breakdown pass only)."""
+    for leaf in leaves:
+        inner, key = leaf.update, type(leaf).__name__
+
+        def timed(inner: Any = inner, key: str = key) -> Status:
+            t0 = time.perf_counter()
+            try:
+                return inner()  # type: ignore[no-any-return]
+            finally:
+                spent[key] = spent.get(key, 0.0) + time.perf_counter() - t0
+
+        leaf.update = timed  # type: ignore[method-assign]
+
+
+def leaf_breakdown(rec: Recording) -> dict[str, float]:
+    """Mean µs per tick spent in each leaf class's update() over the recording (one extra pass)."""
+    config_path = shipped_config(rec.config)
+    py_trees.blackboard.Blackboard.clear()
+    world = ReplayWorld(rec)
+    sources = [ReplaySource(name, d) for name, d in rec.detections.items()]
+    runner = TreeRunner(load_config(config_path), world, rec.tree, config_file=config_path, sources=sources)
+    runner.setup()
+    assert runner.tree is not None
+    spent: dict[str, float] = {}
+    _time_leaves(_leaves(runner.tree.root), spent)
+    for i in range(len(rec.ticks)):
+        world.i = i
+        world.sense(runner.bb)
+        runner.tree.tick()
+    runner.close()
+    py_trees.blackboard.Blackboard.clear()
+    n = max(1, len(rec.ticks))
+    return {k: round(v / n * 1e6, 1) for k, v in sorted(spent.items(), key=lambda kv: -kv[1])}
+
+
+def replay(rec: Recording, passes: int) -> dict[str, Any]:
+    """Tick the real tree on the recorded inputs, then the bare tree on the real leaves' statuses."""
+    config_path = shipped_config(rec.config)
+    config = load_config(config_path)
+    real_us: list[float] = []
+    bare_us: list[float] = []
+    n_nodes = 0
+    state_match = root_match = total = 0
+    for _ in range(passes):
+        py_trees.blackboard.Blackboard.clear()
+        world = ReplayWorld(rec)
+        sources = [ReplaySource(name, d) for name, d in rec.detections.items()]
+        runner = TreeRunner(config, world, rec.tree, config_file=config_path, sources=sources)
+        runner.setup()
+        assert runner.tree is not None
+        leaves = _leaves(runner.tree.root)
+        n_nodes = sum(1 for _ in runner.tree.root.iterate())
+        # Pass 1: the real tree, recording every leaf's status after each tick.
+        scripts: dict[int, list[Status]] = {id(leaf): [] for leaf in leaves}
+        roots = []
+        for i, tick in enumerate(rec.ticks):
+            world.i = i
+            world.sense(runner.bb)
+            t0 = time.perf_counter()
+            runner.tree.tick()
+            real_us.append((time.perf_counter() - t0) * 1e6)
+            for leaf in leaves:
+                scripts[id(leaf)].append(leaf.status)
+            roots.append(runner.tree.root.status)
+            state_match += bbk.get(runner.bb, bbk.STATE, "") == tick.state
+            total += 1
+        bare = py_trees.trees.BehaviourTree(bare_mirror(runner.tree.root, scripts, _Clock))
+        runner.close()
+        # Pass 2: the bare tree on the same tick sequence.
+        for i in range(len(rec.ticks)):
+            _Clock.i = i
+            t0 = time.perf_counter()
+            bare.tick()
+            bare_us.append((time.perf_counter() - t0) * 1e6)
+            root_match += bare.root.status == roots[i]
+    py_trees.blackboard.Blackboard.clear()
+    return {"real_us": real_us, "bare_us": bare_us, "nodes": n_nodes,
+            "state_matches_live": round(state_match / max(1, total), 3),
+            "bare_root_status_matches": round(root_match / max(1, total), 3)}  # fmt: skip
+
+
+def run(quick: bool, out: Path) -> dict[str, Any]:
+    seconds, passes = (12.0, 2) if quick else (60.0, 5)
+    rec = record("mission_full", seconds)
+    progress(f"tree: recorded {len(rec.ticks)} ticks of mission_full in {rec.wall_s:.1f} s; replaying ×{passes}")
+    r = replay(rec, passes)
+    breakdown = leaf_breakdown(rec)
+    real_med, bare_med = float(np.median(r["real_us"])), float(np.median(r["bare_us"]))
+    states = {}
+    for t in rec.ticks:
+        states[t.state] = states.get(t.state, 0) + 1
+    figures = [
+        Figure("mission.xml tick on scripted inputs: median µs per tick", round(real_med, 1), "µs",
+               baseline="bare py_trees tree of the same shape (leaves return the real leaves' statuses), same ticks",
+               baseline_value=round(bare_med, 1), ratio=round(real_med / bare_med, 2),
+               target=f"ratio ≤ {TARGET}", meets_target=real_med / bare_med <= TARGET),
+        Figure("mission.xml: median µs per node per tick", round(real_med / r["nodes"], 2), "µs",
+               baseline="bare tree µs per node", baseline_value=round(bare_med / r["nodes"], 2),
+               ratio=round(real_med / bare_med, 2)),
+        Figure("mission.xml tick p99", pct(r["real_us"], 99, 1), "µs", baseline="bare tree p99",
+               baseline_value=pct(r["bare_us"], 99, 1)),
+    ]  # fmt: skip
+    return {
+        "title": "Tree tick cost: the shipped mission.xml vs a bare py_trees tree of the same shape",
+        "figures": [f.to_json() for f in figures],
+        "details": {"scenario": rec.scenario, "sim_seconds": seconds, "ticks": len(rec.ticks), "passes": passes,
+                    "nodes": r["nodes"], "ticks_in_state": states,
+                    "leaf_update_us_per_tick": breakdown,
+                    "replay_state_matches_live_run": r["state_matches_live"],
+                    "bare_root_status_matches_real": r["bare_root_status_matches"],
+                    "real_us_p50_p90_p99": [pct(r["real_us"], q, 1) for q in (50, 90, 99)],
+                    "bare_us_p50_p90_p99": [pct(r["bare_us"], q, 1) for q in (50, 90, 99)]},
+        "plots": [],
+    }  # fmt: skip
