@@ -9,9 +9,17 @@ The difference decides LOST (hold the goal, let navigation go around the obstacl
 * the live lidar: a scan return along the target's bearing that is closer than the target — an obstacle
   the map does not know about (a person, a box).
 
-Where the target is: its position predicted with constant velocity from the track history (≤ 1 s
-extrapolation — it kept walking after it disappeared) and its last seen position; the line of sight
-counts as blocked if it is blocked to either.
+Where the target may be: its last seen position, its position predicted with constant velocity from
+the track history (≤ 1 s extrapolation — it kept walking after it disappeared), and every free place
+within ``reach_m`` of the last position that it could walk to in a straight line (a ring of
+hypotheses). A point test alone is fooled by a corner: the target last seen just round the end of a
+wall, in plain view, then walks on behind the wall — its last and predicted positions are both in
+clear sight, yet it is hidden. The line of sight counts as blocked when the camera cannot see the
+last/predicted position (map or scan) or any place the target could have reached (map).
+
+The verdict is taken once per loss — when the misses reach ``min_misses`` — and held until the target
+is seen again (hysteresis): the robot moving while LOST or turning while SEARCHing does not flip the
+coordinator between the two.
 """
 
 from __future__ import annotations
@@ -36,6 +44,10 @@ SCAN_MARGIN_M = 0.30  # a scan return must be this much closer than the target (
 TARGET_HALF_WIDTH_M = 0.15  # angular window of scan rays that "look at" the target
 PREDICT_HORIZON_S = 1.0
 MAX_SPEED = 2.0  # m/s: a faster fitted velocity is noise, clamp it
+RING_DIRECTIONS = 16  # hypotheses per ring round the last seen position
+RING_FRACTIONS = (0.5, 1.0)  # rings at these fractions of reach_m
+FREE = 0  # only known-free cells can hold the target
+REACH_M = 1.0  # how far from its last position the target may have walked by the time the loss is decided
 
 
 def first_occupied_cell(
@@ -114,9 +126,44 @@ class Blockage:
     at_m: float  # distance from the camera / base to the blocking thing
 
 
+def reachable_hypotheses(grid: OccupancyGrid, last: tuple[float, float], reach_m: float) -> list[tuple[float, float]]:
+    """Free places within `reach_m` of `last` that the target can walk to in a straight line (map metres).
+
+    Rings of RING_DIRECTIONS points at RING_FRACTIONS of reach_m; a point counts when its cell is known
+    free and the segment from `last` to it crosses no occupied cell (the target does not walk through
+    walls — a place on the far side of a thin wall is not "just round the corner").
+    """
+    out: list[tuple[float, float]] = []
+    if reach_m <= 0:
+        return out
+    for frac in RING_FRACTIONS:
+        r = frac * reach_m
+        for k in range(RING_DIRECTIONS):
+            a = 2 * math.pi * k / RING_DIRECTIONS
+            p = (last[0] + r * math.cos(a), last[1] + r * math.sin(a))
+            row, col = (math.floor(v) for v in grid.world_to_grid(*p))
+            if not grid.in_bounds(row, col) or int(grid.data[row, col]) != FREE:
+                continue
+            if first_occupied_cell(grid, last, p) is None:
+                out.append(p)
+    return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One loss's classification, held until the target is seen again."""
+
+    last_seen: float
+    blocked: bool
+    why: str
+
+
 @register
 class IsLineOfSightBlocked(MissionLeaf):
-    """SUCCESS when the target has been missed ≥ min_misses frames AND the map or the scan blocks the view."""
+    """SUCCESS when the target has been missed ≥ min_misses frames AND the map or the scan blocks the view.
+
+    Decided once per loss (at the min_misses-th miss) and held until the next sighting.
+    """
 
     NODE_TYPE = "Condition"
     PORTS: ClassVar[dict[str, Port]] = {
@@ -129,42 +176,40 @@ class IsLineOfSightBlocked(MissionLeaf):
         super().__init__(name)
         self.target = target
         self.min_misses = int(min_misses)
+        self.reach_m = REACH_M
+        self.verdict: Verdict | None = None
+
+    def _map_blockage(
+        self, grid: OccupancyGrid, cam: tuple[float, float], goal: tuple[float, float]
+    ) -> Blockage | None:
+        dx, dy = goal[0] - cam[0], goal[1] - cam[1]
+        dist = math.hypot(dx, dy)
+        if dist <= END_MARGIN_M:
+            return None
+        k = (dist - END_MARGIN_M) / dist
+        cell = first_occupied_cell(grid, cam, (cam[0] + k * dx, cam[1] + k * dy))
+        if cell is None:
+            return None
+        cx, cy = grid.cell_to_world(*cell)
+        return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
 
     def _blockage(self, cam: tuple[float, float], robot: Pose2D, goal: tuple[float, float]) -> Blockage | None:
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         scan: LaserScan | None = self.read(bbk.SCAN)
         if grid is not None:
-            dx, dy = goal[0] - cam[0], goal[1] - cam[1]
-            dist = math.hypot(dx, dy)
-            if dist > END_MARGIN_M:
-                k = (dist - END_MARGIN_M) / dist
-                cell = first_occupied_cell(grid, cam, (cam[0] + k * dx, cam[1] + k * dy))
-                if cell is not None:
-                    cx, cy = grid.cell_to_world(*cell)
-                    return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
+            b = self._map_blockage(grid, cam, goal)
+            if b is not None:
+                return b
         if scan is not None:
             hit = scan_hit_before(scan, robot, goal)
             if hit is not None:
                 return Blockage("scan return", hit)
         return None
 
-    def update(self) -> py_trees.common.Status:
-        fail = py_trees.common.Status.FAILURE
-        tr = self.track(self.target)
-        if tr is None or tr.last_seen is None or tr.pose_map is None:
-            self.feedback_message = f"{self.target} never placed in the map: nothing to raytrace to"
-            return fail
-        if tr.misses < self.min_misses:
-            self.feedback_message = f"{self.target}: {tr.misses} miss(es) < {self.min_misses}, not an occlusion yet"
-            return fail
-        state = self.robot()
-        if state is None:
-            self.feedback_message = "no robot pose: cannot raytrace"
-            return fail
-        if self.read(bbk.MAP) is None and self.read(bbk.SCAN) is None:
-            self.feedback_message = "no map and no scan: cannot raytrace, treating line of sight as clear"
-            return fail
-        T_map_cam = se3.planar(state.pose.x, state.pose.y, state.pose.yaw) @ self.extrinsics()
+    def _classify(self, tr: TargetTrack, robot: Pose2D) -> tuple[bool, str]:
+        """(blocked, why) for the current loss: last/predicted position (map + scan), then reachable places (map)."""
+        assert tr.pose_map is not None
+        T_map_cam = se3.planar(robot.x, robot.y, robot.yaw) @ self.extrinsics()
         cam = (float(T_map_cam[0, 3]), float(T_map_cam[1, 3]))
         last = (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3]))
         candidates = [("last", last)]
@@ -172,13 +217,48 @@ class IsLineOfSightBlocked(MissionLeaf):
         if pred is not None:
             candidates.insert(0, ("predicted", pred))
         for label, where in candidates:
-            b = self._blockage(cam, state.pose, where)
+            b = self._blockage(cam, robot, where)
             if b is not None:
-                self.feedback_message = (
+                return True, (
                     f"line of sight to {label} {self.target} position ({where[0]:.2f}, {where[1]:.2f}) blocked by "
-                    f"{b.what} {b.at_m:.2f} m away; {tr.misses} misses"
+                    f"{b.what} {b.at_m:.2f} m away"
                 )
-                return py_trees.common.Status.SUCCESS
+        grid: OccupancyGrid | None = self.read(bbk.MAP)
+        places = reachable_hypotheses(grid, last, self.reach_m) if grid is not None else []
+        for where in places:
+            b = self._map_blockage(grid, cam, where)  # type: ignore[arg-type]
+            if b is not None:
+                return True, (
+                    f"{self.target} may be hidden at ({where[0]:.2f}, {where[1]:.2f}), {self.reach_m:g} m or less "
+                    f"from its last position ({last[0]:.2f}, {last[1]:.2f}): line of sight blocked by {b.what} "
+                    f"{b.at_m:.2f} m away"
+                )
         said = " and ".join(f"{label} ({p[0]:.2f}, {p[1]:.2f})" for label, p in candidates)
-        self.feedback_message = f"line of sight clear to {said}; {tr.misses} misses: {self.target} left the view"
-        return fail
+        return False, (
+            f"line of sight clear to {said} and to {len(places)} place(s) within {self.reach_m:g} m: "
+            f"{self.target} left the view"
+        )
+
+    def update(self) -> py_trees.common.Status:
+        fail = py_trees.common.Status.FAILURE
+        tr = self.track(self.target)
+        if tr is None or tr.last_seen is None or tr.pose_map is None:
+            self.verdict = None
+            self.feedback_message = f"{self.target} never placed in the map: nothing to raytrace to"
+            return fail
+        if tr.misses < self.min_misses:
+            self.verdict = None
+            self.feedback_message = f"{self.target}: {tr.misses} miss(es) < {self.min_misses}, not an occlusion yet"
+            return fail
+        if self.verdict is None or self.verdict.last_seen != tr.last_seen:
+            state = self.robot()
+            if state is None:
+                self.feedback_message = "no robot pose: cannot raytrace"
+                return fail
+            if self.read(bbk.MAP) is None and self.read(bbk.SCAN) is None:
+                self.feedback_message = "no map and no scan: cannot raytrace, treating line of sight as clear"
+                return fail
+            blocked, why = self._classify(tr, state.pose)
+            self.verdict = Verdict(tr.last_seen, blocked, why)
+        self.feedback_message = f"{self.verdict.why}; {tr.misses} misses"
+        return py_trees.common.Status.SUCCESS if self.verdict.blocked else fail

@@ -50,13 +50,13 @@ class HoldLastGoal(MissionLeaf):
         self.feedback_message = f"LOST: holding the last goal for {self.target}"
 
     def update(self) -> py_trees.common.Status:
-        self.set_state(MissionState.LOST)
         tr = self.track(self.target)
         if tr is None or tr.last_seen is None or tr.pose_map is None:
             return self.fail(f"LOST: {self.target} was never placed in the map, no goal to hold")
         lost_for = self.now() - tr.last_seen
-        if lost_for > self.timeout_s:
+        if lost_for > self.timeout_s:  # the loss timer has run out: not LOST (any more), SEARCH takes over
             return self.fail(f"LOST: {self.target} unseen for {lost_for:.1f} s > timeout {self.timeout_s:.1f} s")
+        self.set_state(MissionState.LOST)
         if self._goal is None or self._goal_for != tr.last_seen:
             target_xy = (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3]))
             seen_from = tr.robot_at_last_seen

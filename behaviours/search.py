@@ -1,10 +1,16 @@
 """SearchSweep: the SEARCH state — turn to look, first toward where the target was last seen.
 
-Direction: the sign of the bearing of the last target position relative to the robot's heading when the
-search starts (CCW for positive, CW for negative; CCW when the target was never placed in the map).
+Direction: the sign of the bearing, relative to the robot's heading when the search starts, of where the
+target was heading when last seen — its last position carried on at its last velocity for
+PREDICT_HORIZON_S (just its last position when it stood still or too few sightings give no velocity).
+CCW for positive, CW for negative; CCW when the target was never placed in the map. The last position
+alone is a poor guide once LOST has brought the robot to it: it is then straight ahead, and which way
+the target went is what matters.
 The sweep first turns through that bearing, then a full circle, then keeps circling until `duration_s`,
-after which it fails with a reason. Rotation progress is integrated from the robot's yaw (odometry), so a
-slow base still completes its circle; without a robot pose it is estimated from the commanded rate.
+after which it fails with a reason. One loss, one search: re-entering SEARCH before the target is seen
+again continues the same sweep and its clock (it does not start over). Rotation progress is integrated
+from the robot's yaw (odometry), so a slow base still completes its circle; without a robot pose it is
+estimated from the commanded rate.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import py_trees
 
 from behaviours.approach import bearing_to
 from behaviours.leaf import MissionLeaf
+from behaviours.line_of_sight import PREDICT_HORIZON_S, predicted_position
 from behaviours.ports import Port
 from behaviours.registry import register
 from mission.core import blackboard as bbk
@@ -49,17 +56,30 @@ class SearchSweep(MissionLeaf):
         self._t_prev = 0.0
         self._yaw_prev: float | None = None
         self.turned = 0.0  # rad turned so far in `direction`
+        self._episode: float | None = None  # the track's last_seen this search is about (one search per loss)
 
     def initialise(self) -> None:
-        self._t0 = self._t_prev = self.now()
+        now = self.now()
         state = self.robot()
         tr = self.track(self.target)
+        self._t_prev = now
+        self._yaw_prev = state.pose.yaw if state is not None else None
+        episode = None if tr is None else tr.last_seen
+        if episode is not None and episode == self._episode:
+            # Re-entered without a sighting in between (a higher branch ran for a moment): the same search
+            # goes on — its clock, direction and progress are kept, so the sweep still ends after duration_s.
+            self.feedback_message = self._describe()
+            return
+        self._episode = episode
+        self._t0 = now
         self.direction, self.first_turn = 1.0, 0.0
         if state is not None and tr is not None and tr.pose_map is not None:
-            bearing = bearing_to(state.pose, (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3])))
+            where = predicted_position(tr, tr.last_seen + PREDICT_HORIZON_S) if tr.last_seen is not None else None
+            if where is None:
+                where = (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3]))
+            bearing = bearing_to(state.pose, where)
             self.direction = 1.0 if bearing >= 0 else -1.0
             self.first_turn = abs(bearing)
-        self._yaw_prev = state.pose.yaw if state is not None else None
         self.turned = 0.0
         self.feedback_message = self._describe()
 

@@ -106,3 +106,41 @@ def test_the_raytrace_does_not_slip_diagonally_between_two_corner_touching_cells
     corner = grid.cell_to_world(r, c)
     x0, y0 = corner[0] - 0.025, corner[1] - 0.025
     assert first_occupied_cell(grid, (x0 + 1.0, y0 - 1.0), (x0 - 1.0, y0 + 1.0)) is not None
+
+
+# A partition like search_corner's: a wall from y = -3 up to its end at y = 0.8, at x = 1.5–1.7. The robot
+# (origin, facing +y… here +x) saw the target just round the wall's end, in plain view, then lost it.
+PARTITION = (1.5, -3.0, 1.7, 0.8)
+
+
+def test_a_target_lost_just_round_the_end_of_a_wall_may_be_hiding_behind_it():
+    # last seen at (2.2, 1.3): clear sight to it, but 1 m away down the far side of the wall it is hidden
+    seed(lost_target(misses=5, x=2.2, y=1.3), grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    assert node.feedback_message.startswith("target may be hidden at (")
+    assert "from its last position (2.20, 1.30): line of sight blocked by map cell" in node.feedback_message
+
+
+def test_places_beyond_a_wall_the_target_cannot_walk_through_do_not_count():
+    # last seen in the open at (0.9, 0.0), west of the same wall; behind the wall (x > 1.7) is out of reach
+    seed(lost_target(misses=5, x=0.9, y=0.0), grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.FAILURE
+    assert "left the view" in node.feedback_message
+
+
+def test_the_verdict_is_held_for_the_whole_loss_and_taken_afresh_after_a_sighting():
+    track = lost_target(misses=5, x=2.2, y=1.3)
+    seed(track, grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    # the robot drives round the wall's end: from here every place is in clear sight, but this loss stays LOST
+    bbk.set_(board(), bbk.ROBOT_STATE, RobotState(Pose2D(2.2, 0.9, 0.0), Twist(), 10.5))
+    track.misses = 12
+    assert tick(node) == S.SUCCESS and "12 misses" in node.feedback_message
+    # seen again, then lost again from the new place: decided afresh
+    track.misses, track.last_seen = 0, 10.6
+    assert tick(node) == S.FAILURE
+    track.misses = 5
+    assert tick(node) == S.FAILURE and "left the view" in node.feedback_message

@@ -64,3 +64,42 @@ def test_it_fails_with_a_reason_after_duration_s_and_stops_the_robot():
     assert statuses[:31] == [S.RUNNING] * 31 and statuses[31] == S.FAILURE
     assert read(bbk.REASON) == "SEARCH: target not found after 15.5 s of sweeping (limit 15 s)"
     assert read(bbk.TWIST) == Twist(0.0, 0.0)
+
+
+def test_re_entering_search_during_the_same_loss_continues_the_sweep_and_its_clock():
+    scene = Scene(dt=0.5)
+    last_seen_at(2.0, 0.0)
+    node = SearchSweep(duration_s=10.0)
+    for _ in range(12):
+        scene.cycle(node)  # 6 s of sweeping
+    node.stop(S.INVALID)  # preempted for a moment by a higher branch, no sighting in between
+    scene.cycle(node)
+    assert node.feedback_message.endswith("6.0 s of 10 s")  # not "0.0 s": the clock went on
+    statuses = [scene.cycle(node) for _ in range(9)]  # … to 10.5 s
+    assert statuses[-1] == S.FAILURE and S.FAILURE not in statuses[:-1]
+
+
+def test_a_new_loss_starts_a_new_search():
+    scene = Scene(dt=0.5)
+    last_seen_at(2.0, 0.0)
+    node = SearchSweep(duration_s=10.0)
+    for _ in range(12):
+        scene.cycle(node)
+    node.stop(S.INVALID)
+    track = TargetTrack("target", last_seen=6.2, misses=5, pose_map=marker_facing(2.0, 0.0, math.pi))
+    bbk.set_(board(), bbk.TRACKS, {"target": track})  # seen again at 6.2 s, lost again
+    scene.cycle(node)
+    assert node.feedback_message.endswith("0.0 s of 10 s")
+
+
+def test_standing_where_the_target_was_last_seen_it_turns_the_way_the_target_was_walking():
+    # LOST brought the robot next to the last position (1, 0.1), facing +x; the target was walking south (−y)
+    scene = Scene(robot=Pose2D(0.5, 0.0, 0.0))
+    history = [(i * 0.1, 1.0, 1.0 - 0.09 * i) for i in range(11)]
+    track = TargetTrack("target", last_seen=1.0, misses=30, pose_map=marker_facing(1.0, 0.1, math.pi))
+    track.history = history
+    bbk.set_(board(), bbk.TRACKS, {"target": track})
+    node = SearchSweep(angular_speed=0.6)
+    scene.cycle(node)
+    assert read(bbk.TWIST) == Twist(0.0, -0.6)
+    assert node.feedback_message.startswith("searching: turning right")
