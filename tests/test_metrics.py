@@ -6,12 +6,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import py_trees
 import pytest
 
 from mission.core import se3
 from mission.core.docking import dock_offsets
 from mission.core.types import NavGoal, Pose2D
 from mission.metrics import MetricsRecorder, dock_errors
+from mission.sim_run import evaluate
 
 
 @dataclass
@@ -142,3 +144,31 @@ def test_dock_errors_agree_with_the_docking_geometry_the_behaviours_steer_by():
     assert e.distance_m == pytest.approx(0.03) and e.lateral_m == pytest.approx(0.02)
     assert e.skew_deg == pytest.approx(7.0)
     assert not e.within() and e.within(distance=0.035)
+
+
+def test_a_run_is_judged_by_the_design_criteria_a_user_reads_in_the_report():
+    def follow_summary(script: list[tuple[float, bool, str]], end: float) -> dict:
+        rec = MetricsRecorder()
+        for t, los, state in script:
+            rec.record(GT(t, Pose2D(0, 0, 0), Pose2D(2, 0, 0), target_in_los=los), state, None, None)
+        return rec.summary(end)
+
+    running = py_trees.common.Status.RUNNING
+    quick = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
+                            (4.4, False, "SEARCH"), (6.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+    assert evaluate("follow", running, "FOLLOW", "", quick, 30.0) == (True, "followed the target to the end")
+    slow_find = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
+                                (4.4, False, "SEARCH"), (13.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+    assert evaluate("follow", running, "FOLLOW", "", slow_find, 30.0) == (
+        False, "target re-acquired after 11.6 s (> 10 s)")
+    late_call = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.7, False, "LOST"),
+                                (3.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+    assert evaluate("follow", running, "FOLLOW", "", late_call, 30.0) == (
+        False, "occlusion detected after 0.70 s (> 0.5 s)")
+    wrong_call = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.3, False, "SEARCH"),
+                                 (3.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+    assert evaluate("follow", running, "FOLLOW", "", wrong_call, 30.0) == (
+        False, "1 occlusion(s) of 0.5 s or more never called LOST")
+    docked = {"dock": {"lateral_m": 0.01, "distance_m": 0.03, "standoff_m": 0.33, "skew_deg": 2.0}, "collisions": 0}
+    ok, why = evaluate("dock", py_trees.common.Status.SUCCESS, "DONE", "", docked, 20.0)
+    assert not ok and why == "docked out of tolerance: lateral 1.0 cm, distance 3.0 cm, skew 2.0°"
