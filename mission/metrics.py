@@ -81,12 +81,15 @@ class Occlusion:
     """Ground truth: the line of sight to the target broke while the tree was following it.
 
     Detected means the tree said so — entered LOST (the occlusion state); going to SEARCH instead is a
-    misclassification ("it left the view"), not a detection.
+    misclassification ("it left the view"), not a detection. A tree can call LOST a moment before the
+    marker's centre is hidden (the marker's edge goes first, or the target turns away behind the obstacle):
+    that occlusion counts, detected with latency 0. A sight line that breaks during SEARCH is not an
+    occlusion of a followed target.
     """
 
-    start: float  # ground truth: line of sight blocked while following
+    start: float  # ground truth: line of sight blocked while following (or already LOST)
     end: float | None = None  # line of sight clear again
-    detected_at: float | None = None  # the tree entered LOST
+    detected_at: float | None = None  # the tree entered LOST (= start when it was LOST before the line broke)
 
 
 @dataclass
@@ -153,6 +156,8 @@ class MetricsRecorder:
             prev_los = self.los[-2] if len(self.los) > 1 else True
             if prev_los and state == MissionState.FOLLOW:
                 self.occlusions.append(Occlusion(start=t))
+            elif prev_los and state == MissionState.LOST:  # called before the sight line broke: latency 0
+                self.occlusions.append(Occlusion(start=t, detected_at=t))
             return
         if open_occ is not None:
             if open_occ.detected_at is None and state == MissionState.LOST:

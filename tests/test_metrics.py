@@ -172,3 +172,15 @@ def test_a_run_is_judged_by_the_design_criteria_a_user_reads_in_the_report():
     docked = {"dock": {"lateral_m": 0.01, "distance_m": 0.03, "standoff_m": 0.33, "skew_deg": 2.0}, "collisions": 0}
     ok, why = evaluate("dock", py_trees.common.Status.SUCCESS, "DONE", "", docked, 20.0)
     assert not ok and why == "docked out of tolerance: lateral 1.0 cm, distance 3.0 cm, skew 2.0°"
+
+
+def test_an_occlusion_the_tree_saw_coming_counts_with_latency_zero():
+    # the target turned away behind a pillar: LOST at 1.0 s, the marker's centre hidden only at 1.3 s
+    rec = MetricsRecorder()
+    robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
+    for t, los, state in [(0.0, True, "FOLLOW"), (1.0, True, "LOST"), (1.3, False, "LOST"), (3.0, False, "SEARCH"),
+                          (4.0, True, "SEARCH"), (4.2, True, "FOLLOW"), (6.0, True, "SEARCH"), (6.5, False, "SEARCH")]:
+        rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
+    s = rec.summary(7.0)
+    assert s["occlusions"] == 1 and s["occlusions_detected"] == 1 and s["occlusions_missed"] == 0
+    assert s["occlusion_detection_latency_s"]["max"] == 0.0  # the break during SEARCH at 6.5 s is not one
