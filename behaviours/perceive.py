@@ -2,7 +2,9 @@
 
 Runs once per new FRAME_SEQ (ticking faster than the camera does not count extra misses). Bad input
 never stops the tree: a frame whose image is not an image is dropped and counted (``frames_dropped``),
-a frame older than the last processed one is dropped and counted (``frames_stale``), and a source that
+a frame older than the last processed one (late, out of order — or older than ``max_frame_age_s`` on the
+clock when set) is dropped and counted (``frames_stale``), the same frame re-sent is dropped and counted
+(``frames_duplicate``) — stale detections never move a goal — and a source that
 raises is isolated — counted as ``source_errors:<name>``, logged once per (source, exception type), the
 other sources' detections still land, and the leaf returns FAILURE for that tick only.
 
@@ -73,11 +75,15 @@ class PerceiveTargets(MissionLeaf):
     READS = (bbk.FRAME, bbk.FRAME_SEQ)
     WRITES = (bbk.DETECTIONS, bbk.TRACKS, bbk.PERCEPTION_STATS)
 
-    def __init__(self, name: str = "PerceiveTargets", *, deps: Dependencies | None = None) -> None:
+    def __init__(
+        self, name: str = "PerceiveTargets", *, deps: Dependencies | None = None, max_frame_age_s: float = 0.0
+    ) -> None:
         super().__init__(name)
         self.deps = deps if deps is not None else Dependencies()
+        self.max_frame_age_s = float(max_frame_age_s)  # 0: off (ROS camera stamps need not share CLOCK's base)
         self._last_key: object = None
         self._last_stamp: float | None = None
+        self._last_image: object = None
         self._logged: set[tuple[str, str]] = set()
 
     def setup(self, **kwargs: object) -> None:
@@ -135,6 +141,25 @@ class PerceiveTargets(MissionLeaf):
                 found.append(SourcedDetection(who, det))
         return found, errors
 
+    def _stale_reason(self, frame: Frame, stamp: float) -> str | None:
+        """Why a frame must not drive the robot although its image is fine (None: use it).
+
+        A frame older than the newest processed one arrived late or out of order: its detections would
+        place the target where it was, not where it is. The same image again with the same stamp is a
+        duplicate (a driver re-sending). With ``max_frame_age_s`` > 0 a frame older than that on the
+        clock is stale too (only meaningful when frame stamps and CLOCK share a time base).
+        """
+        last = self._last_stamp
+        if last is not None and stamp < last:
+            return f"stale (late or out of order: stamp {stamp:.3f} s is older than the last processed {last:.3f} s)"
+        if last is not None and stamp == last and frame.image is self._last_image:
+            return f"duplicate (same image and stamp {stamp:.3f} s as the last processed)"
+        if self.max_frame_age_s > 0:
+            age = self.now() - stamp
+            if age > self.max_frame_age_s:
+                return f"stale (stamp {stamp:.3f} s is {age:.2f} s old > max_frame_age_s {self.max_frame_age_s:g})"
+        return None
+
     # -- lifecycle ------------------------------------------------------------------------------------
     def update(self) -> py_trees.common.Status:
         frame = self.read(bbk.FRAME)
@@ -157,15 +182,15 @@ class PerceiveTargets(MissionLeaf):
             self.feedback_message = f"dropped frame {seq}: {problem}"
             return py_trees.common.Status.FAILURE
         stamp = float(frame.stamp)
-        if self._last_stamp is not None and stamp < self._last_stamp:
-            stats["frames_stale"] = stats.get("frames_stale", 0) + 1
+        why = self._stale_reason(frame, stamp)
+        if why is not None:
+            counter = "frames_duplicate" if why.startswith("duplicate") else "frames_stale"
+            stats[counter] = stats.get(counter, 0) + 1
             self.write(bbk.PERCEPTION_STATS, stats)
-            self.feedback_message = (
-                f"dropped stale frame {seq}: stamp {stamp:.3f} s is older than "
-                f"the last processed {self._last_stamp:.3f} s"
-            )
+            self.feedback_message = f"dropped {why} frame {seq} ({stats[counter]} {counter[7:]} so far)"
             return py_trees.common.Status.SUCCESS
         self._last_stamp = stamp
+        self._last_image = frame.image
 
         found, errors = self._run_sources(frame, stats)
         result = assign(found, dict(self.deps.targets), self.deps.policy)
