@@ -22,6 +22,7 @@ from mission.observers import TickObserver
 from mission.runner import TreeRunner
 from sim.adapter import SimAdapter
 from sim.config import apply_overrides
+from sim.faults import fault_summary, wrap_sources
 from sim.scenario import Scenario, load_scenario
 
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
@@ -45,6 +46,7 @@ class RunOutcome:
     ticks: int
     metrics: dict[str, Any]
     perception_stats: dict[str, int] = field(default_factory=dict)
+    faults: dict[str, Any] = field(default_factory=dict)  # scenario `faults:`: injected vs counted (sim/faults.py)
 
     def to_json(self) -> dict[str, Any]:
         return dict(self.__dict__)
@@ -139,6 +141,7 @@ def run_scenario(
     gt = None
     wall0 = time.perf_counter()
     runner.setup()
+    wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
     try:
         for o in observers:
             o.on_start(runner, adapter)
@@ -170,6 +173,7 @@ def run_scenario(
             ticks=runner.ticks,
             metrics=summary,
             perception_stats=dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}),
+            faults=fault_summary(adapter.faults, dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}), runner.sources),
         )
         for o in observers:
             o.on_end(runner, adapter, outcome)

@@ -31,6 +31,7 @@ from mission.core.types import (
     RobotState,
     Twist,
 )
+from sim.faults import FaultInjector
 from sim.geometry import Footprint, clearance
 from sim.ground_truth import GroundTruth
 from sim.navigator import Navigator
@@ -85,6 +86,7 @@ class SimAdapter:
         self._scan_published = -1
         self._noise: list[tuple[np.ndarray, np.ndarray]] = []
         self.frames_rendered = 0
+        self.faults = FaultInjector(scenario.faults, self.seed)  # scenario `faults:` (none by default)
 
     # -- WorldAdapter --------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -115,14 +117,18 @@ class SimAdapter:
         bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.T_base_optical.copy())
         bbk.set_(bb, bbk.MAP, self.occupancy_grid)
         bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
+        frame = None
         if self.t >= self._next_frame_t - 1e-9:
             frame = self.capture()
-            self._frame_seq += 1
-            bbk.set_(bb, bbk.FRAME, frame)
-            bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
             period = 1.0 / self.scenario.camera.rate_hz
             while self._next_frame_t <= self.t + 1e-9:
                 self._next_frame_t += period
+        if self.faults.active:
+            frame = self.faults.camera(frame, self.t)  # blackout, drop, duplicate, late (old stamp)
+        if frame is not None:
+            self._frame_seq += 1
+            bbk.set_(bb, bbk.FRAME, frame)
+            bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
         if self._scan is not None and self._scan_seq != self._scan_published:
             bbk.set_(bb, bbk.SCAN, self._scan)
             self._scan_published = self._scan_seq
@@ -155,6 +161,8 @@ class SimAdapter:
         n = max(1, math.ceil(dt / SUBSTEP_S - 1e-9))
         h = dt / n
         for _ in range(n):
+            if self.faults.active:
+                self._inject_events()
             self._move_target(h)
             if self.t >= self._next_scan_t - 1e-9:
                 self._sync_bodies()
@@ -209,6 +217,10 @@ class SimAdapter:
     def _take_scan(self) -> None:
         assert self.world is not None
         li = self.scenario.lidar
+        if self.faults.active and self.faults.lidar_out(self.t):  # dropout: no scan, the navigator keeps the last
+            while self._next_scan_t <= self.t + 1e-9:
+                self._next_scan_t += 1.0 / li.rate_hz
+            return
         pose = self.robot_pose
         ang = -math.pi + (2 * math.pi / li.beams) * np.arange(li.beams)
         world_ang = pose.yaw + ang
@@ -255,6 +267,23 @@ class SimAdapter:
         self._target_blocked = False
         self._tau += h
         self._target_pose = pose
+
+    def _inject_events(self) -> None:
+        """Scenario faults that happen at an instant: the target teleports, the robot is kicked."""
+        assert self.base is not None
+        skip = self.faults.target_skip(self.t)
+        if skip > 0 and self.target_path is not None:
+            self._tau += skip
+            self._target_pose = self.target_path.pose(self._tau)
+        for dx, dy, dyaw in self.faults.robot_kicks(self.t):
+            s = self.base.state
+            x, y = s.x + dx, s.y + dy
+            if clearance(self._obstacles_for_robot(), x, y)[0] >= self.scenario.robot.radius + 0.01:
+                s.x, s.y = x, y
+            else:
+                self.faults.injected["robot_kicks_blocked"] += 1  # into something: only the turn happens
+            s.yaw = se3.wrap_angle(s.yaw + dyaw)
+            s.v = s.w = 0.0
 
     def _sync_bodies(self) -> None:
         assert self.world is not None

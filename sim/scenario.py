@@ -199,6 +199,57 @@ class Success(StrictModel):
     standoff_m: float = Field(0.30, gt=0)  # docking: camera-to-tag distance the dock means
 
 
+class Blackout(StrictModel):
+    at_s: float = Field(ge=0)
+    frames: int = Field(ge=1)  # camera periods without any frame
+
+
+class Dropout(StrictModel):
+    at_s: float = Field(ge=0)
+    duration_s: float = Field(gt=0)
+
+
+class Teleport(StrictModel):
+    at_s: float = Field(ge=0)
+    skip_s: float = Field(gt=0)  # the target jumps this much of its path's time ahead
+
+
+class Kick(StrictModel):
+    at_s: float = Field(ge=0)
+    dx: float = 0.0  # map frame (m)
+    dy: float = 0.0
+    dyaw_deg: float = 0.0
+
+
+class VlmFault(StrictModel):
+    mode: Literal["timeout", "garbage"]  # raise TimeoutError, or answer NaN / out-of-image / non-list
+    every: int = Field(1, ge=1)  # every k-th model call fails
+    delay_s: float = Field(0.0, ge=0, le=30)  # timeout: how long the call hangs before it raises
+
+
+class Faults(StrictModel):
+    """Injected faults (sim/faults.py): what the field gets wrong, on purpose and repeatably per seed."""
+
+    camera_blackout: list[Blackout] = Field(default_factory=list)  # [{at_s, frames}]: no frames for N periods
+    frame_drop_prob: float = Field(0.0, ge=0, le=1)  # each frame lost with this probability
+    frame_duplicate_prob: float = Field(0.0, ge=0, le=1)  # each frame delivered twice (same image and stamp)
+    late_frame_prob: float = Field(0.0, ge=0, le=1)  # held back late_by_s, delivered with its old stamp
+    late_by_s: float = Field(0.3, gt=0, le=10)  # how late a late frame arrives
+    lidar_dropout: list[Dropout] = Field(default_factory=list)  # [{at_s, duration_s}]: no scans
+    target_teleport: list[Teleport] = Field(default_factory=list)  # [{at_s, skip_s}]: jumps ahead on its path
+    robot_kick: list[Kick] = Field(default_factory=list)  # [{at_s, dx, dy, dyaw_deg}]: bumped off its path
+    plugin_raise_every: int = Field(0, ge=0)  # 0: off; k: the source raises on every k-th frame
+    plugin_raise_source: str | None = None  # only this source (by name); None: every source
+    vlm: VlmFault | None = None  # {mode: timeout|garbage, every, delay_s}: the VLM client misbehaves
+
+    @model_validator(mode="after")
+    def _probabilities(self) -> Faults:
+        total = self.frame_drop_prob + self.frame_duplicate_prob + self.late_frame_prob
+        if total > 1.0 + 1e-9:
+            raise ValueError(f"frame_drop_prob + frame_duplicate_prob + late_frame_prob must be ≤ 1, got {total:g}")
+        return self
+
+
 class Scenario(StrictModel):
     name: str
     description: str = ""
@@ -217,6 +268,7 @@ class Scenario(StrictModel):
     map: MapSpec = Field(default_factory=MapSpec)
     navigation: NavSpec = Field(default_factory=NavSpec)
     random: RandomSpec = Field(default_factory=RandomSpec)
+    faults: Faults = Field(default_factory=Faults)  # injected faults (sim/faults.py); none by default
 
 
 # --------------------------------------------------------------------------------------------------
