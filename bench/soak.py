@@ -380,12 +380,56 @@ def run(quick: bool, out: Path, part: str = "both") -> dict[str, Any]:
     }
 
 
+def sim_from_samples(samples: list[dict[str, Any]], planned_min: float) -> dict[str, Any]:
+    """The sim figures from the per-minute samples alone (a run stopped before its end: its partial file)."""
+    rss = [s["rss_mb"] for s in samples]
+    mins = [s["sim_min"] for s in samples]
+    n = min(5, max(1, len(samples) // 2))
+    return {
+        "partial": True, "planned_sim_minutes": planned_min, "sim_minutes": mins[-1] if mins else 0,
+        "ticks": samples[-1]["ticks"] if samples else 0,
+        "outcome": {"final_state": samples[-1]["state"] if samples else ""},
+        "rss_first_mb": rss[0] if rss else None, "rss_last_mb": rss[-1] if rss else None,
+        "rss_growth_mb": round(rss[-1] - rss[0], 2) if len(rss) > 1 else None,
+        "rss_slope_mb_per_min": slope_per_min(mins, rss),
+        "tick_slope_ms_per_min": slope_per_min(mins, [s["tick_p50_ms"] for s in samples]),
+        "window_min": n,
+        "tick_first_p50_ms": pct([s["tick_p50_ms"] for s in samples[:n]], 50),
+        "tick_first_p99_ms": pct([s["tick_p99_ms"] for s in samples[:n]], 50),
+        "tick_last_p50_ms": pct([s["tick_p50_ms"] for s in samples[-n:]], 50),
+        "tick_last_p99_ms": pct([s["tick_p99_ms"] for s in samples[-n:]], 50),
+        "samples": samples,
+    }  # fmt: skip
+
+
+def merge(out: Path) -> dict[str, Any]:
+    """soak.json from the separately run parts (``--part sim`` / ``--part ros``; a sim part still running
+    contributes its per-minute samples so far)."""
+    sim = ros = None
+    if (out / "soak_sim.json").exists():
+        sim = json.loads((out / "soak_sim.json").read_text())["details"]["sim"]
+    elif (out / ".soak_sim_partial.json").exists():
+        sim = sim_from_samples(json.loads((out / ".soak_sim_partial.json").read_text())["samples"], 30.0)
+    if (out / "soak_ros.json").exists():
+        ros = json.loads((out / "soak_ros.json").read_text())["details"]["ros"]
+    return {
+        "title": "Soak: memory and tick time over a long run",
+        "figures": [f.to_json() for f in figures(sim, ros)],
+        "details": {"quick": False, "load_average": load_average(), "sim": sim, "ros": ros},
+        "plots": [],
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.soak", description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--part", choices=("sim", "ros", "both"), default="both")
     ap.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
+    ap.add_argument("--merge", action="store_true", help="write soak.json from the parts' results in --out")
     args = ap.parse_args(argv)
+    if args.merge:
+        _write(args.out, "soak.json", merge(args.out))
+        return 0
     result = run(args.quick, args.out, args.part)
     name = "soak.json" if args.part == "both" else f"soak_{args.part}.json"
     _write(args.out, name, result)
