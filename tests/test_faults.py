@@ -13,9 +13,13 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from behaviour_world import IMAGE, ScriptedSource, board, read, tick
 
+from behaviours.perceive import PerceiveTargets
+from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.errors import ConfigError
+from mission.core.types import Frame
 from mission.sim_run import RunOutcome, run_scenario, shipped_config
 from sim.config import apply_overrides
 from sim.scenario import load_scenario
@@ -168,3 +172,20 @@ def test_a_fault_setting_out_of_range_is_one_line_naming_the_key() -> None:
 def test_without_faults_the_report_has_no_fault_section(tmp_path: Path) -> None:
     outcome = run_with(tmp_path, {}, seconds=2.0)
     assert outcome.faults == {}
+
+
+def test_a_frame_older_than_max_frame_age_is_dropped_when_the_age_limit_is_set() -> None:
+    src = ScriptedSource("scripted", lambda frame: [])
+    node = PerceiveTargets("perceive", deps=Dependencies(sources=[src]), max_frame_age_s=0.5)
+    node.setup()
+    bb = board()
+    bbk.set_(bb, bbk.CLOCK, 10.0)
+    bbk.set_(bb, bbk.FRAME, Frame(image=IMAGE, stamp=9.0))  # 1 s old on the clock
+    bbk.set_(bb, bbk.FRAME_SEQ, 1)
+    tick(node)
+    assert src.calls == 0 and read(bbk.PERCEPTION_STATS)["frames_stale"] == 1
+    assert "max_frame_age_s" in node.feedback_message
+    bbk.set_(bb, bbk.FRAME, Frame(image=IMAGE, stamp=9.8))
+    bbk.set_(bb, bbk.FRAME_SEQ, 2)
+    tick(node)
+    assert src.calls == 1 and read(bbk.PERCEPTION_STATS)["frames_processed"] == 1
