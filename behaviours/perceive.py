@@ -72,15 +72,16 @@ class PerceiveTargets(MissionLeaf):
 
     NODE_TYPE = "Action"
     PORTS: ClassVar[dict[str, Port]] = {}
+    # Frames older than this on CLOCK are stale (s); 0 = off: ROS camera stamps need not share CLOCK's time
+    # base. Set on the instance (``node.max_frame_age_s = 0.5``); not a port, so the catalogue is unchanged.
+    MAX_FRAME_AGE_S: ClassVar[float] = 0.0
     READS = (bbk.FRAME, bbk.FRAME_SEQ)
     WRITES = (bbk.DETECTIONS, bbk.TRACKS, bbk.PERCEPTION_STATS)
 
-    def __init__(
-        self, name: str = "PerceiveTargets", *, deps: Dependencies | None = None, max_frame_age_s: float = 0.0
-    ) -> None:
+    def __init__(self, name: str = "PerceiveTargets", *, deps: Dependencies | None = None) -> None:
         super().__init__(name)
         self.deps = deps if deps is not None else Dependencies()
-        self.max_frame_age_s = float(max_frame_age_s)  # 0: off (ROS camera stamps need not share CLOCK's base)
+        self.max_frame_age_s = self.MAX_FRAME_AGE_S
         self._last_key: object = None
         self._last_stamp: float | None = None
         self._last_image: object = None

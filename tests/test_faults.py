@@ -176,7 +176,8 @@ def test_without_faults_the_report_has_no_fault_section(tmp_path: Path) -> None:
 
 def test_a_frame_older_than_max_frame_age_is_dropped_when_the_age_limit_is_set() -> None:
     src = ScriptedSource("scripted", lambda frame: [])
-    node = PerceiveTargets("perceive", deps=Dependencies(sources=[src]), max_frame_age_s=0.5)
+    node = PerceiveTargets("perceive", deps=Dependencies(sources=[src]))
+    node.max_frame_age_s = 0.5
     node.setup()
     bb = board()
     bbk.set_(bb, bbk.CLOCK, 10.0)
