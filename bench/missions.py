@@ -1,0 +1,295 @@
+"""Benchmark: mission outcomes over many seeds per scenario, against the design notes' targets.
+
+Each run is ``mission.sim_run.run_scenario(name, seed=…)`` — the code path of ``mission run`` — in a
+worker process (one per core, spawned; a rich progress bar on stderr). Every finished run is appended
+to ``<out>/missions_runs.jsonl`` as it completes, so a cut-short sweep still leaves its data.
+
+Per scenario: success rate (target ≥ 90 %), loss events and the fraction recovered (≥ 90 %),
+occlusion-detection latency (≤ 0.5 s), re-acquisition time (≤ 10 s), goal jitter while the target
+stands still (< 0.2 m s.d.), docking errors (lateral ≤ 3 cm, distance ≤ 2.5 cm, skew ≤ 10°), collisions,
+and the failure reasons. The baseline of every figure is its design target (seeds/001 and 002).
+
+Knobs (environment, for the lead's re-runs): ``MISSION_BENCH_SEEDS`` (default 20; --quick: 1),
+``MISSION_BENCH_SCENARIOS`` (comma-separated), ``MISSION_BENCH_BUDGET_S`` (stop starting runs after
+this many wall seconds and report what finished).
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.common import Figure, pct, progress
+
+SCENARIOS = ("follow_occlusion", "search_corner", "explore_dock", "mission_full")
+QUICK_SCENARIOS = ("follow_occlusion", "explore_dock")
+QUICK_MAX_DURATION_S = 12.0
+TARGETS = {
+    "success_rate": 0.90,
+    "loss_recovered": 0.90,
+    "occlusion_latency_s": 0.5,
+    "reacquisition_s": 10.0,
+    "goal_jitter_m": 0.2,
+    "dock_lateral_m": 0.03,
+    "dock_distance_m": 0.025,
+    "dock_skew_deg": 10.0,
+}
+DESIGN = "design target (seeds/001 follow coordinator, seeds/002 docking)"
+
+
+def _one(task: tuple[str, int, float | None]) -> dict[str, Any]:
+    """One simulated run in a worker process (imports here: the parent never touches pybullet for this)."""
+    name, seed, max_duration = task
+    from mission.sim_run import run_scenario
+
+    t0 = time.perf_counter()
+    try:
+        outcome, _, _ = run_scenario(name, seed=seed, max_duration=max_duration)
+        res = outcome.to_json()
+    except Exception as err:  # a crashed run is a failed run, with its reason
+        res = {"scenario": name, "seed": seed, "success": False, "reason": f"crashed: {type(err).__name__}: {err}",
+               "metrics": {}, "sim_time_s": 0.0}  # fmt: skip
+    res["wall_time_s"] = round(time.perf_counter() - t0, 2)
+    return res
+
+
+def sweep(tasks: list[tuple[str, int, float | None]], workers: int, log: Path,
+          budget_s: float | None) -> tuple[list[dict[str, Any]], bool]:  # fmt: skip
+    """Run `tasks` on `workers` processes with a progress bar; (results, cut short by the budget)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    results: list[dict[str, Any]] = []
+    cut = False
+    t0 = time.perf_counter()
+    log.write_text("")
+    ctx = mp.get_context("spawn")
+    columns = (TextColumn("missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+               TextColumn("{task.description}"))  # fmt: skip
+    with (
+        ctx.Pool(workers, maxtasksperchild=4) as pool,
+        Progress(
+            *columns, transient=False, redirect_stdout=False, redirect_stderr=False, console=Console(stderr=True)
+        ) as bar,
+    ):
+        job = bar.add_task("", total=len(tasks))
+        for res in pool.imap_unordered(_one, tasks, chunksize=1):
+            results.append(res)
+            with log.open("a") as f:
+                f.write(json.dumps(res, default=str) + "\n")
+            ok = sum(1 for r in results if r.get("success"))
+            bar.update(job, advance=1, description=f"{res['scenario']} seed {res['seed']}: "
+                       f"{'ok' if res.get('success') else 'FAIL'} ({ok}/{len(results)} ok)")  # fmt: skip
+            if budget_s is not None and time.perf_counter() - t0 > budget_s and len(results) < len(tasks):
+                cut = True
+                pool.terminate()
+                break
+    return results, cut
+
+
+def _total(runs: list[dict[str, Any]], key: str) -> float:
+    return sum(float(r.get(key, 0)) for r in runs)
+
+
+def _vals(runs: list[dict[str, Any]], path: tuple[str, ...]) -> list[float]:
+    out = []
+    for r in runs:
+        v: Any = r.get("metrics", {})
+        for p in path:
+            v = v.get(p) if isinstance(v, dict) else None
+        if isinstance(v, (int, float)):
+            out.append(float(v))
+    return out
+
+
+def aggregate(name: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
+    """One scenario's figures over its runs (per-run stats pooled: medians of medians, max of maxima)."""
+    n = len(runs)
+    ok = sum(1 for r in runs if r.get("success"))
+    losses = sum(_vals(runs, ("loss_events",)))
+    recovered = sum(_vals(runs, ("loss_events_recovered",)))
+    reasons: dict[str, int] = {}
+    for r in runs:
+        if not r.get("success"):
+            key = str(r.get("reason", "?")).split(":")[0][:60]
+            reasons[key] = reasons.get(key, 0) + 1
+    docks = [r["metrics"]["dock"] for r in runs if isinstance(r.get("metrics", {}).get("dock"), dict)]
+    return {
+        "runs": n,
+        "seeds": sorted(int(r["seed"]) for r in runs),
+        "success_rate": round(ok / n, 3) if n else None,
+        "loss_events": int(losses),
+        "loss_events_recovered": int(recovered),
+        "loss_recovered_fraction": round(recovered / losses, 3) if losses else None,
+        "occlusion_latency_s_median": pct(_vals(runs, ("occlusion_detection_latency_s", "median")), 50),
+        "occlusion_latency_s_max": max(_vals(runs, ("occlusion_detection_latency_s", "max")), default=None),
+        "occlusions_detected": int(sum(_vals(runs, ("occlusions_detected",)))),
+        "occlusions_over_0_5s": int(sum(_vals(runs, ("occlusions_over_0_5s",)))),
+        "reacquisition_s_median": pct(_vals(runs, ("reacquisition_time_s", "median")), 50),
+        "reacquisition_s_max": max(_vals(runs, ("reacquisition_time_s", "max")), default=None),
+        "goal_jitter_m_median": pct(_vals(runs, ("goal_jitter_sd_m",)), 50, 4),
+        "goal_jitter_m_max": max(_vals(runs, ("goal_jitter_sd_m",)), default=None),
+        "docked_runs": len(docks),
+        "dock_lateral_m_median": pct([d["lateral_m"] for d in docks], 50, 4),
+        "dock_lateral_m_max": max((d["lateral_m"] for d in docks), default=None),
+        "dock_distance_m_median": pct([d["distance_m"] for d in docks], 50, 4),
+        "dock_distance_m_max": max((d["distance_m"] for d in docks), default=None),
+        "dock_skew_deg_median": pct([d["skew_deg"] for d in docks], 50, 2),
+        "dock_skew_deg_max": max((d["skew_deg"] for d in docks), default=None),
+        "collisions": int(sum(_vals(runs, ("collisions",)))),
+        "failure_reasons": reasons,
+        "sim_s_per_wall_s": round(_total(runs, "sim_time_s") / max(1e-9, _total(runs, "wall_time_s")), 2),
+    }
+
+
+def _figures(name: str, a: dict[str, Any]) -> list[Figure]:
+    def le(v: float | None, t: float) -> bool | None:
+        return None if v is None else v <= t
+
+    f = [
+        Figure(
+            f"{name}: success rate ({a['runs']} seeds)",
+            a["success_rate"],
+            "fraction",
+            baseline=DESIGN,
+            baseline_value=TARGETS["success_rate"],
+            target="≥ 0.90",
+            meets_target=None if a["success_rate"] is None else a["success_rate"] >= TARGETS["success_rate"],
+        )
+    ]
+    if a["loss_events"]:
+        frac = a["loss_recovered_fraction"]
+        f.append(
+            Figure(
+                f"{name}: loss events recovered ({a['loss_events_recovered']}/{a['loss_events']})",
+                frac,
+                "fraction",
+                baseline=DESIGN,
+                baseline_value=TARGETS["loss_recovered"],
+                target="≥ 0.90",
+                meets_target=frac >= TARGETS["loss_recovered"],
+            )
+        )
+    if a["occlusion_latency_s_max"] is not None:
+        f.append(
+            Figure(
+                f"{name}: occlusion-detection latency, worst run (median of runs {a['occlusion_latency_s_median']} s)",
+                a["occlusion_latency_s_max"],
+                "s",
+                baseline=DESIGN,
+                baseline_value=TARGETS["occlusion_latency_s"],
+                target="≤ 0.5 s",
+                meets_target=le(a["occlusion_latency_s_max"], TARGETS["occlusion_latency_s"]),
+            )
+        )
+    if a["reacquisition_s_max"] is not None:
+        f.append(
+            Figure(
+                f"{name}: re-acquisition time, worst run (median of runs {a['reacquisition_s_median']} s)",
+                a["reacquisition_s_max"],
+                "s",
+                baseline=DESIGN,
+                baseline_value=TARGETS["reacquisition_s"],
+                target="≤ 10 s",
+                meets_target=le(a["reacquisition_s_max"], TARGETS["reacquisition_s"]),
+            )
+        )
+    if a["goal_jitter_m_max"] is not None:
+        f.append(
+            Figure(
+                f"{name}: goal jitter s.d. while the target stands still, worst run (median "
+                f"{a['goal_jitter_m_median']} m)",
+                a["goal_jitter_m_max"],
+                "m",
+                baseline=DESIGN,
+                baseline_value=TARGETS["goal_jitter_m"],
+                target="< 0.2 m",
+                meets_target=a["goal_jitter_m_max"] < TARGETS["goal_jitter_m"],
+            )
+        )
+    if a["docked_runs"]:
+        for key, unit, tgt in (("lateral_m", "m", "≤ 0.03 m"), ("distance_m", "m", "≤ 0.025 m"),
+                               ("skew_deg", "°", "≤ 10°")):  # fmt: skip
+            v = a[f"dock_{key}_max"]
+            f.append(
+                Figure(
+                    f"{name}: docking {key.split('_')[0]} error, worst of {a['docked_runs']} docks (median "
+                    f"{a[f'dock_{key}_median']})",
+                    v,
+                    unit,
+                    baseline=DESIGN,
+                    baseline_value=TARGETS[f"dock_{key}"],
+                    target=tgt,
+                    meets_target=le(v, TARGETS[f"dock_{key}"]),
+                )
+            )
+    return f  # fmt: skip
+
+
+def run(quick: bool, out: Path) -> dict[str, Any]:
+    scen_env = os.environ.get("MISSION_BENCH_SCENARIOS")
+    scenarios = tuple(s.strip() for s in scen_env.split(",")) if scen_env else (QUICK_SCENARIOS if quick else SCENARIOS)
+    seeds = int(os.environ.get("MISSION_BENCH_SEEDS", "1" if quick else "20"))
+    budget = float(os.environ["MISSION_BENCH_BUDGET_S"]) if os.environ.get("MISSION_BENCH_BUDGET_S") else None
+    max_duration = QUICK_MAX_DURATION_S if quick else None
+    tasks = [(s, seed, max_duration) for seed in range(seeds) for s in scenarios]  # seed-major: fair when cut
+    workers = max(1, min(os.cpu_count() or 1, len(tasks)))
+    progress(f"missions: {len(tasks)} runs ({seeds} seeds × {len(scenarios)} scenarios) on {workers} processes")
+    t0 = time.perf_counter()
+    results, cut = sweep(tasks, workers, out / "missions_runs.jsonl", budget)
+    wall = time.perf_counter() - t0
+    per: dict[str, Any] = {}
+    figures: list[Figure] = []
+    for s in scenarios:
+        runs = [r for r in results if r["scenario"] == s]
+        if not runs:
+            continue
+        per[s] = aggregate(s, runs)
+        figures += _figures(s, per[s])
+    plot = _plot(per, out) if per else None
+    return {
+        "title": "Mission outcomes over seeds per scenario vs the design targets"
+                 + (" (QUICK: runs cut at 12 s simulated — a smoke test, not outcome figures)" if quick else ""),
+        "figures": [f.to_json() for f in figures],
+        "details": {"scenarios": per, "seeds_requested": seeds, "runs_finished": len(results),
+                    "runs_requested": len(tasks), "cut_short_by_budget": cut, "workers": workers,
+                    "wall_s": round(wall, 1), "max_duration_s": max_duration,
+                    "runs_log": "missions_runs.jsonl"},
+        "plots": [plot] if plot else [],
+    }  # fmt: skip
+
+
+def _plot(per: dict[str, Any], out: Path) -> str:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(per)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    x = np.arange(len(names))
+    axes[0].bar(x - 0.2, [per[n]["success_rate"] or 0 for n in names], 0.4, label="success rate")
+    axes[0].bar(x + 0.2, [per[n]["loss_recovered_fraction"] or 0 for n in names], 0.4, label="losses recovered")
+    axes[0].axhline(0.9, color="grey", ls="--", lw=0.8, label="target 0.9")
+    axes[0].set_xticks(x, [f"{n}\n({per[n]['runs']} runs)" for n in names], fontsize=8)
+    axes[0].set_ylim(0, 1.05)
+    axes[0].legend(fontsize=7)
+    axes[0].set_title("Outcomes")
+    axes[1].bar(x - 0.2, [per[n]["reacquisition_s_max"] or 0 for n in names], 0.4, label="re-acquisition, worst (s)")
+    axes[1].bar(x + 0.2, [(per[n]["occlusion_latency_s_max"] or 0) * 10 for n in names], 0.4,
+                label="occlusion latency, worst (×0.1 s)")  # fmt: skip
+    axes[1].axhline(10, color="grey", ls="--", lw=0.8, label="targets (10 s; 0.5 s)")
+    axes[1].set_xticks(x, names, fontsize=8)
+    axes[1].legend(fontsize=7)
+    axes[1].set_title("Loss handling")
+    fig.tight_layout()
+    name = "missions.png"
+    fig.savefig(out / name, dpi=110)
+    plt.close(fig)
+    return name
