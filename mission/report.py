@@ -20,17 +20,9 @@ from matplotlib.collections import LineCollection
 
 from mission.core.types import OccupancyGrid
 from mission.metrics import MetricsRecorder
+from mission.viz.style import STATE_COLOURS
 
-STATE_COLOURS = {
-    "EXPLORE": "#7f7f7f",
-    "DOCK": "#9467bd",
-    "FOLLOW": "#2ca02c",
-    "LOST": "#ff7f0e",
-    "SEARCH": "#d62728",
-    "DONE": "#1f77b4",
-    "FAILED": "#000000",
-    "": "#c7c7c7",
-}
+NO_STATE = "#c7c7c7"  # ticks before the mission state is first written
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
@@ -91,7 +83,7 @@ def plot_trajectories(
     xy = np.asarray(rec.robot_xy)
     if len(xy) > 1:
         segs = np.stack([xy[:-1], xy[1:]], axis=1)
-        colours = [STATE_COLOURS.get(s, "#c7c7c7") for s in rec.states[1:]]
+        colours = [STATE_COLOURS.get(s, NO_STATE) for s in rec.states[1:]]
         ax.add_collection(LineCollection(segs, colors=colours, linewidths=2.5))
         ax.plot(*xy[0], "o", color="black", ms=6, label="robot start")
         ax.plot(*xy[-1], "^", color="black", ms=8, label="robot end")
@@ -99,7 +91,7 @@ def plot_trajectories(
         ax.plot(*dock_xy, "P", color="#9467bd", ms=11, label="dock tag")
     for state in dict.fromkeys(rec.states):
         if state:
-            ax.plot([], [], color=STATE_COLOURS.get(state, "#c7c7c7"), lw=3, label=state)
+            ax.plot([], [], color=STATE_COLOURS.get(state, NO_STATE), lw=3, label=state)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -116,7 +108,7 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
         rows = {"state": 2.0, "line of sight": 1.0, "in view": 0.0}
         for i in range(len(t) - 1):
             w = t[i + 1] - t[i]
-            ax_s.barh(rows["state"], w, left=t[i], height=0.8, color=STATE_COLOURS.get(rec.states[i], "#c7c7c7"))
+            ax_s.barh(rows["state"], w, left=t[i], height=0.8, color=STATE_COLOURS.get(rec.states[i], NO_STATE))
             ax_s.barh(rows["line of sight"], w, left=t[i], height=0.8, color="#2ca02c" if rec.los[i] else "#d62728")
             ax_s.barh(rows["in view"], w, left=t[i], height=0.8, color="#2ca02c" if rec.fov[i] else "#d9d9d9")
         ax_s.set_yticks(list(rows.values()), list(rows.keys()))
