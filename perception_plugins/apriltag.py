@@ -57,9 +57,9 @@ class TransformSpec(StrictModel):
     ``rpy`` is URDF's: roll about x, pitch about y, yaw about z, fixed axes (R = Rz(yaw)·Ry(pitch)·Rx(roll)).
     """
 
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    quat: tuple[float, float, float, float] | None = None
-    rpy: tuple[float, float, float] | None = None
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # translation, metres
+    quat: tuple[float, float, float, float] | None = None  # rotation as (x, y, z, w); or give rpy
+    rpy: tuple[float, float, float] | None = None  # rotation as URDF roll, pitch, yaw (rad)
 
     @model_validator(mode="after")
     def _one_rotation(self) -> TransformSpec:
@@ -92,13 +92,13 @@ class TagSpec(StrictModel):
 class AprilTagParams(StrictModel):
     """Params of the `apriltag` source (config ``perception.sources[i].params``)."""
 
-    family: str = "tag36h11"
-    backend: Literal["apriltag3", "opencv"] = "apriltag3"
+    family: str = "tag36h11"  # tag36h11, tag25h9, tag16h5, tagStandard41h12 (where the backend has it)
+    backend: Literal["apriltag3", "opencv"] = "apriltag3"  # pupil-apriltags or OpenCV aruco (BENCHMARKS.md)
     tag_size_m: PositiveFloat = 0.15  # black-border side (m) of tags the table does not size
     tags: dict[int, TagSpec] = Field(default_factory=dict)  # id → entity; "402: autobot03" is short for {name: …}
     ignore_unknown: bool = False  # drop tags that are not in the table
     camera_mount: TransformSpec | None = None  # T_base_camera: robot base → camera optical frame
-    report_frame: Literal["camera", "base"] = "camera"
+    report_frame: Literal["camera", "base"] = "camera"  # base: robot base → entity base (camera_mount)
     base_frame: str = Field("base_link", min_length=1)  # frame_id of detections when report_frame is base
     decimate: float = Field(2.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate (opencv: not used)
     threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)

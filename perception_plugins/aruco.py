@@ -51,7 +51,7 @@ class ArucoParams(StrictModel):
     marker_size_m: PositiveFloat = 0.049  # black square's side, metres
     marker_sizes: dict[int, PositiveFloat] = Field(default_factory=dict)  # per-id override
     allowed_ids: list[int] | None = None  # None = report every id of the dictionary
-    corner_refinement: Literal["subpix", "none", "contour", "apriltag"] = "subpix"
+    corner_refinement: Literal["subpix", "none", "contour", "apriltag"] = "subpix"  # OpenCV's CORNER_REFINE_* method
     disambiguation: Literal["temporal", "naive"] = "temporal"  # naive = lowest error per frame (baseline)
 
 

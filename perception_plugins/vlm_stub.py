@@ -63,35 +63,35 @@ class VlmStubParams(StrictModel):
 
     target_label: str = Field("red box", min_length=1)  # what to find: a colour word + optional shape word
     client: str = "stub"  # "stub", or "package.module:Class" of a VlmClient built with client_params
-    client_params: dict[str, Any] = Field(default_factory=dict)
+    client_params: dict[str, Any] = Field(default_factory=dict)  # keyword arguments for the client's constructor
     confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
     daily_quota: int = Field(20, ge=0)  # model calls per UTC day, shared by everything using state_file
     state_file: str | None = None  # None = $XDG_CACHE_HOME/mission/vlm_quota_<client>.json
     # "wall": budget and latency in wall-clock time, budget persisted (a real model); "frame": in frame
     # stamps, nothing persisted — a simulation's time base, so seeded sim runs repeat whatever the CPU speed
-    clock: Literal["wall", "frame"] = "wall"
+    clock: Literal["wall", "frame"] = "wall"  # wall: real time, quota on disk; frame: frame stamps (sim)
     # the stub's imitation of a remote model
-    latency_s: float = Field(1.0, ge=0.0)
-    miss_rate: float = Field(0.05, ge=0.0, le=1.0)
+    latency_s: float = Field(1.0, ge=0.0)  # seconds from request to answer
+    miss_rate: float = Field(0.05, ge=0.0, le=1.0)  # fraction of calls answered with nothing
     pixel_noise: float = Field(2.0, ge=0.0)  # px, standard deviation
-    seed: int = 0
-    min_blob_area_px: int = Field(40, ge=1)
+    seed: int = 0  # seed of the stub's misses and pixel noise
+    min_blob_area_px: int = Field(40, ge=1)  # smaller colour blobs are not the object
     # the latch
     latch_in_map: bool = True  # false: no latch — each answer is emitted once (for moving targets)
     map_frame: str = Field("map", min_length=1)  # the anchor frame frames must carry (Frame.anchor_frame)
-    republish_rate_hz: float = Field(30.0, gt=0.0)
-    min_consecutive_detections: int = Field(3, ge=1)
-    latch_position_tolerance_m: float = Field(0.10, gt=0.0)
-    max_failed_latch_attempts: int = Field(5, ge=1)
+    republish_rate_hz: float = Field(30.0, gt=0.0)  # rate of the latched pose, re-projected into the camera
+    min_consecutive_detections: int = Field(3, ge=1)  # agreeing answers needed to latch
+    latch_position_tolerance_m: float = Field(0.10, gt=0.0)  # answers agree when this close in the map frame
+    max_failed_latch_attempts: int = Field(5, ge=1)  # failures before the circuit breaker stops calls
     # the pose from depth
-    patch_radius_m: float = Field(0.05, gt=0.0)
-    mad_k: float = Field(2.5, gt=0.0)
+    patch_radius_m: float = Field(0.05, gt=0.0)  # depth patch around the answered pixel
+    mad_k: float = Field(2.5, gt=0.0)  # depth outliers beyond k × MAD are dropped
     # keeping a latched pose honest
-    republish_only_in_view: bool = True
-    verify_with_depth: bool = True
-    depth_tolerance_m: float = Field(0.25, gt=0.0)
-    stale_after_frames: int = Field(15, ge=1)
+    republish_only_in_view: bool = True  # emit the latch only while it projects into the image
+    verify_with_depth: bool = True  # compare the latch with the measured depth each frame
+    depth_tolerance_m: float = Field(0.25, gt=0.0)  # depth farther than expected by more than this is a miss
+    stale_after_frames: int = Field(15, ge=1)  # consecutive depth misses that drop the latch
     max_latch_age_s: float = Field(0.0, ge=0.0)  # 0 = a latch never expires by age
 
 
