@@ -58,9 +58,20 @@ def _type_name(annotation: Any) -> str:
     return re.sub(r"\b[\w.]+\.(\w+)", r"\1", text).replace("|", "\\|")
 
 
+class _ModelDefault:
+    """A sub-model default shown as ``Marker(face='left')``: only what differs from that model's own table."""
+
+    def __init__(self, value: BaseModel) -> None:
+        self.value = value
+
+    def __repr__(self) -> str:
+        fields = self.value.model_dump(exclude_defaults=True)
+        return f"{type(self.value).__name__}({', '.join(f'{k}={v!r}' for k, v in fields.items())})"
+
+
 def _plain(value: Any) -> Any:
     if isinstance(value, BaseModel):
-        return value.model_dump(exclude_none=True)
+        return _ModelDefault(value)
     if isinstance(value, list | tuple):
         return type(value)(_plain(v) for v in value)
     if isinstance(value, dict):

@@ -31,10 +31,10 @@ RGB = tuple[float, float, float]
 
 class Room(StrictModel):
     size: Vec2 = (8.0, 8.0)  # inner size x, y (m); the room spans [0, sx] × [0, sy]
-    wall_height: float = Field(1.0, gt=0)
-    wall_thickness: float = Field(0.1, gt=0)
-    wall_color: RGB = (0.82, 0.80, 0.74)
-    floor_color: RGB = (0.55, 0.55, 0.57)
+    wall_height: float = Field(1.0, gt=0)  # m
+    wall_thickness: float = Field(0.1, gt=0)  # m
+    wall_color: RGB = (0.82, 0.80, 0.74)  # RGB 0–1
+    floor_color: RGB = (0.55, 0.55, 0.57)  # RGB 0–1
 
     @model_validator(mode="after")
     def _positive(self) -> Room:
@@ -46,15 +46,15 @@ class Room(StrictModel):
 class Obstacle(StrictModel):
     """A box or an upright cylinder standing on the floor."""
 
-    shape: Literal["box", "cylinder"] = "box"
-    x: float
-    y: float
+    shape: Literal["box", "cylinder"] = "box"  # box or cylinder
+    x: float  # centre in the map frame (m)
+    y: float  # centre in the map frame (m)
     yaw_deg: float = 0.0  # boxes only
     size: Vec3 = (0.5, 0.5, 1.0)  # box: full extents x, y, z (m)
     radius: float = Field(0.15, gt=0)  # cylinder
     height: float = Field(1.0, gt=0)  # cylinder
-    color: RGB = (0.45, 0.47, 0.52)
-    name: str | None = None
+    color: RGB = (0.45, 0.47, 0.52)  # RGB 0–1
+    name: str | None = None  # for messages and reports
 
     @property
     def top(self) -> float:
@@ -67,126 +67,128 @@ class Jitter(StrictModel):
 
 
 class RobotSpec(StrictModel):
-    x: float = 1.0
-    y: float = 1.0
-    yaw_deg: float = 0.0
+    x: float = 1.0  # start position in the map frame (m)
+    y: float = 1.0  # start position in the map frame (m)
+    yaw_deg: float = 0.0  # start heading (°, 0 = +x)
     radius: float = Field(0.22, gt=0.05, le=1.0)  # round base: the collision footprint
-    height: float = Field(0.28, gt=0)
+    height: float = Field(0.28, gt=0)  # m
     max_v: float = Field(0.6, gt=0)  # m/s
     max_w: float = Field(2.0, gt=0)  # rad/s
     acc_v: float = Field(2.5, gt=0)  # m/s², Nav2 DWB's acc_lim_x
     acc_w: float = Field(3.2, gt=0)  # rad/s², Nav2 DWB's acc_lim_theta
-    color: RGB = (0.15, 0.15, 0.17)
+    color: RGB = (0.15, 0.15, 0.17)  # RGB 0–1
 
 
 class Marker(StrictModel):
     face: Literal["front", "back", "left", "right"] = "back"  # box faces: front = +x of the target body
-    dictionary: str = "DICT_APRILTAG_36h11"
-    id: int = Field(7, ge=0)
+    dictionary: str = "DICT_APRILTAG_36h11"  # an OpenCV dictionary name (DICT_APRILTAG_36h11 is tag36h11)
+    id: int = Field(7, ge=0)  # marker id in that dictionary
     size_m: float = Field(0.20, gt=0)  # side of the black square (what a detector's marker_size means)
     quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
     height_m: float | None = None  # centre height above the floor; default: camera height, capped by the box
 
 
 class Waypoint(StrictModel):
-    x: float
-    y: float
+    x: float  # map frame (m)
+    y: float  # map frame (m)
     pause_s: float = Field(0.0, ge=0)  # wait here before going on
     speed_mps: float | None = Field(None, gt=0)  # speed on the leg towards this waypoint (default: target's)
+
+
+_FACES = ("back", "left", "right")  # a target's default marked faces
 
 
 class TargetSpec(StrictModel):
     """A box carrying markers that drives along waypoints (a person-sized stand-in for the followed thing)."""
 
-    x: float = 3.0
-    y: float = 1.0
-    yaw_deg: float = 0.0
-    size: Vec3 = (0.40, 0.40, 0.70)
+    x: float = 3.0  # start position in the map frame (m)
+    y: float = 1.0  # start position in the map frame (m)
+    yaw_deg: float = 0.0  # start heading (°)
+    size: Vec3 = (0.40, 0.40, 0.70)  # box extents x, y, z (m)
     color: RGB = (0.85, 0.08, 0.08)  # red: the VLM stub looks for a "red box"
-    label: str = "red box"
-    markers: list[Marker] = Field(default_factory=lambda: [Marker(face="back"), Marker(face="left"),
-                                                           Marker(face="right")])  # fmt: skip
-    waypoints: list[Waypoint] = Field(default_factory=list)
-    speed_mps: float = Field(0.35, gt=0)
-    turn_rate_dps: float = Field(120.0, gt=0)
-    start_delay_s: float = Field(2.0, ge=0)
+    label: str = "red box"  # what the VLM source is asked to find
+    markers: list[Marker] = Field(default_factory=lambda: [Marker(face=f) for f in _FACES])  # its tags
+    waypoints: list[Waypoint] = Field(default_factory=list)  # the path the target walks, in order
+    speed_mps: float = Field(0.35, gt=0)  # walking speed (m/s)
+    turn_rate_dps: float = Field(120.0, gt=0)  # turning speed at waypoints (°/s)
+    start_delay_s: float = Field(2.0, ge=0)  # standing still before it starts walking
     loop: bool = False  # after the last waypoint drive back to the first and around again
 
 
 class DockSpec(StrictModel):
     """A wall-mounted tag; the approach axis is the tag's normal (yaw_deg: the direction it faces)."""
 
-    x: float
-    y: float
+    x: float  # tag centre in the map frame (m)
+    y: float  # tag centre in the map frame (m)
     yaw_deg: float  # direction the tag face points, i.e. the robot approaches along yaw_deg + 180°
     z: float | None = None  # tag centre height; default: camera height
-    dictionary: str = "DICT_APRILTAG_36h11"
-    id: int = Field(0, ge=0)
-    size_m: float = Field(0.15, gt=0)
-    quiet_cells: int = Field(1, ge=1, le=4)
+    dictionary: str = "DICT_APRILTAG_36h11"  # an OpenCV dictionary name
+    id: int = Field(0, ge=0)  # tag id
+    size_m: float = Field(0.15, gt=0)  # side of the black square (m)
+    quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
 
 
 class Lighting(StrictModel):
     direction: Vec3 = (0.4, -0.3, 1.0)  # towards the light
-    ambient: float = Field(0.6, ge=0, le=1)
-    diffuse: float = Field(0.4, ge=0, le=1)
-    specular: float = Field(0.05, ge=0, le=1)
+    ambient: float = Field(0.6, ge=0, le=1)  # pybullet ambient coefficient
+    diffuse: float = Field(0.4, ge=0, le=1)  # pybullet diffuse coefficient
+    specular: float = Field(0.05, ge=0, le=1)  # pybullet specular coefficient
     image_noise_sigma: float = Field(2.0, ge=0)  # Gaussian noise (grey levels) added to every image
 
 
 class Mount(StrictModel):
     """Camera optical centre in the base frame (x forward, y left, z up); pitch down positive."""
 
-    x: float = 0.17
-    y: float = 0.0
-    z: float = 0.35
-    pitch_deg: float = 0.0
+    x: float = 0.17  # forward of the robot base (m)
+    y: float = 0.0  # left of the robot base (m)
+    z: float = 0.35  # above the floor (m)
+    pitch_deg: float = 0.0  # down is positive
 
 
 class CameraSpec(StrictModel):
-    width: int = Field(640, ge=16, le=4096)
-    height: int = Field(480, ge=16, le=4096)
-    vfov_deg: float = Field(60.0, gt=5, lt=170)
-    rate_hz: float = Field(15.0, gt=0, le=120)
-    renderer: Literal["tiny", "egl"] = "tiny"
-    depth: bool = False
-    near_m: float = Field(0.05, gt=0)
-    far_m: float = Field(20.0, gt=0)
+    width: int = Field(640, ge=16, le=4096)  # px
+    height: int = Field(480, ge=16, le=4096)  # px
+    vfov_deg: float = Field(60.0, gt=5, lt=170)  # vertical field of view (°); fx = fy from it
+    rate_hz: float = Field(15.0, gt=0, le=120)  # frames per simulated second
+    renderer: Literal["tiny", "egl"] = "tiny"  # tiny: TinyRenderer (CPU); egl: the EGL plugin where available
+    depth: bool = False  # also render a depth image in metres
+    near_m: float = Field(0.05, gt=0)  # clipping plane (m)
+    far_m: float = Field(20.0, gt=0)  # clipping plane (m)
     max_range_m: float = Field(6.0, gt=0)  # ground truth "in FOV" also needs the marker within this range
     mount: Mount = Field(default_factory=Mount)
 
 
 class LidarSpec(StrictModel):
-    beams: int = Field(360, ge=8, le=4096)
-    range_min_m: float = Field(0.12, ge=0)
-    range_max_m: float = Field(8.0, gt=0)
-    rate_hz: float = Field(10.0, gt=0, le=100)
+    beams: int = Field(360, ge=8, le=4096)  # rays per scan over 360°
+    range_min_m: float = Field(0.12, ge=0)  # m
+    range_max_m: float = Field(8.0, gt=0)  # m; beyond reads as inf
+    rate_hz: float = Field(10.0, gt=0, le=100)  # scans per simulated second
     height_m: float = Field(0.20, gt=0)  # scan plane above the floor
-    noise_sigma_m: float = Field(0.005, ge=0)
+    noise_sigma_m: float = Field(0.005, ge=0)  # Gaussian range noise (m)
 
 
 class MapSpec(StrictModel):
-    resolution: float = Field(0.05, gt=0.005, le=0.5)
+    resolution: float = Field(0.05, gt=0.005, le=0.5)  # occupancy grid cell size (m)
 
 
 class NavSpec(StrictModel):
     """The Nav2 stand-in (sim/navigator.py)."""
 
     inflation_m: float = Field(0.08, ge=0)  # clearance added to the robot radius when planning
-    goal_tolerance_m: float = Field(0.15, gt=0)
-    yaw_tolerance_rad: float = Field(0.2, gt=0)
-    max_v: float = Field(0.5, gt=0)
-    max_w: float = Field(1.5, gt=0)
-    lookahead_m: float = Field(0.45, gt=0)
-    replan_period_s: float = Field(2.0, gt=0)
+    goal_tolerance_m: float = Field(0.15, gt=0)  # succeeded within this distance of the goal
+    yaw_tolerance_rad: float = Field(0.2, gt=0)  # and within this heading
+    max_v: float = Field(0.5, gt=0)  # path following speed limit (m/s)
+    max_w: float = Field(1.5, gt=0)  # turn rate limit (rad/s)
+    lookahead_m: float = Field(0.45, gt=0)  # pure-pursuit look-ahead distance
+    replan_period_s: float = Field(2.0, gt=0)  # replan on the grid + lidar obstacles this often
     stuck_timeout_s: float = Field(8.0, gt=0)  # no progress for this long → failed
 
 
 class RandomSpec(StrictModel):
     """Per-seed variation (seed N of `mission run --seed N`)."""
 
-    start_xy_m: float = Field(0.10, ge=0)
-    start_yaw_deg: float = Field(5.0, ge=0)
+    start_xy_m: float = Field(0.10, ge=0)  # robot start jitter, uniform ± (m)
+    start_yaw_deg: float = Field(5.0, ge=0)  # robot start heading jitter, uniform ± (°)
     timing_frac: float = Field(0.15, ge=0, lt=1)  # target speed, pauses and start delay scaled by 1 ± this
     marker_shift_m: float = Field(0.005, ge=0)  # marker mounted off-centre on its face by up to this
     marker_tilt_deg: float = Field(1.0, ge=0)  # and rotated in its plane by up to this
@@ -195,27 +197,27 @@ class RandomSpec(StrictModel):
 class Success(StrictModel):
     """What the runner checks at the end: follow (keep following), dock (docked within tolerance), mission."""
 
-    kind: Literal["follow", "dock", "mission", "tree"] = "tree"
+    kind: Literal["follow", "dock", "mission", "tree"] = "tree"  # follow, dock, both, or the tree SUCCESS
     standoff_m: float = Field(0.30, gt=0)  # docking: camera-to-tag distance the dock means
 
 
 class Blackout(StrictModel):
-    at_s: float = Field(ge=0)
+    at_s: float = Field(ge=0)  # sim time it starts
     frames: int = Field(ge=1)  # camera periods without any frame
 
 
 class Dropout(StrictModel):
-    at_s: float = Field(ge=0)
-    duration_s: float = Field(gt=0)
+    at_s: float = Field(ge=0)  # sim time it starts
+    duration_s: float = Field(gt=0)  # how long
 
 
 class Teleport(StrictModel):
-    at_s: float = Field(ge=0)
+    at_s: float = Field(ge=0)  # sim time of the jump
     skip_s: float = Field(gt=0)  # the target jumps this much of its path's time ahead
 
 
 class Kick(StrictModel):
-    at_s: float = Field(ge=0)
+    at_s: float = Field(ge=0)  # sim time of the bump
     dx: float = 0.0  # map frame (m)
     dy: float = 0.0
     dyaw_deg: float = 0.0
@@ -251,21 +253,21 @@ class Faults(StrictModel):
 
 
 class Scenario(StrictModel):
-    name: str
-    description: str = ""
-    duration_s: float = Field(60.0, gt=0)
-    tree: str = "mission.xml"
+    name: str  # shown in reports
+    description: str = ""  # one line for people reading the file
+    duration_s: float = Field(60.0, gt=0)  # simulated seconds of the run
+    tree: str = "mission.xml"  # tree file (trees/ name or path) when the config does not choose one
     success: Success = Field(default_factory=Success)
-    room: Room = Field(default_factory=Room)
+    room: Room = Field(default_factory=Room)  # walls round the world
     obstacles: list[Obstacle] = Field(default_factory=list)  # static: in the pre-built map
     unknown_obstacles: list[Obstacle] = Field(default_factory=list)  # not in the map; the lidar sees them
-    robot: RobotSpec = Field(default_factory=RobotSpec)
+    robot: RobotSpec = Field(default_factory=RobotSpec)  # our robot
     target: TargetSpec | None = None
     dock: DockSpec | None = None
-    lighting: Lighting = Field(default_factory=Lighting)
-    camera: CameraSpec = Field(default_factory=CameraSpec)
-    lidar: LidarSpec = Field(default_factory=LidarSpec)
-    map: MapSpec = Field(default_factory=MapSpec)
+    lighting: Lighting = Field(default_factory=Lighting)  # light and image noise
+    camera: CameraSpec = Field(default_factory=CameraSpec)  # the robot camera
+    lidar: LidarSpec = Field(default_factory=LidarSpec)  # the robot 2D lidar
+    map: MapSpec = Field(default_factory=MapSpec)  # the pre-built occupancy grid
     navigation: NavSpec = Field(default_factory=NavSpec)
     random: RandomSpec = Field(default_factory=RandomSpec)
     faults: Faults = Field(default_factory=Faults)  # injected faults (sim/faults.py); none by default
