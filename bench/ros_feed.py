@@ -1,0 +1,262 @@
+"""Feeding ROS processes camera frames at a fixed rate and timing their answers (the ROS benchmarks' harness).
+
+Shared by bench/ros_transport.py (latency against baselines) and bench/soak.py (the node fed for 10
+minutes), so both talk to the node the same way:
+
+* :func:`ros_env` — the environment ``ros2 run`` gives the installed node (``install/setup.bash``) plus the
+  repo's shared-memory-only FastDDS profile (mission/ros/dds.py) and a private ROS_DOMAIN_ID (101–200, apart
+  from the tests' 1–100): nothing is sent on any network interface, and no other run on the machine hears us.
+  It also sets those variables in ``os.environ``, because the in-process rclpy reads them at ``init``.
+* :class:`Subprocess` — a ROS process under test (the installed node, or a baseline node) with its log.
+* :class:`Feeder` — an rclpy node in this process publishing Image + CameraInfo at ``hz`` to whichever
+  :class:`Subject` is active and timing, per subject, publish → answer (matched by the header stamp).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mission.core.errors import MissionError
+from mission.core.types import CameraIntrinsics
+from mission.ros import dds
+
+ROOT = Path(__file__).resolve().parents[1]
+INSTALL = ROOT / "install"
+TREE_EXE = INSTALL / "mission" / "lib" / "mission" / "tree"
+CAMERA_FRAME = "camera_optical_frame"
+PENDING_MAX = 300  # unanswered stamps kept (frames without a marker get no answer)
+
+
+def build_ros() -> None:
+    """scripts/build_ros (cached, ~1 s when nothing changed); a MissionError with its output on failure."""
+    proc = subprocess.run([str(ROOT / "scripts" / "build_ros")], capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:] or ["no output"]
+        raise MissionError(f"scripts/build_ros failed ({tail[0]}); see build/colcon-build.log")
+
+
+def ros_env(domain_id: int | None = None) -> dict[str, str]:
+    """The environment of a ``ros2 run`` of our package on the shared-memory profile and a private domain.
+
+    Also applied to ``os.environ`` (this process's rclpy must use the same profile and domain).
+    """
+    dds_env = {
+        "FASTRTPS_DEFAULT_PROFILES_FILE": str(dds.shm_profile_path()),
+        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+        "ROS_DOMAIN_ID": str(domain_id if domain_id is not None else 101 + os.getpid() % 100),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
+    }
+    os.environ.update(dds_env)
+    setup = INSTALL / "setup.bash"
+    if not setup.is_file():
+        raise MissionError(f"{setup} does not exist; run scripts/build_ros first")
+    base = {**os.environ, "PATH": f"{ROOT / '.venv' / 'bin'}:{os.environ.get('PATH', '')}"}
+    out = subprocess.run(["bash", "-c", f"source {setup} >/dev/null && env -0"], capture_output=True, env=base,
+                         check=True).stdout  # fmt: skip
+    env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
+    env.update(dds_env)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+def node_command(marker_id: int, marker_size_m: float, tick_hz: float = 30.0) -> list[str]:
+    """The installed node in perception-only mode (the design notes' aruco_pose_streamer) for one marker."""
+    return [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={marker_size_m}",
+            "-p", f"target_marker_id:={marker_id}", "-p", f"tick_hz:={tick_hz:g}"]  # fmt: skip
+
+
+def rss_mb(pid: int | None = None) -> float:
+    """Resident set size of a process (this one by default) in MB, from /proc."""
+    for line in Path(f"/proc/{pid or 'self'}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+class Subprocess:
+    """A ROS process under test; stdout and stderr go to `log_path` (quoted when it dies)."""
+
+    def __init__(self, cmd: list[str], env: dict[str, str], log_path: Path) -> None:
+        self.log_path = log_path
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        self._log = log_path.open("wb")
+        self.proc = subprocess.Popen(cmd, env=env, stdout=self._log, stderr=subprocess.STDOUT, cwd=ROOT)
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def log_tail(self, lines: int = 3) -> str:
+        self._log.flush()
+        text = self.log_path.read_text(errors="replace").strip().splitlines()
+        return " | ".join(text[-lines:]) if text else "(empty log)"
+
+    def stop(self, timeout: float = 10.0) -> bool:
+        """SIGINT (what Ctrl-C and ros2 launch send), SIGKILL if it does not exit; True if it was alive."""
+        alive = self.proc.poll() is None
+        if alive:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._log.close()
+        return alive
+
+
+@dataclass(frozen=True)
+class Subject:
+    """Where a process under test reads frames and where it answers with a PoseStamped of the same stamp."""
+
+    name: str
+    image_topic: str = "/camera/image_raw"
+    info_topic: str = "/camera/camera_info"
+    answer_topic: str = "/detected_aruco_pose"
+
+
+def stamp_key(sec: int, nanosec: int) -> float:
+    """The key a stamp is matched by (µs: float stamps round-trip through header messages within 1 ns)."""
+    return round(sec + nanosec * 1e-9, 6)
+
+
+class Feeder:
+    """Publishes frames at `hz` to the active subject and times each answer (publish → callback, ms).
+
+    Frame `n` is ``views[(n // frames_per_view) % len(views)]`` with stamp ``1000 + n / hz``. The image
+    messages are built once per view (only the header changes), so the feeder's own cost per frame is
+    the publish. Runs its executor in a background thread; :meth:`close` stops it.
+    """
+
+    def __init__(self, subjects: list[Subject], views: list[np.ndarray], intrinsics: CameraIntrinsics,
+                 hz: float = 30.0, frames_per_view: int = 1, heartbeat_topic: str | None = None,
+                 name: str = "bench_feeder") -> None:  # fmt: skip
+        import rclpy
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.executors import SingleThreadedExecutor
+        from sensor_msgs.msg import CameraInfo, Image
+        from std_msgs.msg import String
+
+        from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
+        from mission.ros.messages import RclpyMessages
+
+        self.hz = hz
+        self.frames_per_view = frames_per_view
+        self.active: str | None = None  # the subject fed now; None: paused
+        self.published: dict[str, int] = {s.name: 0 for s in subjects}
+        self.latencies: dict[str, list[float]] = {s.name: [] for s in subjects}
+        self.heartbeat: dict[str, Any] = {}
+        self._lock = threading.Lock()
+        self._sent: dict[float, tuple[str, float]] = {}  # stamp → (subject, monotonic publish time)
+        self._n = 0
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        msgs = RclpyMessages()
+        self._images = [array_to_image(msgs, v, "bgr8", 0.0, CAMERA_FRAME) for v in views]
+        self._info = intrinsics_to_camera_info(msgs, intrinsics, 0.0, CAMERA_FRAME)
+        self._pubs: dict[str, tuple[Any, Any]] = {}
+        for s in subjects:
+            self._pubs[s.name] = (self.node.create_publisher(Image, s.image_topic, 10),
+                                  self.node.create_publisher(CameraInfo, s.info_topic, 10))  # fmt: skip
+            self.node.create_subscription(PoseStamped, s.answer_topic, self._on_answer, 10)
+        if heartbeat_topic:
+            self.node.create_subscription(String, heartbeat_topic, self._on_heartbeat, 10)
+        self.node.create_timer(1.0 / hz, self._publish)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    # -- executor thread ---------------------------------------------------------------------------
+    def _spin(self) -> None:
+        while not self._stop.is_set() and self.context.ok():
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def _publish(self) -> None:
+        subject = self.active
+        if subject is None:
+            return
+        n = self._n
+        self._n += 1
+        stamp = 1000.0 + n / self.hz
+        sec = int(stamp)
+        nanosec = round((stamp - sec) * 1e9)
+        if nanosec >= 1_000_000_000:
+            sec, nanosec = sec + 1, nanosec - 1_000_000_000
+        image = self._images[(n // self.frames_per_view) % len(self._images)]
+        for msg in (image, self._info):
+            msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+        pub_image, pub_info = self._pubs[subject]
+        pub_info.publish(self._info)
+        with self._lock:
+            self._sent[stamp_key(sec, nanosec)] = (subject, time.monotonic())
+            if len(self._sent) > PENDING_MAX:
+                for k in sorted(self._sent)[:-PENDING_MAX]:
+                    del self._sent[k]
+        pub_image.publish(image)
+        self.published[subject] += 1
+
+    def _on_answer(self, msg: Any) -> None:
+        now = time.monotonic()
+        key = stamp_key(msg.header.stamp.sec, msg.header.stamp.nanosec)
+        with self._lock:
+            sent = self._sent.pop(key, None)
+            if sent is not None:
+                self.latencies[sent[0]].append((now - sent[1]) * 1e3)
+
+    def _on_heartbeat(self, msg: Any) -> None:
+        d = json.loads(msg.data)
+        if d.get("status") == "running":
+            with self._lock:
+                self.heartbeat = {"t": time.monotonic(), **d}
+
+    # -- caller's thread ---------------------------------------------------------------------------
+    def take(self, subject: str) -> list[float]:
+        """The latencies (ms) recorded for `subject` since the last take, and forget them."""
+        with self._lock:
+            out, self.latencies[subject] = self.latencies[subject], []
+        return out
+
+    def newest_heartbeat(self) -> dict[str, Any]:
+        with self._lock:
+            return dict(self.heartbeat)
+
+    def feed_until_answer(self, subject: str, timeout: float, alive: Callable[[], bool] = lambda: True) -> bool:
+        """Feed `subject` until its first answer (it has subscribed and warmed up); False on timeout/death."""
+        self.active = subject
+        deadline = time.monotonic() + timeout
+        try:
+            while time.monotonic() < deadline and alive():
+                with self._lock:
+                    if self.latencies[subject]:
+                        return True
+                time.sleep(0.05)
+            return False
+        finally:
+            self.active = None
+
+    def close(self) -> None:
+        self.active = None
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        import rclpy
+
+        rclpy.shutdown(context=self.context)
