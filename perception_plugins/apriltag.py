@@ -197,8 +197,9 @@ class AprilTagSource:
             return k, False
         if "intrinsics" not in self._warned:
             self._warned.add("intrinsics")
-            log.warning("%s: camera intrinsics missing or invalid; using the fallback pinhole fx = fy = 0.9·width "
-                        "(degraded pose accuracy)", self.name)
+            why = "missing" if k is None else f"invalid ({k.problem()})"
+            log.warning("%s: camera intrinsics %s; using the fallback pinhole fx = fy = 0.9·width "
+                        "(degraded pose accuracy)", self.name, why)
         return CameraIntrinsics.fallback(frame.width, frame.height), True
 
     def _count(self, key: str) -> None:

@@ -93,6 +93,8 @@ def to_grey(image: Any) -> np.ndarray:
         raise ValueError(f"expected a numpy image (H×W or H×W×3 uint8), got {type(image).__name__}")
     if image.dtype != np.uint8:
         raise ValueError(f"expected a uint8 image (H×W mono or H×W×3 BGR), got dtype {image.dtype}")
+    if image.size == 0:  # before cvtColor, which fails on an empty array with a multi-line cv2.error
+        raise ValueError(f"empty image of shape {tuple(image.shape)}; expected H×W mono or H×W×3 BGR")
     if image.ndim == 2:
         grey = image
     elif image.ndim == 3 and image.shape[2] == 1:
@@ -144,7 +146,7 @@ class ArucoSource:
         reason = "missing" if k is None else "invalid"
         if reason not in self._warned:
             self._warned.add(reason)
-            detail = "" if k is None else f" (fx={k.fx}, fy={k.fy})"
+            detail = "" if k is None else f" ({k.problem()})"
             log.warning(
                 "%s: camera intrinsics %s%s; using the fallback pinhole fx = fy = 0.9·width, principal point at "
                 "the image centre (degraded pose accuracy)", self.name, reason, detail,

@@ -17,6 +17,9 @@ from typing import Any
 
 import numpy as np
 
+# Distortion vector lengths OpenCV accepts (none, plumb_bob 4/5, rational_polynomial 8, thin prism 12, tilted 14).
+DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)
+
 
 @dataclass(frozen=True)
 class CameraIntrinsics:
@@ -31,9 +34,21 @@ class CameraIntrinsics:
     distortion: tuple[float, ...] = ()
 
     def is_valid(self) -> bool:
-        """False when the calibration cannot be used for pose (zero/negative/NaN focal length)."""
+        """False when the calibration cannot be used for pose (zero/negative/NaN focal length, or a
+        distortion vector OpenCV rejects: its pose solvers fail on every frame, losing every detection)."""
+        return self.problem() is None
+
+    def problem(self) -> str | None:
+        """Why the calibration cannot be used for pose, in a few words (None when it can)."""
         vals = (self.fx, self.fy, self.cx, self.cy)
-        return all(math.isfinite(v) for v in vals) and self.fx > 0 and self.fy > 0
+        if not (all(math.isfinite(v) for v in vals) and self.fx > 0 and self.fy > 0):
+            return f"fx={self.fx:g}, fy={self.fy:g}, cx={self.cx:g}, cy={self.cy:g}; expected finite fx > 0 and fy > 0"
+        if len(self.distortion) not in DISTORTION_LENGTHS:
+            lengths = ", ".join(map(str, DISTORTION_LENGTHS))
+            return f"distortion has {len(self.distortion)} coefficients; expected {lengths}"
+        if not all(math.isfinite(v) for v in self.distortion):
+            return "distortion has non-finite coefficients"
+        return None
 
     @property
     def matrix(self) -> np.ndarray:

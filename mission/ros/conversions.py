@@ -164,10 +164,14 @@ def camera_info_to_intrinsics(msg: Any) -> CameraIntrinsics:
     d = np.asarray(msg.d, dtype=np.float64).reshape(-1)
     if not np.all(np.isfinite(d)):
         raise BadMessage("value", "camera_info distortion d has non-finite values")
-    return CameraIntrinsics(
+    intr = CameraIntrinsics(
         fx=fx, fy=fy, cx=cx, cy=cy, width=int(msg.width), height=int(msg.height),
         distortion=tuple(float(v) for v in d),
     )  # fmt: skip
+    problem = intr.problem()
+    if problem is not None:  # e.g. a d of the wrong length: OpenCV would reject it on every frame
+        raise BadMessage("value", f"camera_info {problem} (distortion_model {str(msg.distortion_model)!r})")
+    return intr
 
 
 def intrinsics_to_camera_info(factory: MessageFactory, intr: CameraIntrinsics, stamp: float, frame_id: str) -> Any:
