@@ -42,9 +42,11 @@ def frame_problem(frame: object) -> str | None:
     img = frame.image
     if not isinstance(img, np.ndarray):
         return f"image is {type(img).__name__}, expected an H×W or H×W×3 ndarray"
-    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] not in (1, 3, 4)) or img.size == 0:
+    # What every source accepts (Frame's contract): checked here so a 16-bit or BGRA frame from an adapter
+    # is one dropped frame with its reason, not an error raised by each source in turn.
+    if img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] not in (1, 3)) or img.size == 0:
         return f"image has shape {img.shape}, expected H×W or H×W×3"
-    if not (np.issubdtype(img.dtype, np.integer) or np.issubdtype(img.dtype, np.floating)):
+    if img.dtype != np.uint8:
         return f"image has dtype {img.dtype}, expected uint8"
     try:
         stamp = float(frame.stamp)

@@ -140,6 +140,17 @@ def _make_client(p: VlmStubParams) -> VlmClient:
         raise ConfigError(f"cannot create VLM client {p.client!r}: {err}", key="client") from None
 
 
+def colour_image_problem(image: object) -> str | None:
+    """Why `image` is not an H×W×3 uint8 BGR picture a VLM can look at (None when it is)."""
+    if not isinstance(image, np.ndarray):
+        return f"expected an H×W×3 uint8 BGR image, got {type(image).__name__}"
+    if image.dtype != np.uint8:
+        return f"expected an H×W×3 uint8 BGR image, got dtype {image.dtype}"
+    if image.ndim != 3 or image.shape[2] != 3 or image.size == 0:
+        return f"expected an H×W×3 uint8 BGR image (the VLM finds objects by colour), got shape {tuple(image.shape)}"
+    return None
+
+
 class VlmStubSource:
     """A VLM-style source: a few rate-limited model calls, a consensus, then a latched pose re-emitted
     as the robot moves."""
@@ -233,7 +244,12 @@ class VlmStubSource:
 
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
-        """Detections for this frame (the latched target, re-expressed in this camera pose); never blocks."""
+        """Detections for this frame (the latched target, re-expressed in this camera pose); never blocks.
+
+        An image the model cannot look at is a ValueError before any model call is spent on it."""
+        problem = colour_image_problem(frame.image)
+        if problem is not None:
+            raise ValueError(problem)
         with self._lock:
             self._last_stamp = float(frame.stamp)
             self._collect()
@@ -278,10 +294,11 @@ class VlmStubSource:
             self.state = "no_depth"  # an answer could not be placed in 3D: do not spend a call on it
             self.counters["frames_without_depth"] += 1
             return
-        if frame.depth.shape[:2] != frame.image.shape[:2]:
+        depth_problem = self._depth_problem(frame)
+        if depth_problem is not None:
+            self.state = "bad_depth"
             self.counters["frames_bad_depth"] += 1
-            self._log_once("bad_depth", "depth %s does not match image %s; frame skipped",
-                           frame.depth.shape[:2], frame.image.shape[:2])
+            self._log_once("bad_depth", "%s; frame skipped (no model call spent)", depth_problem)
             return
         now = self._now()
         refusal = self.quota.refusal(now)
@@ -338,6 +355,24 @@ class VlmStubSource:
             return _Answer(req, "no_depth", pixel=(u, v))
         return _Answer(req, "ok", pose, best.confidence, (u, v))
 
+    @staticmethod
+    def _depth_problem(frame: Frame) -> str | None:
+        """Why this frame's depth cannot place an answer in 3D (None when it can).
+
+        Checked before a model call: an answer on a frame whose depth is unusable could never latch, so
+        the call (and its share of the daily quota) would be wasted."""
+        depth = frame.depth
+        if not isinstance(depth, np.ndarray) or depth.ndim != 2:
+            shape = getattr(depth, "shape", type(depth).__name__)
+            return f"depth has shape {shape}, expected H×W float metres"
+        if depth.shape != frame.image.shape[:2]:
+            return f"depth {depth.shape} does not match image {frame.image.shape[:2]}"
+        if not np.issubdtype(depth.dtype, np.floating):
+            return f"depth has dtype {depth.dtype}, expected float metres (convert 16UC1 millimetres first)"
+        if not np.any(np.isfinite(depth) & (depth > 0)):
+            return "depth has no valid return (every pixel NaN, inf or ≤ 0)"
+        return None
+
     def _now(self) -> float:
         return self._clock() if self.params.clock == "wall" else self._last_stamp
 
@@ -353,7 +388,8 @@ class VlmStubSource:
             answer = fut.result()
         except Exception as err:  # a failing client must not take the tick down
             self.counters["client_errors"] += 1
-            self._log_once(f"client:{type(err).__name__}", "VLM client failed: %s", err)
+            why = " ".join(str(err).split())  # one line, whatever the client raised (cv2 errors span lines)
+            self._log_once(f"client:{type(err).__name__}", "VLM client failed: %s: %s", type(err).__name__, why)
             return
         if answer.outcome != "ok" or answer.pose is None:
             self.counters["misses" if answer.outcome == "miss" else "answers_without_depth"] += 1
