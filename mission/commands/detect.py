@@ -21,6 +21,7 @@ import yaml
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from perception_plugins import registry
+from sim.quiet import quiet
 
 FRAME_PERIOD_S = 1.0 / 30.0
 
@@ -66,7 +67,8 @@ def read_image(path: str) -> np.ndarray:
     data = np.fromfile(str(p), dtype=np.uint8)  # fromfile + imdecode: works for any path, reads once
     if data.size == 0:
         raise ValueError("empty file")
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    with quiet():  # libpng / libjpeg print their own complaints to fd 2; the user gets our one line instead
+        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if img is None:
         raise ValueError("not a decodable image")
     if img.dtype != np.uint8:  # 16-bit PNG/TIFF: scale to 8 bits as a camera driver would
