@@ -20,6 +20,7 @@ import py_trees
 from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
+from mission.core.errors import TreeError
 from mission.core.perception import PerceptionSource
 from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
@@ -63,7 +64,12 @@ class TreeRunner:
     # -- lifecycle ---------------------------------------------------------------------------------
     def setup(self) -> None:
         """Validate before anything heavy, then create sources, build the tree and connect the world."""
-        self.tree_path = resolve_tree(self.tree_name, self.config_file)
+        try:
+            self.tree_path = resolve_tree(self.tree_name, self.config_file)
+        except TreeError as err:
+            if self.config_file is None or self.tree_name != self.config.tree:
+                raise
+            raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
         validate_tree(self.tree_path)
         if self._own_sources:
             file = None if self.config_file is None else str(self.config_file)

@@ -57,8 +57,13 @@ def load_class(name: str) -> type:
 
 
 def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: str | None = None) -> PerceptionSource:
-    """Instantiate one configured source; param errors name the config file (when given) and key."""
-    cls = load_class(cfg.plugin)
+    """Instantiate one configured source; unknown plugins and param errors name the config file (when
+    given) and key."""
+    try:
+        cls = load_class(cfg.plugin)
+    except PluginError as err:
+        where = ": ".join(p for p in (file, f"{key_prefix}.plugin") if p)
+        raise PluginError(f"{where}: {err}") from None
     name = cfg.name or cfg.plugin
     try:
         return cls(dict(cfg.params), name=name)

@@ -44,7 +44,9 @@ def format_validation_error(err: ValidationError, *, file: str | None, prefix: s
         msg = "required key is missing"
     else:
         got = first.get("input")
-        msg = f"{first['msg'].lower()}, got {got!r}" if not isinstance(got, dict) else first["msg"].lower()
+        text = first["msg"].removeprefix("Value error, ")  # a validator's own sentence, not pydantic's prefix
+        text = text[:1].lower() + text[1:]  # keep names as written (TargetSpec, DICT_4X4_50)
+        msg = f"{text}, got {got!r}" if not isinstance(got, dict) else text
     more = len(err.errors()) - 1
     if more:
         msg += f" (and {more} more problem{'s' if more > 1 else ''})"
@@ -63,14 +65,35 @@ def validate_model(model: type[M], data: Any, *, file: str | None = None, prefix
         raise format_validation_error(err, file=file, prefix=prefix) from None
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that rejects a key given twice in one mapping (PyYAML silently keeps the last one,
+    so a second ``run:`` section would quietly replace the first)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)  # type: ignore[no-untyped-call]
+            try:
+                first = seen.get(key)
+            except TypeError:  # an unhashable key: let the base class report it
+                break
+            if first is not None:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r} (first given at line {first + 1})", key_node.start_mark
+                )
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+
 def read_yaml(path: str | Path) -> Any:
-    """Parse a YAML file; a missing file or bad syntax is a ConfigError naming the file (and line)."""
+    """Parse a YAML file; a missing file, bad syntax or a duplicate key is a ConfigError naming the file
+    (and line)."""
     p = Path(path)
     if not p.is_file():
         raise ConfigError("file not found" if not p.exists() else "not a file", file=str(path))
     try:
         with p.open(encoding="utf-8") as fh:
-            return yaml.safe_load(fh)
+            return yaml.load(fh, Loader=_UniqueKeyLoader)  # a SafeLoader subclass: safe
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f"line {mark.line + 1}: " if mark is not None else ""
@@ -136,8 +159,23 @@ class MissionConfig(StrictModel):
     sim: dict[str, Any] = Field(default_factory=dict)  # scenario keys overridden for this config (see Scenario keys)
 
 
+def check_config(cfg: MissionConfig, file: str | None = None) -> None:
+    """Cross-key checks the schema cannot express: a target that names a source must name a configured one
+    (otherwise no detection can ever match it and the mission silently never sees its target)."""
+    names = [s.name or s.plugin for s in cfg.perception.sources]
+    for target, spec in cfg.perception.targets.items():
+        if spec.source is not None and spec.source not in names:
+            raise ConfigError(
+                f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
+                file=file,
+                key=f"perception.targets.{target}.source",
+            )
+
+
 def load_config(path: str | Path | None) -> MissionConfig:
     """The mission config from `path`, or the defaults when no file is given."""
     if path is None:
         return MissionConfig()
-    return load_model(MissionConfig, path)
+    cfg = load_model(MissionConfig, path)
+    check_config(cfg, str(path))
+    return cfg
