@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import difflib
 import inspect
+import math
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -206,9 +207,12 @@ def convert_port(text: str, port: Port) -> Any:
     if port.type is str:
         return text
     try:
-        return port.type(text.strip())
+        value = port.type(text.strip())
     except (TypeError, ValueError):
         raise ValueError(getattr(port.type, "__name__", str(port.type))) from None
+    if port.type is float and not math.isfinite(value):  # "nan" / "inf" parse, but no behaviour can use them
+        raise ValueError("a finite float")
+    return value
 
 
 class _Compiler:
@@ -392,10 +396,16 @@ def _compile(path: str | Path, registry: dict[str, type] | None) -> TreeDescript
     if shadowing:
         raise TreeError(f"{display_path(doc.path)}: behaviours {', '.join(shadowing)} shadow built-in node types")
     compiler = _Compiler(doc, reg)
-    main = compiler.tree(doc.main_id, ())
-    for tree_id in doc.trees:  # trees nothing uses are still the user's file: check them too
-        if tree_id not in compiler.reached:
-            compiler.tree(tree_id, ())
+    try:
+        main = compiler.tree(doc.main_id, ())
+        for tree_id in doc.trees:  # trees nothing uses are still the user's file: check them too
+            if tree_id not in compiler.reached:
+                compiler.tree(tree_id, ())
+    except RecursionError:  # each file is at most MAX_DEPTH deep, but SubTrees expand into each other
+        raise TreeError(
+            f"{display_path(doc.path)}: the expanded tree (SubTrees in place) nests too deeply to load; "
+            "expected fewer levels of SubTrees inside SubTrees"
+        ) from None
     if compiler.problems:
         err = TreeError(compiler.problems[0])
         err.problems = list(compiler.problems)  # type: ignore[attr-defined]

@@ -14,6 +14,9 @@ from xml.parsers import expat
 
 from mission.core.errors import TreeError
 
+# Deepest element nesting a tree file may have. Real trees are a dozen levels deep; loading recurses per level.
+MAX_DEPTH = 100
+
 
 def display_path(path: Path) -> str:
     """How a file is named in error messages: relative to the working directory when inside it."""
@@ -71,6 +74,9 @@ def parse_bytes(data: bytes, path: Path) -> SourceElement:
 
     def start(tag: str, attrib: dict[str, str]) -> None:
         element = SourceElement(tag, dict(attrib), parser.CurrentLineNumber, path)
+        if len(stack) >= MAX_DEPTH:  # the checker and builder recurse: stop here, not with a RecursionError
+            raise TreeError(element.error(f"nested {len(stack)} elements deep; expected at most {MAX_DEPTH} "
+                                          "(split the tree into <SubTree>s)"))
         if stack:
             stack[-1].children.append(element)
         else:
