@@ -323,6 +323,48 @@ def _check_code(dictionary_name: str, marker_id: int, key: str, file: str | None
         raise ConfigError(f"id {marker_id} is not in {dictionary_name} (ids 0..{n - 1})", file=file, key=f"{key}.id")
 
 
+DOCK_WALL_TOLERANCE_M = 0.05  # how far off a wall a dock tag may be and still hang on it
+DOCK_FACING_TOLERANCE_DEG = 45.0  # how far from the wall's inward normal the tag may face
+
+
+def _check_dock_on_wall(sc: Scenario, file: str | None) -> None:
+    """A dock tag hangs on a wall, faces into the room, and has room in front for the robot to line up.
+
+    Without this a dock in mid-room or facing the wall loads fine and the mission just never docks."""
+    d, (sx, sy) = sc.dock, sc.room.size
+    assert d is not None
+    walls = [("x = 0", abs(d.x), 0.0), ("x = " + f"{sx:g}", abs(d.x - sx), 180.0),
+             ("y = 0", abs(d.y), 90.0), ("y = " + f"{sy:g}", abs(d.y - sy), -90.0)]  # fmt: skip
+    name, off, inward = min(walls, key=lambda w: w[1])
+    if off > DOCK_WALL_TOLERANCE_M:
+        raise ConfigError(
+            f"({d.x:g}, {d.y:g}) is {off:.2f} m from the nearest wall ({name}); a dock tag hangs on a wall: "
+            f"expected x in {{0, {sx:g}}} or y in {{0, {sy:g}}} (±{DOCK_WALL_TOLERANCE_M:g} m)",
+            file=file,
+            key="dock",
+        )
+    turn = abs((d.yaw_deg - inward + 180.0) % 360.0 - 180.0)
+    if turn > DOCK_FACING_TOLERANCE_DEG:
+        raise ConfigError(
+            f"{d.yaw_deg:g}° turns the tag {turn:.0f}° away from facing into the room (it hangs on the wall "
+            f"at {name}); expected about {inward:g}°, the direction the tag face points",
+            file=file,
+            key="dock.yaw_deg",
+        )
+    yaw = math.radians(d.yaw_deg)
+    reach = sc.success.standoff_m + sc.camera.mount.x  # the robot centre when docked: camera standoff + mount
+    ax, ay = d.x + reach * math.cos(yaw), d.y + reach * math.sin(yaw)
+    try:
+        _check_point(sc, ax, ay, sc.robot.radius, "dock", file, unknown=False)
+    except ConfigError as err:
+        raise ConfigError(
+            f"no room to dock: the docked robot at ({ax:.2f}, {ay:.2f}), {reach:.2f} m in front of the tag, "
+            f"{err.detail.split(' ', 2)[2]}",
+            file=file,
+            key="dock",
+        ) from None
+
+
 def check_geometry(sc: Scenario, file: str | None = None) -> None:
     """Reject scenarios whose start states or paths are impossible (robot or target inside things)."""
     _check_point(sc, sc.robot.x, sc.robot.y, sc.robot.radius, "robot", file)
@@ -358,6 +400,7 @@ def check_geometry(sc: Scenario, file: str | None = None) -> None:
         _check_code(d.dictionary, d.id, "dock", file)
         if not (-1e-6 <= d.x <= sx + 1e-6 and -1e-6 <= d.y <= sy + 1e-6):
             raise ConfigError(f"({d.x:g}, {d.y:g}) is outside the room", file=file, key="dock")
+        _check_dock_on_wall(sc, file)
     if sc.camera.far_m <= sc.camera.near_m:
         raise ConfigError("far_m must be greater than near_m", file=file, key="camera.far_m")
     if sc.lidar.range_max_m <= sc.lidar.range_min_m:
