@@ -67,8 +67,12 @@ def read_image(path: str) -> np.ndarray:
     data = np.fromfile(str(p), dtype=np.uint8)  # fromfile + imdecode: works for any path, reads once
     if data.size == 0:
         raise ValueError("empty file")
-    with quiet():  # libpng / libjpeg print their own complaints to fd 2; the user gets our one line instead
-        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    try:
+        with quiet():  # libpng / libjpeg print their own complaints to fd 2; the user gets our one line instead
+            img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error as err:  # e.g. a header claiming more pixels than OpenCV's CV_IO_MAX_IMAGE_PIXELS
+        why = "larger than OpenCV's pixel limit" if "MAX_IMAGE_PIXELS" in str(err) else "decoder error"
+        raise ValueError(f"not a decodable image: {why}") from None
     if img is None:
         raise ValueError("not a decodable image")
     if img.dtype != np.uint8:  # 16-bit PNG/TIFF: scale to 8 bits as a camera driver would
