@@ -19,10 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import signal
-import subprocess
 import sys
-import threading
 import time
 import tracemalloc
 from pathlib import Path
@@ -31,16 +28,9 @@ from typing import Any
 import numpy as np
 
 from bench.common import Figure, load_average, pct
+from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def rss_mb(pid: int | None = None) -> float:
-    """Resident set size of a process (this one by default) in MB, from /proc."""
-    for line in Path(f"/proc/{pid or 'self'}/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) / 1024.0
-    return float("nan")
 
 
 def slope_per_min(xs: list[float], ys: list[float]) -> float | None:
@@ -174,148 +164,52 @@ MARKER_ID = 7
 MARKER_SIZE = 0.15
 
 
-def _ros_env() -> dict[str, str]:
-    """The shared-memory-only DDS profile, a private domain, and install/setup.bash (as `ros2 run`)."""
-    env = {
-        "FASTRTPS_DEFAULT_PROFILES_FILE": str(ROOT / "ros" / "fastdds_shm.xml"),
-        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
-        "ROS_DOMAIN_ID": str(101 + os.getpid() % 100),  # 101..200: apart from the tests' 1..100
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
-    }
-    os.environ.update(env)
-    script = f"source {ROOT / 'install' / 'setup.bash'} >/dev/null && env -0"
-    base = {**os.environ, "PATH": f"{ROOT / '.venv' / 'bin'}:{os.environ.get('PATH', '')}"}
-    out = subprocess.run(["bash", "-c", script], capture_output=True, env=base, check=True).stdout
-    full = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
-    full.update(env)
-    full["PYTHONUNBUFFERED"] = "1"
-    return full
-
-
 def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
-    """The node fed marker / empty frames alternately (1 s each) at 30 Hz for `seconds`."""
-    subprocess.run([str(ROOT / "scripts" / "build_ros")], capture_output=True, check=True)
-    env = _ros_env()
-    import rclpy
-    from geometry_msgs.msg import PoseStamped
-    from rclpy.executors import SingleThreadedExecutor
-    from sensor_msgs.msg import CameraInfo, Image
-    from std_msgs.msg import String
-
+    """The node fed marker / empty frames alternately (1 s each) at 30 Hz for `seconds` (bench/ros_feed.py)."""
     from mission.core import se3
-    from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
-    from mission.ros.messages import RclpyMessages
     from perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
-    msgs = RclpyMessages()
+    build_ros()
+    env = ros_env()
     K = default_intrinsics()
     rng = np.random.default_rng(5)
     T = se3.transform(R_FRONTAL @ se3.rot_y(0.3), (0.12, -0.06, 1.6))
     views = [render_marker_view(T, marker_id=MARKER_ID, marker_size_m=MARKER_SIZE, intrinsics=K, rng=rng).image,
              render_marker_view(se3.transform(R_FRONTAL, (30.0, 0.0, 2.0)), marker_id=MARKER_ID,
                                 marker_size_m=MARKER_SIZE, intrinsics=K, rng=rng).image]  # fmt: skip
-    exe = ROOT / "install" / "mission" / "lib" / "mission" / "tree"
-    cmd = [str(exe), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={MARKER_SIZE}",
-           "-p", f"target_marker_id:={MARKER_ID}", "-p", "tick_hz:=30"]  # fmt: skip
-    log_path = (out or Path("/tmp")) / ".soak_ros_node.log"
-    log_path.parent.mkdir(parents=True, exist_ok=True)
-    log = log_path.open("wb")
-    proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=ROOT)
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    node = rclpy.create_node("soak_feeder", context=ctx)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    lock = threading.Lock()
-    sent: dict[float, float] = {}  # stamp → monotonic publish time (pruned as answers arrive)
-    lat_ms: list[float] = []
-    beats: list[dict[str, Any]] = []
-    pub_img = node.create_publisher(Image, "/camera/image_raw", 10)
-    pub_info = node.create_publisher(CameraInfo, "/camera/camera_info", 10)
-    frame = "camera_optical_frame"
-
-    def on_pose(msg: Any) -> None:
-        st = round(msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, 6)
-        with lock:
-            t = sent.pop(st, None)
-            if t is not None:
-                lat_ms.append((time.monotonic() - t) * 1e3)
-
-    def on_debug(msg: Any) -> None:
-        d = json.loads(msg.data)
-        if d.get("status") == "running":
-            with lock:
-                beats[:] = [{"t": time.monotonic(), **d}]  # only the newest matters
-
-    node.create_subscription(PoseStamped, "/detected_aruco_pose", on_pose, 10)
-    node.create_subscription(String, "/aruco/debug", on_debug, 10)
-    published = 0
-    t0 = 1000.0
-
-    def publish() -> None:
-        nonlocal published
-        stamp = round(t0 + published / 30.0, 6)
-        view = views[(published // 30) % 2]
-        pub_info.publish(intrinsics_to_camera_info(msgs, K, stamp, frame))
-        with lock:
-            sent[stamp] = time.monotonic()
-            if len(sent) > 300:  # frames without a marker get no answer: keep the map bounded
-                for k in sorted(sent)[:-300]:
-                    del sent[k]
-        pub_img.publish(array_to_image(msgs, view, "bgr8", stamp, frame))
-        published += 1
-
-    node.create_timer(1.0 / 30.0, publish)
-    stop = threading.Event()
-
-    def spin() -> None:
-        while not stop.is_set() and ctx.ok():
-            ex.spin_once(timeout_sec=0.02)
-
-    th = threading.Thread(target=spin, daemon=True)
-    th.start()
+    node = Subject("node")
+    proc = Subprocess(node_command(MARKER_ID, MARKER_SIZE, 30.0), env, (out or Path("/tmp")) / ".soak_ros_node.log")
+    feeder = Feeder([node], views, K, hz=30.0, frames_per_view=30, heartbeat_topic="/aruco/debug", name="soak_feeder")
     samples: list[dict[str, Any]] = []
     try:
         deadline = time.monotonic() + 30
-        while not beats and time.monotonic() < deadline and proc.poll() is None:
+        feeder.active = node.name
+        while not feeder.newest_heartbeat() and time.monotonic() < deadline and proc.alive():
             time.sleep(0.1)
         start = time.monotonic()
         period = 10.0
         next_t = start + period
-        while time.monotonic() - start < seconds and proc.poll() is None:
+        while time.monotonic() - start < seconds and proc.alive():
             time.sleep(max(0.0, min(1.0, next_t - time.monotonic())))
             if time.monotonic() >= next_t:
                 next_t += period
-                with lock:
-                    chunk, lat_ms[:] = list(lat_ms), []
-                    beat = dict(beats[-1]) if beats else {}
+                chunk, beat = feeder.take(node.name), feeder.newest_heartbeat()
                 samples.append({
                     "t_min": round((time.monotonic() - start) / 60.0, 3),
                     "rss_mb": round(rss_mb(proc.pid), 2),
                     "latency_p50_ms": pct(chunk, 50), "latency_p99_ms": pct(chunk, 99), "answers": len(chunk),
-                    "published": published, "frames_received": beat.get("frames_received"),
+                    "published": feeder.published[node.name], "frames_received": beat.get("frames_received"),
                     "frames_processed": beat.get("frames_processed"), "frames_dropped": beat.get("frames_dropped"),
                     "tick": beat.get("tick"),
                 })  # fmt: skip
                 if out is not None:
                     _write(out, ".soak_ros_partial.json", {"samples": samples})
     finally:
-        stop.set()
-        th.join(timeout=2)
-        alive = proc.poll() is None
-        if alive:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        log.close()
-        ex.shutdown(timeout_sec=1.0)
-        node.destroy_node()
-        rclpy.shutdown(context=ctx)
+        feeder.close()
+        alive = proc.stop()
+    published = feeder.published[node.name]
     if not samples:
-        return {"error": f"node gave no heartbeat; log: {log_path}", "alive": alive}
+        return {"error": f"node gave no heartbeat; log: {proc.log_path}: {proc.log_tail()}", "alive": alive}
     rss = [s["rss_mb"] for s in samples]
     n5 = max(1, len(samples) // 2 if seconds < 600 else 30)  # 30 samples of 10 s = 5 min
     first = [s["latency_p50_ms"] for s in samples[:n5] if s["latency_p50_ms"] is not None]
@@ -406,16 +300,19 @@ def merge(out: Path) -> dict[str, Any]:
     """soak.json from the separately run parts (``--part sim`` / ``--part ros``; a sim part still running
     contributes its per-minute samples so far)."""
     sim = ros = None
+    loads: dict[str, Any] = {}  # each part's load average when it ran (not the merge's)
     if (out / "soak_sim.json").exists():
-        sim = json.loads((out / "soak_sim.json").read_text())["details"]["sim"]
+        part = json.loads((out / "soak_sim.json").read_text())["details"]
+        sim, loads["sim"] = part["sim"], part.get("load_average")
     elif (out / ".soak_sim_partial.json").exists():
         sim = sim_from_samples(json.loads((out / ".soak_sim_partial.json").read_text())["samples"], 30.0)
     if (out / "soak_ros.json").exists():
-        ros = json.loads((out / "soak_ros.json").read_text())["details"]["ros"]
+        part = json.loads((out / "soak_ros.json").read_text())["details"]
+        ros, loads["ros"] = part["ros"], part.get("load_average")
     return {
         "title": "Soak: memory and tick time over a long run",
         "figures": [f.to_json() for f in figures(sim, ros)],
-        "details": {"quick": False, "load_average": load_average(), "sim": sim, "ros": ros},
+        "details": {"quick": False, "load_average_of_parts": loads, "sim": sim, "ros": ros},
         "plots": [],
     }
 
