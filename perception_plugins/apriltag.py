@@ -194,7 +194,7 @@ class AprilTagSource:
     def _intrinsics(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
         k = frame.intrinsics
         if k is not None and k.is_valid():
-            return k, False
+            return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
         if "intrinsics" not in self._warned:
             self._warned.add("intrinsics")
             why = "missing" if k is None else f"invalid ({k.problem()})"

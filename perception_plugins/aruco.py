@@ -142,7 +142,7 @@ class ArucoSource:
         """(intrinsics to use, True if they are the degraded fallback) for this frame."""
         k = frame.intrinsics
         if k is not None and k.is_valid():
-            return k, False
+            return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
         reason = "missing" if k is None else "invalid"
         if reason not in self._warned:
             self._warned.add(reason)

@@ -32,6 +32,9 @@ class CameraIntrinsics:
     width: int
     height: int
     distortion: tuple[float, ...] = ()
+    # True for the degraded guess of :meth:`fallback` (no usable calibration): an adapter that substitutes it
+    # still lets the sources label their poses "fallback", not "calibrated".
+    is_fallback: bool = False
 
     def is_valid(self) -> bool:
         """False when the calibration cannot be used for pose (zero/negative/NaN focal length, or a
@@ -66,7 +69,7 @@ class CameraIntrinsics:
     def fallback(cls, width: int, height: int) -> CameraIntrinsics:
         """The degraded-mode pinhole of the design notes: fx = fy = 0.9·W, principal point at the centre."""
         f = 0.9 * width
-        return cls(fx=f, fy=f, cx=width / 2.0, cy=height / 2.0, width=width, height=height)
+        return cls(fx=f, fy=f, cx=width / 2.0, cy=height / 2.0, width=width, height=height, is_fallback=True)
 
     @classmethod
     def from_vertical_fov(

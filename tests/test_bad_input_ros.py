@@ -1,0 +1,215 @@
+"""Bad ROS messages on the conversion path (issue 9, bad-input matrix: camera info and images).
+
+Messages go through the same SensorCache → blackboard → PerceiveTargets path as on the robot (the
+CachedWorld of mission/ros/world_io.py, without DDS), with a real ArUco source: each bad message is
+dropped or replaced by the fallback, counted under its reason, warned about once naming the topic, and
+the next good image is still detected.
+
+Already covered: unsupported encoding, step < width×bytes, too little data and empty images
+(test_ros_conversions.py); fx/fy zero, NaN or negative and a camera info for another resolution
+(test_ros_conversions.py, test_ros_world_io.py); the live node dropping bad images (test_ros_node.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import py_trees
+import pytest
+from behaviour_world import read, tick
+from test_ros_world_io import MSGS, RecordingWorld
+
+from behaviours.perceive import PerceiveTargets
+from behaviours.ports import Dependencies
+from mission.core import blackboard as bbk
+from mission.core.config import TargetSpec
+from mission.core.types import CameraIntrinsics
+from mission.ros.conversions import (
+    BadMessage,
+    array_to_image,
+    camera_info_to_intrinsics,
+    image_to_camera_array,
+    image_to_depth_m,
+    intrinsics_to_camera_info,
+)
+from perception_plugins import synthetic_views as sv
+from perception_plugins.aruco import ArucoSource
+
+pytestmark = pytest.mark.ros
+
+S = py_trees.common.Status
+MARKER = 0.2
+_rng = np.random.default_rng(5)
+VIEW = sv.render_marker_view(sv.random_pose(1.0, 20, _rng), rng=_rng, marker_size_m=MARKER)
+K = VIEW.intrinsics
+TOPIC = "/camera/image_raw"
+
+
+class Pipeline:
+    """A ROS world feeding PerceiveTargets (real aruco) through the blackboard, one tick per call."""
+
+    def __init__(self) -> None:
+        self.world = RecordingWorld()
+        self.bb = bbk.writer("ros-world")
+        self.node = PerceiveTargets(
+            "perceive",
+            deps=Dependencies(sources=[ArucoSource({"marker_size_m": MARKER})], targets={"t": TargetSpec(marker_id=7)}),
+        )
+        self.node.setup()
+        self.stamp = 0.0
+
+    def good_image(self) -> object:
+        self.stamp += 0.1
+        return array_to_image(MSGS, VIEW.image, "bgr8", self.stamp, "cam")
+
+    def cycle(self) -> py_trees.common.Status:
+        self.world.sense(self.bb)
+        return tick(self.node)
+
+    def detects_the_marker(self) -> bool:
+        """Good camera info and image in: is the marker seen with the calibrated intrinsics?"""
+        self.world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, self.stamp + 0.1, "cam"))
+        assert self.world.cache.on_image(self.good_image(), TOPIC)
+        assert self.cycle() == S.SUCCESS
+        det = read(bbk.TRACKS)["t"].detection
+        return read(bbk.TRACKS)["t"].visible and det.extra["intrinsics"] == "calibrated"
+
+
+@pytest.fixture
+def pipeline() -> Pipeline:
+    return Pipeline()
+
+
+# -- images whose step disagrees with the width ------------------------------------------------------------
+
+
+def _with(msg: object, **fields: object) -> object:
+    for key, value in fields.items():
+        setattr(msg, key, value)
+    return msg
+
+
+@pytest.mark.parametrize(
+    ("change", "reason", "words"),
+    [
+        (lambda m: _with(m, step=m.width * 3 - 1), "size", "step 1919 < width×bytes per pixel = 1920 (bgr8, width 640)"),  # noqa: E501
+        (lambda m: _with(m, step=0), "size", "step 0 < width×bytes per pixel = 1920"),
+        (lambda m: _with(m, step=m.width * 3 + 64), "size", "expected step×height = 1984×480 = 952320"),
+        (lambda m: _with(m, width=m.width * 2), "size", "step 1920 < width×bytes per pixel = 3840"),
+        (lambda m: _with(m, height=m.height + 1), "size", "expected step×height = 1920×481"),
+        (lambda m: _with(m, height=2**31), "size", "expected step×height = 1920×2147483648"),
+        (lambda m: _with(m, encoding="mono16"), "encoding", "unsupported encoding 'mono16'; expected one of bgr8"),
+        (lambda m: _with(m, encoding="32FC1"), "encoding", "unsupported encoding '32FC1'"),
+    ],
+)  # fmt: skip
+def test_an_image_whose_step_or_size_disagrees_is_dropped_counted_and_the_next_one_detected(
+    pipeline, change, reason, words
+):
+    world = pipeline.world
+    for _ in range(3):
+        assert world.cache.on_image(change(pipeline.good_image()), TOPIC) is False
+        pipeline.cycle()  # no new frame: the tree ticks on
+    assert world.cache.stats.dropped == {f"image:{reason}": 3}
+    [warning] = world.warnings  # throttled: once, not per message
+    assert warning.startswith(f"dropped a message on {TOPIC}: ") and words in warning and "\n" not in warning
+    assert read(bbk.PERCEPTION_STATS, {}).get("frames_processed", 0) == 0
+    assert pipeline.detects_the_marker()
+
+
+@pytest.mark.parametrize("encoding", ["bgr8", "rgb8", "mono8"])
+@pytest.mark.parametrize("padding", [1, 3, 64])
+def test_row_padding_of_any_size_in_step_is_skipped_and_the_marker_found(pipeline, encoding, padding):
+    image = VIEW.image if encoding != "mono8" else VIEW.image.mean(axis=2).astype(np.uint8)
+    channels = 1 if encoding == "mono8" else 3
+    msg = array_to_image(MSGS, image, encoding, 1.0, "cam", step=640 * channels + padding)
+    assert np.array_equal(image_to_camera_array(msg), image)
+    pipeline.world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, 1.0, "cam"))
+    assert pipeline.world.cache.on_image(msg, TOPIC)
+    assert pipeline.cycle() == S.SUCCESS and read(bbk.TRACKS)["t"].visible
+
+
+def test_a_16uc1_depth_image_with_odd_padding_keeps_its_millimetres():
+    depth = np.array([[0.5, 0.0], [1.25, 65.535]], np.float32)
+    msg = array_to_image(MSGS, depth, "16UC1", 0.0, "d", step=5)
+    out = image_to_depth_m(msg)
+    assert np.isnan(out[0, 1]) and np.allclose(out[[0, 1, 1], [0, 0, 1]], [0.5, 1.25, 65.535])
+
+
+# -- camera info -------------------------------------------------------------------------------------------
+
+
+def _info(**fields: object) -> object:
+    return _with(intrinsics_to_camera_info(MSGS, K, 1.0, "cam"), **fields)
+
+
+@pytest.mark.parametrize(
+    ("fields", "words"),
+    [
+        ({"k": np.array([579.0, 0.0, 320.0, 0.0])}, "camera_info k has 4 values, expected 9"),
+        ({"k": np.zeros(12)}, "camera_info k has 12 values, expected 9"),
+        ({"k": np.array([-579.0, 0, 320, 0, -579.0, 240, 0, 0, 1])}, "fx=-579, fy=-579; expected finite fx > 0"),
+        ({"d": np.zeros(3)}, "distortion has 3 coefficients; expected 0, 4, 5, 8, 12, 14"),
+        ({"d": np.zeros(7), "distortion_model": "rational_polynomial"}, "distortion has 7 coefficients"),
+        ({"d": np.array([0.1, np.inf, 0, 0, 0])}, "distortion d has non-finite values"),
+    ],
+)
+def test_unusable_camera_info_is_one_line_naming_the_field(fields, words):
+    with pytest.raises(BadMessage) as err:
+        camera_info_to_intrinsics(_info(**fields))
+    assert words in str(err.value) and "\n" not in str(err.value) and err.value.kind == "value"
+
+
+@pytest.mark.parametrize("d", [np.zeros(0), np.zeros(4), np.zeros(5), np.zeros(8), np.zeros(12), np.zeros(14)])
+def test_every_distortion_length_opencv_knows_is_accepted(d):
+    assert camera_info_to_intrinsics(_info(d=d)).distortion == tuple(d)
+
+
+def test_bad_camera_info_gives_the_fallback_counted_and_warned_once_and_good_info_is_used_again(pipeline):
+    world = pipeline.world
+    for i in range(3):
+        world.cache.on_camera_info(_with(_info(d=np.zeros(3)), header=pipeline.good_image().header))
+        assert world.cache.on_image(pipeline.good_image(), TOPIC)
+        assert pipeline.cycle() == S.SUCCESS
+        assert bbk.get(pipeline.bb, bbk.FRAME).intrinsics == CameraIntrinsics.fallback(640, 480), i
+        track = read(bbk.TRACKS)["t"]
+        assert track.visible and track.detection.extra["intrinsics"] == "fallback", i  # seen, and labelled degraded
+    assert world.cache.stats.dropped == {"camera_info:value": 3} and world.cache.stats.fallback_intrinsics == 3
+    [warning] = [w for w in world.warnings if "invalid camera info" in w]
+    assert warning.startswith("invalid camera info on camera_info: camera_info distortion has 3 coefficients")
+    assert pipeline.detects_the_marker()
+
+
+# -- depth -------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("encoding", "values", "valid"),
+    [
+        ("32FC1", [np.nan, np.inf, -np.inf, -1.0, 0.0, 2.5], [False, False, False, False, False, True]),
+        ("16UC1", [0, 1, 65535], [False, True, True]),
+    ],
+)
+def test_nan_inf_negative_and_zero_depth_become_no_return(encoding, values, valid):
+    arr = np.array([values], np.float32 if encoding == "32FC1" else np.uint16)
+    out = image_to_depth_m(array_to_image(MSGS, arr, encoding, 0.0, "d"))
+    assert out.dtype == np.float32 and list(np.isfinite(out[0])) == valid
+    assert np.all(out[np.isfinite(out)] > 0)
+
+
+def test_depth_of_another_size_than_the_image_is_ignored_with_a_warning_and_the_frame_still_used(pipeline):
+    world = pipeline.world
+    world.cache.on_depth(array_to_image(MSGS, np.ones((240, 320), np.float32), "32FC1", 0.1, "cam"))
+    world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, 0.1, "cam"))
+    assert world.cache.on_image(pipeline.good_image(), TOPIC)
+    assert pipeline.cycle() == S.SUCCESS
+    assert bbk.get(pipeline.bb, bbk.FRAME).depth is None and read(bbk.TRACKS)["t"].visible
+    assert any("depth (240, 320) does not match the image (480, 640); ignored" in w for w in world.warnings)
+
+
+def test_a_camera_info_without_size_takes_the_images():
+    info = _with(intrinsics_to_camera_info(MSGS, CameraIntrinsics(500, 500, 320, 240, 0, 0), 0.0, "cam"))
+    assert (camera_info_to_intrinsics(info).width, camera_info_to_intrinsics(info).height) == (0, 0)
+    world = RecordingWorld()
+    world.cache.on_camera_info(info)
+    world.cache.on_image(array_to_image(MSGS, VIEW.image, "bgr8", 0.0, "cam"))
+    frame = world.cache.take_frame()
+    assert (frame.intrinsics.width, frame.intrinsics.height, frame.intrinsics.fx) == (640, 480, 500)
