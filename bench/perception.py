@@ -22,12 +22,12 @@ from typing import Any
 
 import cv2
 import numpy as np
-import pupil_apriltags
 
 from bench.common import Figure, progress, ratio
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT, Scene, render_scene
 from mission.core.types import Frame
 from perception_plugins.apriltag import AprilTagSource
+from perception_plugins.apriltag_backends import SafeDetector
 from perception_plugins.aruco import ArucoSource
 from perception_plugins.square_pose import object_points
 
@@ -65,7 +65,9 @@ def _raw_aruco(dictionary: int) -> Any:
 
 
 def _raw_pupil() -> Any:
-    det = pupil_apriltags.Detector(families="tag36h11", nthreads=1, quad_decimate=2.0, refine_edges=1)
+    # SafeDetector: pupil_apriltags.Detector with a destructor that does not free its families first (the
+    # plain one corrupts the heap and a later detector aborts the process); detection is the same C call.
+    det = SafeDetector(families="tag36h11", nthreads=1, quad_decimate=2.0, refine_edges=1)
 
     def run(image: np.ndarray, K: np.ndarray, D: np.ndarray) -> int:
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)

@@ -30,6 +30,7 @@ from mission.core import se3
 from mission.core.types import Frame
 from perception_plugins import synthetic_views as sv
 from perception_plugins.apriltag import AprilTagSource
+from perception_plugins.apriltag_backends import SafeDetector
 from perception_plugins.aruco import ArucoSource
 from perception_plugins.square_pose import object_points
 
@@ -76,7 +77,9 @@ def _pupil_fix(det: pupil_apriltags.Detector) -> np.ndarray:
 
 
 def _raw_pupil() -> Any:
-    det = pupil_apriltags.Detector(families="tag36h11", nthreads=1, quad_decimate=2.0, refine_edges=1)
+    # SafeDetector: pupil_apriltags.Detector with a destructor that does not free its families first (the
+    # plain one corrupts the heap and a later detector aborts the process); detection is the same C call.
+    det = SafeDetector(families="tag36h11", nthreads=1, quad_decimate=2.0, refine_edges=1)
     fix = _pupil_fix(det)
 
     def pose(image: np.ndarray, k: Any) -> np.ndarray | None:
