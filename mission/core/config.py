@@ -18,9 +18,10 @@ M = TypeVar("M", bound=BaseModel)
 
 
 class StrictModel(BaseModel):
-    """Base for every config section: unknown keys are errors."""
+    """Base for every config section: unknown keys are errors, and so are .nan / .inf where a number is
+    expected (NaN slips through every range check: ``nan > 0`` and ``nan <= 200`` are both False)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 def _dotted(loc: tuple[Any, ...], prefix: str = "") -> str:
