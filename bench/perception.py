@@ -51,8 +51,9 @@ def raw_aruco_poses(dictionary: int, size_m: float = SIZE) -> Any:
         n = 0 if ids is None else len(ids)
         poses = []
         for c, i in zip(corners[:n], (ids.reshape(-1) if n else []), strict=True):
-            _ok, rvec, tvec = cv2.solvePnP(obj, c.reshape(4, 1, 2), K, D, flags=cv2.SOLVEPNP_IPPE_SQUARE)
-            poses.append((int(i), rvec, tvec))
+            ok, rvec, tvec = cv2.solvePnP(obj, c.reshape(4, 1, 2), K, D, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+            if ok:
+                poses.append((int(i), rvec, tvec))
         return poses
 
     return run

@@ -25,6 +25,7 @@ import numpy as np
 import pupil_apriltags
 
 from bench.common import Figure, pct, progress
+from bench.perception import raw_aruco_poses
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT
 from mission.core import se3
 from mission.core.types import Frame
@@ -32,7 +33,6 @@ from perception_plugins import synthetic_views as sv
 from perception_plugins.apriltag import AprilTagSource
 from perception_plugins.apriltag_backends import SafeDetector
 from perception_plugins.aruco import ArucoSource
-from perception_plugins.square_pose import object_points
 
 RANGES = (0.5, 1.0, 2.0, 3.0, 4.0)
 ANGLE_BINS = ((0, 20), (20, 40), (40, 60))
@@ -42,21 +42,13 @@ ROT_TARGET_DEG = 5.0
 
 
 def _raw_opencv(dictionary: int) -> Any:
-    params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-    params.minMarkerDistanceRate = 0.025
-    det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary), params)
-    obj = object_points(SIZE).reshape(4, 1, 3)
+    """The raw OpenCV call of the perception benchmark (bench.perception.raw_aruco_poses): the naive pose."""
+    poses = raw_aruco_poses(dictionary, SIZE)
 
     def pose(image: np.ndarray, k: Any) -> np.ndarray | None:
-        corners, ids, _ = det.detectMarkers(image)
-        if ids is None:
-            return None
-        for c, i in zip(corners, ids.reshape(-1), strict=True):
-            if int(i) == MARKER_ID:
-                ok, rvec, tvec = cv2.solvePnP(obj, c.reshape(4, 1, 2), k.matrix, k.dist_coeffs,
-                                              flags=cv2.SOLVEPNP_IPPE_SQUARE)  # fmt: skip
-                return se3.transform(se3.rvec_to_matrix(rvec), tvec.reshape(3)) if ok else None
+        for marker_id, rvec, tvec in poses(image, k.matrix, k.dist_coeffs):
+            if marker_id == MARKER_ID:
+                return se3.transform(se3.rvec_to_matrix(rvec), tvec.reshape(3))
         return None
 
     return pose
