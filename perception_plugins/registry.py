@@ -70,6 +70,11 @@ def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: s
     except ConfigError as err:
         key = f"{key_prefix}.params.{err.key}" if err.key else f"{key_prefix}.params"
         raise ConfigError(err.detail, file=err.file or file, key=key) from None
+    except Exception as err:  # a third-party constructor failing its own way: still one line, not a traceback
+        where = ": ".join(p for p in (file, f"{key_prefix}.plugin") if p)
+        why = " ".join(str(err).split())
+        raise PluginError(f"{where}: perception plugin {cfg.plugin!r} could not be created: "
+                          f"{type(err).__name__}: {why}") from err
 
 
 def create_all(cfgs: list[SourceConfig], *, file: str | None = None) -> list[PerceptionSource]:
