@@ -26,7 +26,7 @@ from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.snapshot import active_branch, snapshot
 from perception_plugins import registry
-from trees.loader import load_tree, resolve_tree_path, validate_tree
+from trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
@@ -71,6 +71,7 @@ class TreeRunner:
                 raise
             raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
         validate_tree(self.tree_path)
+        check_targets(self.tree_path, self.config.perception.targets)
         if self._own_sources:
             file = None if self.config_file is None else str(self.config_file)
             self.sources = registry.create_all(self.config.perception.sources, file=file)

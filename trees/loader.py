@@ -25,7 +25,7 @@ import difflib
 import inspect
 import math
 import re
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -422,6 +422,22 @@ def describe_tree(path: str | Path, registry: dict[str, type] | None = None) -> 
 def validate_tree(path: str | Path, registry: dict[str, type] | None = None) -> None:
     """Every check :func:`load_tree` makes, without building behaviours; raises TreeError."""
     _compile(path, registry)
+
+
+def check_targets(path: str | Path, targets: Collection[str], registry: dict[str, type] | None = None) -> None:
+    """Every ``target`` port (written or defaulted) names one of `targets` (the config's perception.targets).
+
+    A misspelt target is a valid string to the schema, and the node would wait forever for a track that
+    cannot exist ("targte never seen"); this makes it a start-up error at the node's line instead."""
+    known = set(targets)
+    for node in describe_tree(path, registry).walk():
+        value = node.effective_ports.get("target")
+        if isinstance(value, str) and value not in known:
+            how = "" if "target" in node.ports else " (the port's default)"
+            raise TreeError(
+                f"{node.file}:{node.line}: <{node.tag}>: target {value!r}{how} is not a perception target; "
+                f"expected one of perception.targets: {_names(known)}"
+            )
 
 
 def load_tree(
