@@ -7,6 +7,7 @@ tree wrote on the blackboard (state, goal, tracks). It knows nothing about pybul
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -92,23 +93,42 @@ class Occlusion:
     detected_at: float | None = None  # the tree entered LOST (= start when it was LOST before the line broke)
 
 
+def _floats() -> array:
+    return array("d")
+
+
+def _flags() -> array:
+    return array("b")
+
+
 @dataclass
 class MetricsRecorder:
-    """Feed it once per tick; read `summary()` at the end."""
+    """Feed it once per tick; read `summary()` at the end.
+
+    The per-tick history (for the report's pictures) is kept in packed arrays, ~60 bytes a tick, so a
+    30-minute soak grows by ~2 MB instead of the ~15 MB that lists of tuples of floats cost. A missing
+    target is NaN in ``target_x``/``target_y``/``target_distance``.
+    """
 
     dock_standoff_m: float = 0.30
-    times: list[float] = field(default_factory=list)
-    robot_xy: list[tuple[float, float]] = field(default_factory=list)
-    target_xy: list[tuple[float, float] | None] = field(default_factory=list)
-    states: list[str] = field(default_factory=list)
-    los: list[bool] = field(default_factory=list)
-    fov: list[bool] = field(default_factory=list)
-    target_distance: list[float | None] = field(default_factory=list)
+    times: array = field(default_factory=_floats)
+    robot_x: array = field(default_factory=_floats)
+    robot_y: array = field(default_factory=_floats)
+    target_x: array = field(default_factory=_floats)
+    target_y: array = field(default_factory=_floats)
+    states: list[str] = field(default_factory=list)  # references to the few state strings
+    los: array = field(default_factory=_flags)
+    fov: array = field(default_factory=_flags)
+    target_distance: array = field(default_factory=_floats)
     transitions: list[tuple[float, str]] = field(default_factory=list)
     losses: list[LossEvent] = field(default_factory=list)
     occlusions: list[Occlusion] = field(default_factory=list)
-    goals: list[tuple[float, float, float, bool]] = field(default_factory=list)  # t, x, y, target still
-    pose_errors: dict[str, list[tuple[float, float]]] = field(default_factory=dict)  # name → (range, err m)
+    # follow goals: time, x, y, and whether the target stood still (1) — one entry per new goal
+    goal_t: array = field(default_factory=_floats)
+    goal_x: array = field(default_factory=_floats)
+    goal_y: array = field(default_factory=_floats)
+    goal_still: array = field(default_factory=_flags)
+    pose_errors: dict[str, tuple[array, array]] = field(default_factory=dict)  # name → (ranges m, errors m)
     dock: DockErrors | None = None
     collisions: int = 0
     _last_goal_seq: int = -1
@@ -124,12 +144,14 @@ class MetricsRecorder:
         t = gt.stamp
         prev = self.states[-1] if self.states else ""
         self.times.append(t)
-        self.robot_xy.append((gt.robot.x, gt.robot.y))
-        self.target_xy.append(None if gt.target is None else (gt.target.x, gt.target.y))
+        self.robot_x.append(gt.robot.x)
+        self.robot_y.append(gt.robot.y)
+        self.target_x.append(math.nan if gt.target is None else gt.target.x)
+        self.target_y.append(math.nan if gt.target is None else gt.target.y)
         self.states.append(state)
         self.los.append(bool(gt.target_in_los))
         self.fov.append(bool(gt.target_in_fov))
-        self.target_distance.append(None if gt.target is None else gt.robot.distance_to(gt.target))
+        self.target_distance.append(math.nan if gt.target is None else gt.robot.distance_to(gt.target))
         self.collisions = int(gt.collisions)
         if state != prev:
             self.transitions.append((t, state))
@@ -138,7 +160,10 @@ class MetricsRecorder:
         if nav_goal is not None and nav_goal.seq != self._last_goal_seq:
             self._last_goal_seq = nav_goal.seq
             if state == MissionState.FOLLOW:
-                self.goals.append((t, nav_goal.pose.x, nav_goal.pose.y, not gt.target_moving))
+                self.goal_t.append(t)
+                self.goal_x.append(nav_goal.pose.x)
+                self.goal_y.append(nav_goal.pose.y)
+                self.goal_still.append(not gt.target_moving)
         for name, track in (tracks or {}).items():
             self._record_pose_error(name, track, gt)
 
@@ -175,7 +200,9 @@ class MetricsRecorder:
             return
         est = se3.apply(gt.T_map_optical, det.position)
         rng = float(np.linalg.norm(truth[:3, 3] - gt.T_map_optical[:3, 3]))
-        self.pose_errors.setdefault(name, []).append((rng, float(np.linalg.norm(est - truth[:3, 3]))))
+        ranges, errors = self.pose_errors.setdefault(name, (_floats(), _floats()))
+        ranges.append(rng)
+        errors.append(float(np.linalg.norm(est - truth[:3, 3])))
 
     def finish(self, gt: GroundTruthSample | None, final_state: str) -> None:
         """Close open events at the end of the run (a dock that ends the run is measured here)."""
@@ -183,23 +210,26 @@ class MetricsRecorder:
         if gt is not None and self.dock is None and docked and gt.T_map_dock is not None:
             self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
 
+    # -- the history as arrays ------------------------------------------------------------------------
+    @property
+    def robot_xy(self) -> np.ndarray:
+        """(N, 2) robot positions, one per tick."""
+        return _xy(self.robot_x, self.robot_y)
+
+    @property
+    def target_xy(self) -> np.ndarray:
+        """(N, 2) target positions, one per tick; NaN rows where the world has no target."""
+        return _xy(self.target_x, self.target_y)
+
     # -- summary -----------------------------------------------------------------------------------
     def goal_jitter_sd(self) -> float | None:
         """Largest s.d. (m) of follow goals within one stretch where the target stood still (≥ 5 goals)."""
-        windows: list[list[tuple[float, float]]] = []
-        current: list[tuple[float, float]] = []
-        for _, x, y, still in self.goals:
-            if still:
-                current.append((x, y))
-            elif current:
-                windows.append(current)
-                current = []
-        if current:
-            windows.append(current)
+        still = np.array(self.goal_still, dtype=bool)
+        xy = _xy(self.goal_x, self.goal_y)
         sds = []
-        for w in windows:
-            if len(w) >= 5:
-                a = np.asarray(w[2:])  # skip the first goals while the average settles
+        for run in _runs(still):
+            if len(run) >= 5:
+                a = xy[run[2:]]  # skip the first goals while the average settles
                 sds.append(float(math.sqrt(a[:, 0].var() + a[:, 1].var())))
         return max(sds) if sds else None
 
@@ -210,11 +240,13 @@ class MetricsRecorder:
         reacq = [e.end - e.start for e in self.losses if e.end is not None]
         open_losses = [e for e in self.losses if e.end is None]
         pose: dict[str, Any] = {}
-        for name, samples in self.pose_errors.items():
+        for name, (ranges, errors) in self.pose_errors.items():
+            r, e = np.array(ranges, dtype=float), np.array(errors, dtype=float)
             buckets = {}
             for lo, hi in RANGE_BUCKETS:
-                errs = [100.0 * e / r for r, e in samples if lo <= r < hi and r > 0]
-                if errs:
+                inside = (r >= lo) & (r < hi) & (r > 0)
+                errs = 100.0 * e[inside] / r[inside]
+                if len(errs):
                     buckets[f"{lo:g}-{hi:g}m"] = {
                         "n": len(errs),
                         "median_pct": round(float(np.median(errs)), 3),
@@ -242,6 +274,17 @@ class MetricsRecorder:
             "dock": None if self.dock is None else {k: round(v, 4) for k, v in self.dock.__dict__.items()},
             "collisions": self.collisions,
         }
+
+
+def _xy(xs: array, ys: array) -> np.ndarray:
+    """(N, 2) float copy of two packed columns (a copy: the arrays keep growing while it is in use)."""
+    return np.column_stack([np.array(xs, dtype=float), np.array(ys, dtype=float)]).reshape(-1, 2)
+
+
+def _runs(flags: np.ndarray) -> list[np.ndarray]:
+    """Index arrays of the maximal stretches where `flags` is true."""
+    edges = np.diff(np.concatenate([[0], flags.astype(np.int8), [0]]))
+    return [np.arange(a, b) for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True)]
 
 
 def _round(v: float | None, nd: int = 4) -> float | None:

@@ -76,11 +76,12 @@ def plot_trajectories(
         extent = (x0, x0 + w * res, y0, y0 + h * res)
         img = np.where(grid.data >= 50, 0.15, np.where(grid.data < 0, 0.7, 1.0))
         ax.imshow(img, cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
-    tgt = np.array([p for p in rec.target_xy if p is not None])
+    tgt = rec.target_xy
+    tgt = tgt[~np.isnan(tgt[:, 0])]
     if len(tgt):
         ax.plot(tgt[:, 0], tgt[:, 1], "--", color="#1f77b4", lw=1.5, label="target (truth)")
         ax.plot(*tgt[-1], "s", color="#d62728", ms=8)
-    xy = np.asarray(rec.robot_xy)
+    xy = rec.robot_xy
     if len(xy) > 1:
         segs = np.stack([xy[:-1], xy[1:]], axis=1)
         colours = [STATE_COLOURS.get(s, NO_STATE) for s in rec.states[1:]]
@@ -100,22 +101,36 @@ def plot_trajectories(
     _save(fig, path)
 
 
+def _stretches(values: list[str], end: int) -> list[tuple[int, int, str]]:
+    """(first index, index after the stretch, value) of each run of equal values in values[:end]."""
+    out: list[tuple[int, int, str]] = []
+    start = 0
+    for i in range(1, end + 1):
+        if i == end or values[i] != values[start]:
+            out.append((start, i, values[start]))
+            start = i
+    return out
+
+
 def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
     """Mission state over time above the ground truth it reacts to (line of sight, field of view, range)."""
-    t = np.asarray(rec.times)
+    t = np.array(rec.times, dtype=float)
     fig, (ax_s, ax_d) = plt.subplots(2, 1, figsize=(10, 4.2), sharex=True, height_ratios=[1.2, 1])
     if len(t) > 1:
-        rows = {"state": 2.0, "line of sight": 1.0, "in view": 0.0}
-        for i in range(len(t) - 1):
-            w = t[i + 1] - t[i]
-            ax_s.barh(rows["state"], w, left=t[i], height=0.8, color=STATE_COLOURS.get(rec.states[i], NO_STATE))
-            ax_s.barh(rows["line of sight"], w, left=t[i], height=0.8, color="#2ca02c" if rec.los[i] else "#d62728")
-            ax_s.barh(rows["in view"], w, left=t[i], height=0.8, color="#2ca02c" if rec.fov[i] else "#d9d9d9")
-        ax_s.set_yticks(list(rows.values()), list(rows.keys()))
+        rows = {
+            "state": [STATE_COLOURS.get(s, NO_STATE) for s in rec.states],
+            "line of sight": ["#2ca02c" if v else "#d62728" for v in rec.los],
+            "in view": ["#2ca02c" if v else "#d9d9d9" for v in rec.fov],
+        }
+        for y, colours in zip((2.0, 1.0, 0.0), rows.values(), strict=True):
+            # one bar per stretch of equal colour: a 30-minute run is a few hundred bars, not 27 000
+            for a, b, colour in _stretches(colours, len(t) - 1):
+                ax_s.barh(y, t[b] - t[a], left=t[a], height=0.8, color=colour)
+        ax_s.set_yticks([2.0, 1.0, 0.0], list(rows))
         for tt, s in rec.transitions:
             if s:
                 ax_s.annotate(s, (tt, 2.45), fontsize=7, rotation=30)
-        d = np.array([np.nan if v is None else v for v in rec.target_distance], dtype=float)
+        d = np.array(rec.target_distance, dtype=float)
         ax_d.plot(t, d, color="#1f77b4")
         ax_d.set_ylabel("robot–target (m)")
     ax_d.set_xlabel("sim time (s)")
