@@ -420,7 +420,7 @@ def main(argv: list[str] | None = None) -> int:
     except MissionError as err:
         print(f"bench.report: error: {err}", file=sys.stderr)
         return 2
-    from mission.report import atomic_write_bytes
+    from mission.core.files import atomic_write_bytes
 
     atomic_write_bytes(args.out, text.encode())
     for w in warnings:

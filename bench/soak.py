@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 import tracemalloc
@@ -29,6 +28,7 @@ import numpy as np
 
 from bench.common import Figure, load_average, pct
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
+from mission.core.files import atomic_write_text
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -41,10 +41,7 @@ def slope_per_min(xs: list[float], ys: list[float]) -> float | None:
 
 
 def _write(out: Path, name: str, data: dict[str, Any]) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = out / f".{name}.tmp"
-    tmp.write_text(json.dumps(data, indent=1, default=str))
-    os.replace(tmp, out / name)
+    atomic_write_text(out / name, json.dumps(data, indent=1, default=str))
 
 
 # --------------------------------------------------------------------------------------------------

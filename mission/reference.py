@@ -24,6 +24,8 @@ from typing import Any
 from pydantic import BaseModel
 from pydantic_core import PydanticUndefined
 
+from mission.core.files import atomic_write_text
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 _BLOCK = re.compile(r"(<!-- reference:(?P<name>[\w-]+) -->\n).*?(<!-- /reference:(?P=name) -->)", re.S)
 _FIELD_COMMENT = re.compile(r"^\s+(\w+)\s*:[^#\n]*#\s*(.+?)\s*$")
@@ -243,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         print(f"{path}: reference tables are stale; run `python -m mission.reference`", file=sys.stderr)
         return 1
-    path.write_text(new, encoding="utf-8")
+    atomic_write_text(path, new)  # README.md: never left half-written
     print(f"{path}: reference tables regenerated")
     return 0
 

@@ -3,7 +3,7 @@
 A remote VLM's free tier allows a few requests per minute and ~20 per day. If that state lived only in
 memory, a node that crashes and restarts in a loop would call the model on every start and burn the
 day's quota in minutes. So a call is *recorded on disk before it is made*, and the file is written
-atomically (temp file + ``os.replace``) so a crash mid-write leaves the old state, never a torn file.
+atomically (mission.core.files) so a crash mid-write leaves the old state, never a torn file.
 
 The quota day is the UTC calendar day of the wall clock passed in. Sources that share a state file share
 one budget (as nodes sharing one API key do); by default the file is per client kind, under the user's
@@ -15,10 +15,11 @@ from __future__ import annotations
 import json
 import logging
 import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+
+from mission.core.files import atomic_write_text
 
 log = logging.getLogger(__name__)
 
@@ -77,17 +78,7 @@ class QuotaStore:
     def _save(self) -> None:
         if self.path is None:
             return
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=self.path.name + ".", suffix=".tmp", dir=self.path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(asdict(self.state), fh)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        atomic_write_text(self.path, json.dumps(asdict(self.state)))
 
     # -- the budget --------------------------------------------------------------------------------
     def _calls_on(self, day: str) -> int:

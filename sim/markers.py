@@ -19,6 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from mission.core.files import atomic_write_bytes
+
 PIXELS_PER_CELL = 32
 # White cells around the black border (FIELD_NOTES: one). Measured on renders at 3 m: OpenCV's default
 # detector with SUBPIX sometimes snaps a corner onto the quad's outer corner with one cell (+4.5 px,
@@ -77,11 +79,9 @@ def quad_side(dictionary_name: str, size_m: float, quiet_cells: int = QUIET_CELL
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
-    if path.exists():
-        return
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    """Cache files are named by their content: one that exists is already right (another process made it)."""
+    if not path.exists():
+        atomic_write_bytes(path, data)
 
 
 def marker_asset(

@@ -15,6 +15,7 @@ from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
 from behaviours.ports import Port
+from mission.core.files import atomic_write_text
 
 #: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows)
 GROOT_TYPES: dict[type, str] = {str: "std::string", int: "int", float: "double", bool: "bool"}
@@ -82,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         if new != text:
             stale.append(path.name)
             if not args.check:
-                path.write_text(new)
+                atomic_write_text(path, new)
     verb = "stale" if args.check else "updated"
     print(f"{verb}: {', '.join(stale) or 'none'}")
     return 1 if args.check and stale else 0

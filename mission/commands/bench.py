@@ -20,6 +20,7 @@ from typing import Any
 from bench.common import machine_info, progress
 from bench.registry import Benchmark, select
 from mission.core.errors import MissionError
+from mission.core.files import atomic_write_text
 
 
 def command_line(args: argparse.Namespace) -> str:
@@ -57,7 +58,7 @@ def _run_one(b: Benchmark, quick: bool, out: Path, machine: dict[str, Any], cmd:
         print(f"mission bench: {b.name}: {entry['error']}", file=sys.stderr)
     else:
         progress(f"{b.name}: done in {entry['elapsed_s']:.1f} s")
-        (out / f"{b.name}.json").write_text(json.dumps(entry, indent=2, default=str) + "\n")
+        atomic_write_text(out / f"{b.name}.json", json.dumps(entry, indent=2, default=str) + "\n")
     return entry
 
 
@@ -94,7 +95,7 @@ def main(args: argparse.Namespace) -> int:
     total = round(time.perf_counter() - t0, 1)
     summary = {"command": cmd, "machine": machine, "elapsed_s": total,
                "benchmarks": {e["name"]: e for e in entries}}  # fmt: skip
-    (out / "results.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    atomic_write_text(out / "results.json", json.dumps(summary, indent=2, default=str) + "\n")
     if args.json:
         print(json.dumps(summary, indent=2, default=str))
     else:

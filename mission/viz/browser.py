@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from mission.core.errors import MissionError
+from mission.core.files import atomic_write_bytes
 
 CHROMIUM_FLAGS = (
     "--headless",
@@ -210,10 +211,7 @@ class HeadlessChromium:
             params["clip"] = {"x": 0, "y": 0, "width": size[0], "height": size[1], "scale": 1}
             params["captureBeyondViewport"] = True
         data = base64.b64decode(self.send("Page.captureScreenshot", params)["data"])
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
-        return path
+        return atomic_write_bytes(path, data)
 
     # -- lifecycle --------------------------------------------------------------------------------
     def close(self) -> None:

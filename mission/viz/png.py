@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mission.core.files import atomic_path
 from mission.viz.layout import PAD_X, layout_tree
 from mission.viz.model import VizNode
 from mission.viz.style import INK, KIND_COLOURS, MUTED, STATUS_COLOURS
@@ -79,7 +80,9 @@ def render_png(
                 fontsize=line.size, family="DejaVu Sans", va="baseline", **_ROLE_STYLE[line.role],
             )  # fmt: skip
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, facecolor=fig.get_facecolor())
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format="png", dpi=dpi, facecolor=fig.get_facecolor())
+    finally:
+        plt.close(fig)
     return path

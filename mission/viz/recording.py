@@ -20,6 +20,7 @@ import numpy as np
 
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
+from mission.core.files import atomic_path
 from mission.viz.overlay import draw_detections
 from mission.viz.style import STATE_COLOURS
 from mission.viz.topdown import MapView, annotate_scale
@@ -199,8 +200,7 @@ class Recorder:
             self._writer = None
         if self.is_gif and self.frames:
             duration_ms = round(1000.0 * self._stride / self.fps)
-            tmp = self.path.with_name(f".{self.path.stem}.tmp.gif")
-            self.frames[0].save(tmp, save_all=True, append_images=self.frames[1:], duration=duration_ms, loop=0,
-                                optimize=False, disposal=1)  # fmt: skip
-            tmp.replace(self.path)
+            with atomic_path(self.path) as tmp:
+                self.frames[0].save(tmp, format="GIF", save_all=True, append_images=self.frames[1:],
+                                    duration=duration_ms, loop=0, optimize=False, disposal=1)  # fmt: skip
             self.frames = []
