@@ -17,6 +17,7 @@ Lines are flushed as they are written, so a log of a crashed run is readable up 
 from __future__ import annotations
 
 import json
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +27,8 @@ from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
 from mission.viz.probe import probe_for, release
+
+log = logging.getLogger(__name__)
 
 LOG_VERSION = 1
 
@@ -122,6 +125,7 @@ class TickLogData:
     header: dict[str, Any]
     ticks: list[dict[str, Any]] = field(default_factory=list)
     end: dict[str, Any] | None = None
+    torn_line: int | None = None  # the line number of a last line cut off mid-write (skipped), if any
 
     def tree(self) -> VizNode:
         """The tree's structure, all nodes not ticked."""
@@ -146,7 +150,10 @@ class TickLogData:
 
 
 def read_log(path: str | Path) -> TickLogData:
-    """Read a tick log; a bad line is a MissionError naming the file and line (a cut-off last line is ignored)."""
+    """Read a tick log; a bad line is a MissionError naming the file and line.
+
+    The log is append-only, so a run killed mid-write leaves a torn last line: that one is skipped with a
+    warning naming it (and recorded in ``torn_line``), and everything before it is read."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -156,6 +163,7 @@ def read_log(path: str | Path) -> TickLogData:
         raise MissionError(f"{path}: cannot read tick log ({err})") from err
     lines = text.splitlines()
     data: TickLogData | None = None
+    torn: int | None = None
     for i, line in enumerate(lines, start=1):
         if not line.strip():
             continue
@@ -163,7 +171,8 @@ def read_log(path: str | Path) -> TickLogData:
             obj = json.loads(line)
         except json.JSONDecodeError as err:
             if i == len(lines) and not text.endswith("\n"):
-                break  # the run was cut off mid-line: keep what was complete
+                torn = i  # the run was cut off mid-line: keep what was complete
+                break
             raise MissionError(f"{path}:{i}: not JSON ({err.msg}); expected one JSON object per line") from None
         if not isinstance(obj, dict):
             raise MissionError(f"{path}:{i}: expected a JSON object, got {type(obj).__name__}")
@@ -183,4 +192,8 @@ def read_log(path: str | Path) -> TickLogData:
             data.ticks.append(obj)
     if data is None:
         raise MissionError(f"{path}: empty tick log; expected a header line")
+    if torn is not None:
+        data.torn_line = torn
+        log.warning("%s:%d: last line cut off mid-write (the run was interrupted); skipped it, read %d ticks before it",
+                    path, torn, len(data.ticks))  # fmt: skip
     return data
