@@ -20,18 +20,20 @@ import cv2
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import read, tick
-from vlm_scene import Box, Scene, camera_pose, render, yaw_towards
+from behaviour_world import Scene, marker_facing, read, tick
+from vlm_scene import Box, camera_pose, render, yaw_towards
+from vlm_scene import Scene as VlmScene
 
 from behaviours.perceive import PerceiveTargets
 from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
-from mission.core.types import CameraIntrinsics, Frame
+from mission.core.types import CameraIntrinsics, Frame, Pose2D
 from perception_plugins import synthetic_views as sv
 from perception_plugins.apriltag import AprilTagSource
 from perception_plugins.aruco import ArucoSource
 from perception_plugins.vlm_stub import VlmStubSource
+from trees.loader import load_tree
 
 S = py_trees.common.Status
 MARKER = 0.2
@@ -167,7 +169,7 @@ def test_a_marker_at_the_border_or_partly_outside_is_found_accurately_or_not_at_
 # -- vlm_stub: images and depth ----------------------------------------------------------------------------
 
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), (30, 30, 200), yaw=0.2)
-VLM_FRAME = render(Scene([BOX]), camera_pose(0.0, 0.0, yaw_towards(0.0, 0.0, 3.0, 0.3)))
+VLM_FRAME = render(VlmScene([BOX]), camera_pose(0.0, 0.0, yaw_towards(0.0, 0.0, 3.0, 0.3)))
 
 
 class Clock:
@@ -288,3 +290,29 @@ def test_perceive_targets_drops_16_bit_bgra_float_bool_and_nan_stamped_frames_an
     bbk.set_(w, bbk.FRAME_SEQ, 10)
     assert tick(node) == S.SUCCESS
     assert read(bbk.TRACKS)["target"].visible and read(bbk.PERCEPTION_STATS)["frames_processed"] == 1
+
+
+def test_the_shipped_follow_tree_keeps_following_through_a_burst_of_bad_frames():
+    """A mission tick with garbage in the middle: the tree never fails or stops, the drops are counted, and
+    FOLLOW carries on (a dropped frame is not a miss, so it does not push the tree into LOST or SEARCH)."""
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), marker=marker_facing(2.0, 0.0, math.pi))
+    deps = Dependencies(sources=[scene.source()], targets={"target": TargetSpec(marker_id=7)})
+    tree = py_trees.trees.BehaviourTree(load_tree("follow.xml", deps))
+    tree.setup(timeout=5.0)
+    w = bbk.writer("adapter")
+
+    def cycle(bad_image: object = None) -> str:
+        scene.sense()  # what the adapter writes: pose, clock, a good frame…
+        if bad_image is not None:  # …unless the camera sent garbage
+            bbk.set_(w, bbk.FRAME, Frame(image=bad_image, stamp=scene.clock))  # type: ignore[arg-type]
+        tree.tick()
+        scene.act()
+        assert tree.root.status == S.RUNNING
+        return tree.root.tip().name
+
+    assert [cycle() for _ in range(5)][-1] == "FollowTarget"
+    garbage = [np.zeros((480, 640), np.uint16), np.zeros((0, 0, 3), np.uint8), "frame", np.ones((4, 4, 4))]
+    tips = [cycle(image) for image in garbage * 5]
+    assert set(tips) == {"FollowTarget"}
+    assert read(bbk.PERCEPTION_STATS)["frames_dropped"] == 20
+    assert [cycle() for _ in range(5)][-1] == "FollowTarget" and read(bbk.TRACKS)["target"].misses == 0
