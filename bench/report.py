@@ -192,8 +192,23 @@ def table_of(rows: list[dict[str, Any]], first: str | None = None) -> list[str]:
     return lines
 
 
+def _flatten_row(row: Any) -> Any:
+    """A row whose values include flat dicts ({"ours": {...}, "raw": {...}}) as one flat row ("ours.n", …)."""
+    if not isinstance(row, dict) or not any(_flat(v) and isinstance(v, dict) for v in row.values()):
+        return row
+    out: dict[str, Any] = {}
+    for k, v in row.items():
+        if isinstance(v, dict) and _flat(v):
+            out.update({f"{k}.{a}": b for a, b in v.items()})
+        else:
+            out[k] = v
+    return out
+
+
 def _details(name: str, v: Any, out: list[str]) -> None:
     """One details item: a bullet for a scalar or a flat dict, a table for rows, recursion otherwise."""
+    if isinstance(v, list):
+        v = [_flatten_row(r) for r in v]
     if _scalar(v):
         out.append(f"- {name}: {_value(v)}")
     elif isinstance(v, list) and v and all(_flat(r) for r in v):
@@ -365,7 +380,8 @@ def section(e: Entry, machine: dict[str, Any] | None, docs: Path, rel_docs: Path
     elif not e.machine:
         meta.append("- Machine: not recorded in this file (run outside `mission bench`; see the write-up below)")
     if load is not None:
-        meta.append(f"- Load average (1 min) when it started: {fmt(load)} on {e.machine.get('cores', 2)} cores")
+        cores = e.machine.get("cores", 2)
+        meta.append(f"- Load average (1 min) when the command started: {fmt(load)} on {cores} cores")
     meta.append(f"- Source: `{_display(e.path)}`")
     lines += [*meta, ""]
     if e.figures:

@@ -70,10 +70,21 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
     return env
 
 
-def node_command(marker_id: int, marker_size_m: float, tick_hz: float = 30.0) -> list[str]:
-    """The installed node in perception-only mode (the design notes' aruco_pose_streamer) for one marker."""
-    return [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={marker_size_m}",
-            "-p", f"target_marker_id:={marker_id}", "-p", f"tick_hz:={tick_hz:g}"]  # fmt: skip
+def node_command(marker_id: int, marker_size_m: float, tick_hz: float = 30.0,
+                 subject: Subject | None = None) -> list[str]:  # fmt: skip
+    """The installed node in perception-only mode (the design notes' aruco_pose_streamer) for one marker;
+    with `subject`, on that subject's topics (params for the inputs, a remap for /detected_aruco_pose)."""
+    cmd = [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={marker_size_m}",
+           "-p", f"target_marker_id:={marker_id}", "-p", f"tick_hz:={tick_hz:g}"]  # fmt: skip
+    if subject is not None:
+        default = Subject(subject.name)
+        if subject.image_topic != default.image_topic:
+            cmd += ["-p", f"image_topic:={subject.image_topic}"]
+        if subject.info_topic != default.info_topic:
+            cmd += ["-p", f"camera_info_topic:={subject.info_topic}"]
+        if subject.answer_topic != default.answer_topic:
+            cmd += ["-r", f"{default.answer_topic}:={subject.answer_topic}"]
+    return cmd
 
 
 def rss_mb(pid: int | None = None) -> float:

@@ -17,6 +17,9 @@ echo, detector, node, …; one fed at a time) so all four see the same machine l
   the DDS round trip of a 0.9 MB image and a small answer, with no work in between (the transport floor).
 * **detector alone** — our ``aruco`` source's ``process()`` on the same frames in this process, no ROS.
 
+Full runs add a diagnostic slot: the same node at ``tick_hz:=120`` on its own topics, against the node at 30 Hz —
+how much of the node's latency is waiting for its next tick.
+
 What separates the node from the streamer: the node does its work on a 30 Hz tick timer (the newest frame
 waits for the next tick: 0–33 ms, set by the phase between camera and timer, which drifts slowly as both run
 at 30 Hz), then the tree (PerceiveTargets: tracks, the temporal choice between the two IPPE poses), then
@@ -51,10 +54,14 @@ N_VIEWS = 8
 STARTUP_TIMEOUT_S = 60.0
 
 NODE = Subject("node")  # the node's default topics
+# Diagnostic (full runs): the same node ticking at 120 Hz — how much of its latency is waiting for a tick.
+NODE_FAST = Subject("node_tick120", "/bench/node120/image_raw", "/bench/node120/camera_info", "/bench/node120/pose")
+FAST_TICK_HZ = 120.0
 STREAMER = Subject("streamer", "/bench/streamer/image_raw", "/bench/streamer/camera_info", "/bench/streamer/pose")
 ECHO = Subject("echo", "/bench/echo/image_raw", "/bench/echo/camera_info", "/bench/echo/pose")
 DETECTOR = "detector"  # the in-process slot (no ROS)
 SLOTS = (NODE.name, STREAMER.name, ECHO.name, DETECTOR)
+FULL_SLOTS = (*SLOTS, NODE_FAST.name)
 
 
 def render_views(n: int = N_VIEWS, seed: int = 11) -> tuple[list[np.ndarray], CameraIntrinsics]:
@@ -163,15 +170,19 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
     build_ros()
     env = ros_env()
     views, k = render_views()
+    slots = SLOTS if quick else FULL_SLOTS
     procs = {
         NODE.name: Subprocess(node_command(MARKER_ID, MARKER_SIZE_M, HZ), env, log_dir / ".ros_transport_node.log"),
         STREAMER.name: Subprocess(_serve_command("streamer", STREAMER), env, log_dir / ".ros_transport_streamer.log"),
         ECHO.name: Subprocess(_serve_command("echo", ECHO), env, log_dir / ".ros_transport_echo.log"),
     }
-    feeder = Feeder([NODE, STREAMER, ECHO], views, k, hz=HZ)
+    if not quick:
+        procs[NODE_FAST.name] = Subprocess(node_command(MARKER_ID, MARKER_SIZE_M, FAST_TICK_HZ, NODE_FAST), env,
+                                           log_dir / ".ros_transport_node_tick120.log")  # fmt: skip
+    feeder = Feeder([NODE, STREAMER, ECHO, NODE_FAST], views, k, hz=HZ)
     source = ArucoSource({"marker_size_m": MARKER_SIZE_M})
-    samples: dict[str, list[float]] = {s: [] for s in SLOTS}
-    fed: dict[str, int] = dict.fromkeys(SLOTS, 0)
+    samples: dict[str, list[float]] = {s: [] for s in slots}
+    fed: dict[str, int] = dict.fromkeys(slots, 0)
     t_start = time.monotonic()
     try:
         for name, proc in procs.items():  # warm-up: each answers once before anything is timed
@@ -185,7 +196,7 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
             feeder.take(name)
         n = 0
         for _ in range(rounds):
-            for name in SLOTS:
+            for name in slots:
                 if name == DETECTOR:
                     samples[DETECTOR] += _detector_slot(views, k, slot_s, source, n)
                     fed[DETECTOR] = len(samples[DETECTOR])
@@ -206,7 +217,8 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
         source.close()
         for proc in procs.values():
             proc.stop()
-    return {"samples": samples, "fed": fed, "slot_s": slot_s, "rounds": rounds, "startup_s": round(startup_s, 1)}
+    return {"samples": samples, "fed": fed, "slot_s": slot_s, "rounds": rounds, "startup_s": round(startup_s, 1),
+            "slots": slots}  # fmt: skip
 
 
 def figures(m: dict[str, Any]) -> list[Figure]:
@@ -229,13 +241,20 @@ def figures(m: dict[str, Any]) -> list[Figure]:
     figs.append(Figure("frames answered by the node", round(an, 3), "fraction of frames fed",
                        baseline="same fraction for the hand-written streamer", baseline_value=round(ast, 3),
                        ratio=ratio(an, ast, 3)))  # fmt: skip
+    if NODE_FAST.name in s:
+        fast = s[NODE_FAST.name]
+        for q in (50, 99):
+            a, b = pct(fast, q, 2), pct(node, q, 2)
+            figs.append(Figure(f"diagnostic: the same node at tick_hz {FAST_TICK_HZ:g}, p{q}", a, "ms",
+                               baseline="the node at tick_hz 30 above (same frames, interleaved)", baseline_value=b,
+                               ratio=ratio(a, b, 2)))  # fmt: skip
     return figs
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:
     m = measure(quick, out)
     s = m["samples"]
-    for name in SLOTS:
+    for name in m["slots"]:
         progress(f"ros: {name}: {len(s[name])} samples, p50 {pct(s[name], 50, 2)} ms, p99 {pct(s[name], 99, 2)} ms")
     plot = _plot(s, out)
     return {
@@ -246,7 +265,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             "frames": f"640x480 bgr8, {N_VIEWS} rendered views of a {MARKER_SIZE_M} m DICT_4X4_250 marker, "
             f"{HZ:g} Hz, with CameraInfo",
             "transport": "ros/fastdds_shm.xml (shared memory only), private ROS_DOMAIN_ID",
-            "slots": f"{m['rounds']} rounds × ({', '.join(SLOTS)}) × {m['slot_s']:g} s, one fed at a time",
+            "slots": f"{m['rounds']} rounds × ({', '.join(m['slots'])}) × {m['slot_s']:g} s, one fed at a time",
             "startup_s": m["startup_s"],
             "frames_fed": m["fed"],
             "answers": {k: len(v) for k, v in s.items()},
@@ -268,9 +287,10 @@ def _plot(samples: dict[str, list[float]], out: Path) -> str:
         STREAMER.name: "hand-written rclpy streamer (raw OpenCV in the callback)",
         ECHO.name: "bare rclpy echo (DDS round trip only)",
         DETECTOR: "our aruco source alone (no ROS)",
+        NODE_FAST.name: f"diagnostic: the node at tick_hz {FAST_TICK_HZ:g}",
     }
     fig, ax = plt.subplots(figsize=(6.5, 3.8))
-    for name in SLOTS:
+    for name in samples:
         v = np.sort(np.asarray(samples[name]))
         if len(v):
             ax.plot(v, np.arange(1, len(v) + 1) / len(v), label=labels[name])
