@@ -70,11 +70,23 @@ class BagRecorder:
         self._last_stamp: dict[str, float] = {}
 
     # -- lifecycle ---------------------------------------------------------------------------------
+    @property
+    def partial_path(self) -> Path:
+        """Where the bag grows while recording (``<path>.partial/<name>``, so its data file already has its
+        final name, which metadata.yaml records); moved to `path` when closed. A bag at `path` is therefore
+        always complete: a killed run leaves ``<path>.partial`` without metadata.yaml, never a broken `path`."""
+        return self.path.with_name(self.path.name + ".partial") / self.path.name
+
     def open(self) -> BagRecorder:
         if self.path.exists():
             raise MissionError(f"{self.path}: exists already; a bag is never overwritten")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._writer = Writer(self.path, version=9, storage_plugin=self.storage)
+        if self.partial_path.parent.exists():
+            raise MissionError(
+                f"{self.partial_path.parent}: an interrupted recording to {self.path} is in the way "
+                f"(`ros2 bag reindex {self.partial_path}` may recover it); move or delete it to record again"
+            )
+        self.partial_path.parent.mkdir(parents=True)
+        self._writer = Writer(self.partial_path, version=9, storage_plugin=self.storage)
         self._writer.open()
         for key, (topic, msgtype) in DEFAULT_TOPICS.items():
             self._connections[key] = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
@@ -82,8 +94,10 @@ class BagRecorder:
 
     def close(self) -> None:
         if self._writer is not None:
-            self._writer.close()
+            self._writer.close()  # writes metadata.yaml: from here on the bag is readable
             self._writer = None
+            self.partial_path.rename(self.path)
+            self.partial_path.parent.rmdir()
 
     def __enter__(self) -> BagRecorder:
         return self.open()

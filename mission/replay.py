@@ -57,11 +57,17 @@ def _open_reader(path: Path) -> AnyReader:
     if not path.exists():
         raise MissionError(f"{path}: bag not found")
     bag = path.parent if path.is_file() and path.suffix in (".mcap", ".db3", ".yaml") else path
+    if bag.is_dir() and not (bag / "metadata.yaml").exists() and any(bag.glob("*.mcap")) | any(bag.glob("*.db3")):
+        raise MissionError(
+            f"{path}: no metadata.yaml next to the data: the recording was cut off before it was closed "
+            f"(`ros2 bag reindex {path}` may recover it)"
+        )
     try:
         reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY))
         reader.open()
     except Exception as err:  # rosbags raises several unrelated types for unreadable bags
-        raise MissionError(f"{path}: not a readable rosbag2 (mcap or sqlite3): {err}") from None
+        why = " ".join(str(err).split())
+        raise MissionError(f"{path}: not a readable rosbag2 (mcap or sqlite3): {why}") from None
     return reader
 
 
