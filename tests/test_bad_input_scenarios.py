@@ -81,6 +81,14 @@ CASES = {
         {"lidar": {"range_min_m": 5.0, "range_max_m": 4.0}},
         "lidar.range_max_m: range_max_m must be greater than range_min_m",
     ),
+    "unknown dock dictionary": (
+        {"dock": {"x": 0.0, "y": 4.0, "yaw_deg": 0, "dictionary": "DICT_9X9_50"}},
+        "dock.dictionary: unknown dictionary 'DICT_9X9_50'; expected one of DICT_4X4_100, ",
+    ),
+    "an AprilTag family name where a dictionary goes": (
+        {"target": {"markers": [{"dictionary": "tag36h11"}]}},
+        "target.markers[0].dictionary: unknown dictionary 'tag36h11'; expected one of ",
+    ),
     "NaN robot position": ({"robot": {"x": ".nan"}}, "robot.x: input should be a finite number, got nan"),
 }  # fmt: skip
 
