@@ -150,7 +150,8 @@ class Feeder:
 
     Frame `n` is ``views[(n // frames_per_view) % len(views)]`` with stamp ``1000 + n / hz``. The image
     messages are built once per view (only the header changes), so the feeder's own cost per frame is
-    the publish. Runs its executor in a background thread; :meth:`close` stops it.
+    the publish. A camera thread publishes on schedule (:meth:`rephase` shifts it) and an executor
+    thread receives the answers; :meth:`close` stops both.
     """
 
     def __init__(self, subjects: list[Subject], views: list[np.ndarray], intrinsics: CameraIntrinsics,
@@ -189,15 +190,38 @@ class Feeder:
             self.node.create_subscription(PoseStamped, s.answer_topic, self._on_answer, 10)
         if heartbeat_topic:
             self.node.create_subscription(String, heartbeat_topic, self._on_heartbeat, 10)
-        self.node.create_timer(1.0 / hz, self._publish)
         self._stop = threading.Event()
+        self._next_t = time.monotonic()
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
+        self._clock = threading.Thread(target=self._camera, daemon=True)
+        self._clock.start()
 
     # -- executor thread ---------------------------------------------------------------------------
     def _spin(self) -> None:
         while not self._stop.is_set() and self.context.ok():
             self.executor.spin_once(timeout_sec=0.02)
+
+    def _camera(self) -> None:
+        """The camera's clock: a frame every 1/hz s (publishing from this thread; answers arrive on the
+        executor's). A late wake-up does not send a burst: the schedule restarts from now."""
+        period = 1.0 / self.hz
+        while not self._stop.is_set():
+            now = time.monotonic()
+            if now < self._next_t:
+                time.sleep(min(self._next_t - now, 0.05))
+                continue
+            self._next_t = self._next_t + period if self._next_t + period > now else now + period
+            self._publish()
+
+    def rephase(self, delay_s: float) -> None:
+        """Shift the camera's clock: the next frame goes out `delay_s` from now (then every 1/hz s).
+
+        A camera and a node that both run at 30 Hz keep their relative phase, and a node that works on a
+        timer makes each frame wait for its next tick — so a figure measured at one phase says little.
+        Re-phasing at random before each slot samples the phases.
+        """
+        self._next_t = time.monotonic() + delay_s
 
     def _publish(self) -> None:
         subject = self.active
@@ -265,6 +289,7 @@ class Feeder:
     def close(self) -> None:
         self.active = None
         self._stop.set()
+        self._clock.join(timeout=2.0)
         self._thread.join(timeout=2.0)
         self.executor.shutdown(timeout_sec=1.0)
         self.node.destroy_node()

@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import tempfile
 import time
@@ -144,6 +145,12 @@ def _serve_command(mode: str, subject: Subject) -> list[str]:
 # --------------------------------------------------------------------------------------------------
 
 
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU seconds a live process has used (from /proc; the nodes tick even when not fed)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return round((int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK"), 2)
+
+
 def _detector_slot(views: list[np.ndarray], k: CameraIntrinsics, seconds: float, source: Any, n0: int) -> list[float]:
     """Our aruco source's process() on the frames, paced at HZ for `seconds` (ms per call)."""
     times = []
@@ -195,6 +202,7 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
         for name in procs:
             feeder.take(name)
         n = 0
+        phases = np.random.default_rng(3)
         for _ in range(rounds):
             for name in slots:
                 if name == DETECTOR:
@@ -203,6 +211,7 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
                     n += int(slot_s * HZ)
                     continue
                 before = feeder.published[name]
+                feeder.rephase(float(phases.uniform(0.0, 1.0 / HZ)))  # a new camera/tick phase per slot
                 feeder.active = name
                 time.sleep(slot_s)
                 feeder.active = None
@@ -212,13 +221,15 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
         for name, proc in procs.items():
             if not proc.alive():
                 raise RuntimeError(f"ros: {name} process died during the run; log {proc.log_path}: {proc.log_tail()}")
+        cpu_s = {name: cpu_seconds(proc.pid) for name, proc in procs.items()}
+        wall_s = time.monotonic() - t_start
     finally:
         feeder.close()
         source.close()
         for proc in procs.values():
             proc.stop()
     return {"samples": samples, "fed": fed, "slot_s": slot_s, "rounds": rounds, "startup_s": round(startup_s, 1),
-            "slots": slots}  # fmt: skip
+            "slots": slots, "process_cpu_s": cpu_s, "wall_s": round(wall_s, 1)}  # fmt: skip
 
 
 def figures(m: dict[str, Any]) -> list[Figure]:
@@ -268,6 +279,9 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             "slots": f"{m['rounds']} rounds × ({', '.join(m['slots'])}) × {m['slot_s']:g} s, one fed at a time",
             "startup_s": m["startup_s"],
             "frames_fed": m["fed"],
+            "camera_phase": "re-drawn at random before every slot (the node's tick wait depends on it)",
+            "process_cpu_s": m["process_cpu_s"],
+            "wall_s": m["wall_s"],
             "answers": {k: len(v) for k, v in s.items()},
             "p50_p90_p99_ms": {k: [pct(v, q, 2) for q in (50, 90, 99)] for k, v in s.items()},
             "load_average": load_average(),
