@@ -12,9 +12,13 @@ Already covered: unsupported encoding, step < width×bytes, too little data and 
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import py_trees
 import pytest
+import ros_env
 from behaviour_world import read, tick
 from test_ros_world_io import MSGS, RecordingWorld
 
@@ -22,6 +26,7 @@ from behaviours.perceive import PerceiveTargets
 from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
+from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics
 from mission.ros.conversions import (
     BadMessage,
@@ -31,6 +36,7 @@ from mission.ros.conversions import (
     image_to_depth_m,
     intrinsics_to_camera_info,
 )
+from mission.ros.node import PARAMETERS, check_params, given_params
 from perception_plugins import synthetic_views as sv
 from perception_plugins.aruco import ArucoSource
 
@@ -42,6 +48,7 @@ _rng = np.random.default_rng(5)
 VIEW = sv.render_marker_view(sv.random_pose(1.0, 20, _rng), rng=_rng, marker_size_m=MARKER)
 K = VIEW.intrinsics
 TOPIC = "/camera/image_raw"
+ROOT = ros_env.ROOT
 
 
 class Pipeline:
@@ -213,3 +220,55 @@ def test_a_camera_info_without_size_takes_the_images():
     world.cache.on_image(array_to_image(MSGS, VIEW.image, "bgr8", 0.0, "cam"))
     frame = world.cache.take_frame()
     assert (frame.intrinsics.width, frame.intrinsics.height, frame.intrinsics.fx) == (640, 480, 500)
+
+
+# -- the node's own parameters -----------------------------------------------------------------------------
+
+
+def _defaults() -> dict:
+    return {name: default for name, (default, _doc) in PARAMETERS.items()}
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "message"),
+    [
+        ("tick_hz", -5, "-p tick_hz: expected a number from 0 (the config's rate) to 200, got -5"),
+        ("tick_hz", float("nan"), "-p tick_hz: expected a finite number, got nan"),
+        ("tick_hz", "fast", "-p tick_hz: expected a finite number, got 'fast'"),
+        ("marker_size_m", 0.0, "-p marker_size_m: expected a side length > 0 (m), got 0.0"),
+        ("target_marker_id", 1.5, "-p target_marker_id: expected an integer, got 1.5"),
+        ("serve_port", 70000, "-p serve_port: expected a TCP port 0..65535, got 70000"),
+        ("camera_xyz_rpy", [0.1, 0.0], "-p camera_xyz_rpy: expected 6 numbers [x, y, z, roll, pitch, yaw], got [0.1"),
+        ("image_topic", 5, "-p image_topic: expected a string, got 5"),
+    ],
+)
+def test_a_node_parameter_of_the_wrong_type_or_range_is_one_line_naming_it(name, value, message):
+    with pytest.raises(ConfigError) as err:
+        check_params({**_defaults(), name: value})
+    assert str(err.value).startswith(message)
+
+
+def test_an_unknown_node_parameter_is_named_with_the_likely_one():
+    given = given_params(
+        ["tree", "--ros-args", "-p", "marker_size:=0.1", "-r", "__ns:=/x", "-p", "mission_tree:tick_hz:=5"]
+    )
+    assert given == ["marker_size", "tick_hz"]
+    with pytest.raises(ConfigError) as err:
+        check_params(_defaults(), given)
+    assert str(err.value).startswith("-p marker_size: unknown parameter (did you mean marker_size_m?); the node's ")
+    check_params({**_defaults(), "tick_hz": 5}, ["tick_hz"])  # a node-prefixed known one is fine
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (["-p", "tick_hz:=-5"], "mission_tree: error: -p tick_hz: expected a number from 0 (the config's rate) to 200"),
+        (["-p", "image_topic:="], "mission_tree: error: --ros-args: Failed to parse ROS arguments: Couldn't parse"),
+    ],
+)
+def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
+    proc = subprocess.run([sys.executable, "-m", "mission", "tree", "--ros-args", *args], capture_output=True,
+                          text=True, timeout=60, cwd=ROOT)  # fmt: skip
+    assert proc.returncode == 2, proc.stderr
+    errors = [ln for ln in proc.stderr.splitlines() if "DDS: shared memory only" not in ln]
+    assert len(errors) == 1 and errors[0].startswith(line), proc.stderr

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import json
 import math
 import sys
@@ -26,7 +27,7 @@ from typing import Any
 
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
-from mission.core.errors import MissionError
+from mission.core.errors import ConfigError, MissionError
 from mission.core.perception import PerceptionSource
 from mission.core.types import Detection, Frame
 from mission.ros import dds
@@ -60,6 +61,64 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
 }
 
 
+# Ranges beyond the type of the default (None: any value of that type).
+_PARAM_RANGES: dict[str, tuple[float, float, str]] = {
+    "tick_hz": (0.0, 200.0, "a number from 0 (the config's rate) to 200"),
+    "marker_size_m": (1e-6, math.inf, "a side length > 0 (m)"),
+    "camera_info_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
+    "goal_tolerance_m": (1e-6, math.inf, "a distance > 0 (m)"),
+    "serve_port": (0, 65535, "a TCP port 0..65535"),
+    "target_marker_id": (-1, math.inf, "a marker id ≥ 0, or -1"),
+}
+
+
+def given_params(argv: Sequence[str]) -> list[str]:
+    """Names set with ``-p NAME:=VALUE`` / ``--param`` after ``--ros-args`` (a ``node:`` prefix removed)."""
+    names, in_ros, it = [], False, iter(argv)
+    for token in it:
+        if token == "--ros-args":
+            in_ros = True
+        elif token == "--":
+            in_ros = False
+        elif in_ros and token in ("-p", "--param"):
+            rule = next(it, "")
+            names.append(rule.split(":=", 1)[0].rsplit(":", 1)[-1])
+    return names
+
+
+def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
+    """Every parameter has the type of its default and a usable value, and every one given is known.
+
+    ROS itself accepts ``-p tick_hz:=-5`` or ``-p tick_hz:=fast`` (dynamic typing) and ignores an unknown
+    ``-p marker_size:=0.1``: here each is one ConfigError naming the parameter, before anything starts."""
+    for name in given:
+        if name not in PARAMETERS:
+            close = difflib.get_close_matches(name, list(PARAMETERS), n=1)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise ConfigError(f"unknown parameter{hint}; the node's parameters: {', '.join(PARAMETERS)}",
+                              key=f"-p {name}")  # fmt: skip
+    for name, (default, _doc) in PARAMETERS.items():
+        value, key = params[name], f"-p {name}"
+        if isinstance(default, list):
+            ok = isinstance(value, list | tuple) and len(value) == len(default) and all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value
+            )
+            if not ok:
+                raise ConfigError(f"expected 6 numbers [x, y, z, roll, pitch, yaw], got {value!r}", key=key)
+            continue
+        if isinstance(default, str):
+            if not isinstance(value, str):
+                raise ConfigError(f"expected a string, got {value!r}", key=key)
+            continue
+        kind = int if isinstance(default, int) else float
+        number = isinstance(value, int if kind is int else int | float) and not isinstance(value, bool)
+        if not number or not math.isfinite(value):
+            raise ConfigError(f"expected {'an integer' if kind is int else 'a finite number'}, got {value!r}", key=key)
+        low, high, what = _PARAM_RANGES.get(name, (-math.inf, math.inf, ""))
+        if not low <= value <= high:
+            raise ConfigError(f"expected {what}, got {value!r}", key=key)
+
+
 def build_config(params: dict[str, Any]) -> tuple[MissionConfig, str | None]:
     """The mission config: the YAML file when `config` is set, else an ArUco source from the ROS params."""
     config_file = params["config"] or None
@@ -91,6 +150,7 @@ class MissionNode:
             # dynamic typing: `-p tick_hz:=10` (an int) is as good as 10.0
             self.node.declare_parameter(name, default, ParameterDescriptor(description=doc, dynamic_typing=True))
         self.params = {name: self.node.get_parameter(name).value for name in PARAMETERS}
+        self.given = given_params(argv)
         if cli_config:
             self.params["config"] = cli_config
         if cli_tree:
@@ -118,6 +178,7 @@ class MissionNode:
         from mission.runner import TreeRunner
 
         p, n = self.params, self.node
+        check_params(p, self.given)
         config, config_file = build_config(p)
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
@@ -327,8 +388,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     import rclpy
     from rclpy.utilities import remove_ros_args
 
-    cli = _parse_cli(remove_ros_args(argv)[1:])
-    rclpy.init(args=argv)
+    try:
+        cli = _parse_cli(remove_ros_args(argv)[1:])
+        rclpy.init(args=argv)
+    except Exception as err:  # e.g. `-p name:=` — rcl's own parser: one line, not a traceback
+        why = " ".join(str(err).split(", at /")[0].split())
+        print(f"{NODE_NAME}: error: --ros-args: {why}", file=sys.stderr)
+        return 2
     node: MissionNode | None = None
     try:
         node = MissionNode(argv, cli_config=cli.config, cli_tree=cli.tree)
