@@ -103,6 +103,7 @@ class Subprocess:
         log_path.parent.mkdir(parents=True, exist_ok=True)
         self._log = log_path.open("wb")
         self.proc = subprocess.Popen(cmd, env=env, stdout=self._log, stderr=subprocess.STDOUT, cwd=ROOT)
+        self._interrupted = False
 
     @property
     def pid(self) -> int:
@@ -116,11 +117,17 @@ class Subprocess:
         text = self.log_path.read_text(errors="replace").strip().splitlines()
         return " | ".join(text[-lines:]) if text else "(empty log)"
 
+    def interrupt(self) -> None:
+        """SIGINT (what Ctrl-C and ros2 launch send) without waiting: stop several processes at once."""
+        if self.proc.poll() is None and not self._interrupted:
+            self.proc.send_signal(signal.SIGINT)
+            self._interrupted = True
+
     def stop(self, timeout: float = 10.0) -> bool:
-        """SIGINT (what Ctrl-C and ros2 launch send), SIGKILL if it does not exit; True if it was alive."""
+        """SIGINT unless already sent, SIGKILL if it does not exit in `timeout`; True if it was alive."""
         alive = self.proc.poll() is None
         if alive:
-            self.proc.send_signal(signal.SIGINT)
+            self.interrupt()
             try:
                 self.proc.wait(timeout=timeout)
             except subprocess.TimeoutExpired:

@@ -173,7 +173,7 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
     """Start the node and the two baseline nodes, feed them in interleaved slots, return the samples."""
     from perception_plugins.aruco import ArucoSource
 
-    slot_s, rounds = (1.25, 2) if quick else (4.0, 15)
+    slot_s, rounds = (1.0, 2) if quick else (4.0, 15)
     build_ros()
     env = ros_env()
     views, k = render_views()
@@ -226,6 +226,8 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
     finally:
         feeder.close()
         source.close()
+        for proc in procs.values():
+            proc.interrupt()
         for proc in procs.values():
             proc.stop()
     return {"samples": samples, "fed": fed, "slot_s": slot_s, "rounds": rounds, "startup_s": round(startup_s, 1),
