@@ -215,6 +215,24 @@ def _details(name: str, v: Any, out: list[str]) -> None:
         out += ["", f"**{name}**", "", *table_of(v), ""]
     elif isinstance(v, dict) and _flat(v):
         out.append(f"- {name}: " + ", ".join(f"{a} {_value(b)}" for a, b in v.items()))
+    elif (
+        isinstance(v, dict)
+        and v
+        and all(isinstance(x, dict) for x in v.values())
+        and len(v) <= 8
+        and any(sum(1 for y in x.values() if _scalar(y)) > 10 for x in v.values())
+    ):
+        # a few wide records (e.g. per-scenario outcomes): one column per record, one row per field
+        fields: list[str] = []
+        for x in v.values():
+            fields += [k for k, y in x.items() if _scalar(y) and k not in fields]
+        out += ["", f"**{name}**", "", "| | " + " | ".join(cell(a) for a in v) + " |", "|---|" + "---|" * len(v)]
+        out += [f"| {cell(f)} | " + " | ".join(cell(_value(x.get(f))) for x in v.values()) + " |" for f in fields]
+        out.append("")
+        for a, x in v.items():
+            for k, y in x.items():
+                if not _scalar(y) and y:
+                    _details(f"{name}.{a}.{k}", y, out)
     elif isinstance(v, dict) and v and all(_flat(x) for x in v.values()):
         out += ["", f"**{name}**", "", *table_of([{"": a, **row} for a, row in v.items()], ""), ""]
     elif isinstance(v, dict) and v and all(isinstance(x, dict) and x and all(_flat(y) for y in x.values())
