@@ -85,9 +85,12 @@ class BagRecorder:
                 f"{self.partial_path.parent}: an interrupted recording to {self.path} is in the way "
                 f"(`ros2 bag reindex {self.partial_path}` may recover it); move or delete it to record again"
             )
-        self.partial_path.parent.mkdir(parents=True)
-        self._writer = Writer(self.partial_path, version=9, storage_plugin=self.storage)
-        self._writer.open()
+        try:
+            self.partial_path.parent.mkdir(parents=True)
+            self._writer = Writer(self.partial_path, version=9, storage_plugin=self.storage)
+            self._writer.open()
+        except OSError as err:
+            raise MissionError(f"{self.path}: cannot record a bag here ({err.strerror or err})") from err
         for key, (topic, msgtype) in DEFAULT_TOPICS.items():
             self._connections[key] = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
         return self

@@ -72,3 +72,11 @@ def test_a_closed_recording_is_moved_into_place_whole(tmp_path):
         assert not (tmp_path / "run").exists()  # still growing under run.partial/
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
     assert sorted(p.name for p in (tmp_path / "run").iterdir()) == ["metadata.yaml", "run.mcap"]
+
+
+def test_a_bag_path_that_cannot_be_created_is_one_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    with pytest.raises(MissionError) as err:
+        BagRecorder(blocker / "run").open()
+    assert str(err.value) == f"{blocker / 'run'}: cannot record a bag here (Not a directory)"
