@@ -42,8 +42,8 @@ def object_points(side_m: float) -> np.ndarray:
 
 def pixel_side(corners: np.ndarray) -> float:
     """Mean side length (px) of the marker's image quadrilateral: how big, hence how precise, it is."""
-    c = np.asarray(corners, dtype=np.float64).reshape(4, 2)
-    return float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)))
+    c = np.asarray(corners, dtype=np.float64).reshape(4, 2).tolist()
+    return sum(math.dist(c[i], c[(i + 1) % 4]) for i in range(4)) / 4.0
 
 
 @dataclass(frozen=True)
