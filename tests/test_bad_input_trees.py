@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from mission.cli import main
 from mission.core.config import MissionConfig, PerceptionConfig, TargetSpec
 from mission.core.errors import TreeError
 from mission.runner import TreeRunner
@@ -145,3 +146,13 @@ def test_the_runner_checks_targets_before_creating_sources_or_touching_the_world
     with pytest.raises(TreeError, match="target 'person' is not a perception target"):
         runner.setup()
     assert runner.sources == []
+
+
+@pytest.mark.parametrize("fmt", ["svg", "png", "html", "dot"])
+def test_mission_viz_into_a_place_that_cannot_be_written_is_one_line(tmp_path, capsys, fmt):
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("")
+    out = blocker / f"tree.{fmt}"
+    assert main(["viz", "follow.xml", "--format", fmt, "-o", str(out)]) == 2
+    [line] = capsys.readouterr().err.splitlines()
+    assert line == f"mission: error: {out}: cannot write (Not a directory)"

@@ -12,6 +12,7 @@ it was. Append-only logs (JSON lines) are not written this way: their readers sk
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import stat
 import tempfile
@@ -52,6 +53,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             fig.savefig(tmp)
     """
     path = Path(path)
+    for parent in (path.parent, *path.parent.parents):
+        if parent.exists() and not parent.is_dir():  # mkdir would say "File exists", which misleads
+            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(parent))
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}")
     os.close(fd)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mission.core.errors import MissionError
 from mission.core.files import atomic_path
 from mission.viz.layout import PAD_X, layout_tree
 from mission.viz.model import VizNode
@@ -83,6 +84,8 @@ def render_png(
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format="png", dpi=dpi, facecolor=fig.get_facecolor())
+    except OSError as err:  # as write_output says it for the text formats
+        raise MissionError(f"{path}: cannot write ({err.strerror or err})") from err
     finally:
         plt.close(fig)
     return path
