@@ -12,14 +12,16 @@ cache directory.
 
 from __future__ import annotations
 
+import errno
 import json
 import logging
 import os
+import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from mission.core.files import atomic_write_text
+from mission.core.files import atomic_write_text, ensure_parent
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +60,20 @@ class QuotaStore:
         self._load()
 
     # -- persistence -------------------------------------------------------------------------------
+    def check_writable(self) -> None:
+        """Raise OSError now if the state could not be saved later (a directory in the way, no permission).
+
+        A call is only made once it is recorded on disk, so an unsaveable state file would silently stop
+        every model call; checked at start-up instead, without touching an existing state file."""
+        if self.path is None:
+            return
+        if self.path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(self.path))
+        ensure_parent(self.path)
+        fd, probe = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.", suffix=".probe")
+        os.close(fd)
+        os.unlink(probe)
+
     def _load(self) -> None:
         if self.path is None or not self.path.exists():
             return

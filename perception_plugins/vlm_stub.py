@@ -182,6 +182,15 @@ class VlmStubSource:
         self._last_stamp = 0.0
         self._min_interval = 1.0 / p.publish_rate_limit_hz
         self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval)
+        try:
+            self.quota.check_writable()
+        except OSError as err:
+            self._client.close()
+            why = err.strerror or str(err)
+            if err.filename and Path(err.filename) != path and not str(err.filename).endswith(".probe"):
+                why += f": {err.filename}"  # the parent in the way
+            raise ConfigError(f"cannot save the call budget to {path} ({why}); expected a writable file path",
+                              key="state_file") from None  # fmt: skip
         self.latch = OneShotLatch(
             min_consecutive=p.min_consecutive_detections,
             tolerance_m=p.latch_position_tolerance_m,

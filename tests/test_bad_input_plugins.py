@@ -16,7 +16,7 @@ import pytest
 
 from mission.cli import main
 from mission.core.config import SourceConfig
-from mission.core.errors import PluginError
+from mission.core.errors import ConfigError, PluginError
 from mission.core.perception import ENTRY_POINT_GROUP
 from perception_plugins import registry
 
@@ -102,3 +102,35 @@ def test_mission_plugins_lists_the_broken_ones_with_why_and_every_other_one(extr
     assert {"aruco", "apriltag", "vlm_stub", "ghost", "exploding"} <= set(lines)
     assert "BROKEN: ModuleNotFoundError: No module named 'no_such_package'" in lines["ghost"]
     assert "BROKEN" not in lines["aruco"] and "BROKEN" not in lines["exploding"]  # importable: listed normally
+
+
+@pytest.mark.parametrize(
+    ("where", "why"),
+    [("a directory", "Is a directory"), ("under a file", "Not a directory: {blocker}")],
+)
+def test_a_vlm_state_file_that_cannot_be_saved_is_a_start_up_error_naming_the_key(tmp_path, where, why):
+    """Calls are recorded before they are made: an unsaveable budget would stop every call, silently."""
+    blocker = tmp_path / "blocker"
+    if where == "a directory":
+        state = tmp_path / "quota.json"
+        state.mkdir()
+    else:
+        blocker.write_text("")
+        state = blocker / "quota.json"
+    cfg = SourceConfig(plugin="vlm_stub", params={"state_file": str(state)})
+    with pytest.raises(ConfigError) as err:
+        registry.create_all([cfg], file="robot.yaml")
+    assert str(err.value) == (
+        f"robot.yaml: perception.sources[0].params.state_file: cannot save the call budget to {state} "
+        f"({why.format(blocker=blocker)}); expected a writable file path"
+    )
+    assert not any(p.name.endswith(".probe") for p in tmp_path.rglob("*"))
+
+
+def test_a_writable_vlm_state_file_is_left_as_it_was_by_the_start_up_check(tmp_path):
+    state = tmp_path / "quota.json"
+    state.write_text('{"day": "2023-11-14", "calls_today": 3, "last_call": 1.0}')
+    [src] = registry.create_all([SourceConfig(plugin="vlm_stub", params={"state_file": str(state)})])
+    src.close()
+    assert state.read_text() == '{"day": "2023-11-14", "calls_today": 3, "last_call": 1.0}'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["quota.json"]

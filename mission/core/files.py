@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text"]
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_parent"]
 
 
 def _umask() -> int:
@@ -42,6 +42,16 @@ def _fsync_dir(directory: Path) -> None:
             os.close(fd)
 
 
+def ensure_parent(path: str | Path) -> Path:
+    """Create `path`'s directory (and its parents); OSError says which parent is a file, if one is."""
+    parent = Path(path).parent
+    for p in (parent, *parent.parents):
+        if p.exists() and not p.is_dir():  # mkdir would say "File exists", which misleads
+            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(p))
+    parent.mkdir(parents=True, exist_ok=True)
+    return parent
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temp path (same directory, same suffix) to write `path`'s new content to; renamed into place
@@ -53,10 +63,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             fig.savefig(tmp)
     """
     path = Path(path)
-    for parent in (path.parent, *path.parent.parents):
-        if parent.exists() and not parent.is_dir():  # mkdir would say "File exists", which misleads
-            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(parent))
-    path.parent.mkdir(parents=True, exist_ok=True)
+    ensure_parent(path)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}")
     os.close(fd)
     tmp = Path(name)
