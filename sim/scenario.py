@@ -401,6 +401,14 @@ def check_geometry(sc: Scenario, file: str | None = None) -> None:
         if not (-1e-6 <= d.x <= sx + 1e-6 and -1e-6 <= d.y <= sy + 1e-6):
             raise ConfigError(f"({d.x:g}, {d.y:g}) is outside the room", file=file, key="dock")
         _check_dock_on_wall(sc, file)
+        if sc.target is not None:
+            for i, m in enumerate(sc.target.markers):
+                if (m.dictionary, m.id) == (d.dictionary, d.id):  # perception could not tell them apart
+                    raise ConfigError(
+                        f"id {m.id} of {m.dictionary} is also the dock's; expected distinct codes on target and dock",
+                        file=file,
+                        key=f"target.markers[{i}].id",
+                    )
     if sc.camera.far_m <= sc.camera.near_m:
         raise ConfigError("far_m must be greater than near_m", file=file, key="camera.far_m")
     if sc.lidar.range_max_m <= sc.lidar.range_min_m:

@@ -65,6 +65,15 @@ CASES = {
         "perception:\n  targets:\n    target: {marker_id: 7, source: vlm}\n",
         "perception.targets.target.source: no perception source named 'vlm'; configured sources: aruco",
     ),
+    "two targets alike": (
+        "perception:\n  targets:\n    target: {marker_id: 7}\n    person: {marker_id: 7}\n",
+        "perception.targets.person: looks exactly like target 'target'; expected a marker_id, label or source that "
+        "tells them apart",
+    ),
+    "negative marker id": (
+        "perception:\n  targets:\n    target: {marker_id: -1}\n",
+        "perception.targets.target.marker_id: input should be greater than or equal to 0, got -1",
+    ),
     "unknown policy": (
         "perception: {policy: best}\n",
         "perception.policy: input should be 'all' or 'hybrid', got 'best'",

@@ -89,6 +89,10 @@ CASES = {
         {"target": {"markers": [{"dictionary": "tag36h11"}]}},
         "target.markers[0].dictionary: unknown dictionary 'tag36h11'; expected one of ",
     ),
+    "target and dock with one code": (
+        {"target": {"x": 3.0, "y": 3.0}, "dock": {"x": 0.0, "y": 4.0, "yaw_deg": 0, "id": 7}},
+        "target.markers[0].id: id 7 of DICT_APRILTAG_36h11 is also the dock's; expected distinct codes",
+    ),
     "NaN robot position": ({"robot": {"x": ".nan"}}, "robot.x: input should be a finite number, got nan"),
 }  # fmt: skip
 

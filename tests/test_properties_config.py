@@ -9,7 +9,7 @@ import string
 from pathlib import Path
 
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from mission.core.config import MissionConfig, PerceptionConfig, RunConfig, SourceConfig, TargetSpec, load_config
@@ -54,6 +54,8 @@ def configs(draw: st.DrawFn) -> MissionConfig:
             max_size=3,
         )
     )
+    specs = [tuple(t.model_dump().values()) for t in targets.values()]
+    assume(len(set(specs)) == len(specs))  # two targets that look alike are an error (test_bad_input_config)
     return MissionConfig(
         tree=draw(st.sampled_from(["mission.xml", "follow", "my/own tree.xml"])),
         perception=PerceptionConfig(sources=sources, policy=draw(st.sampled_from(["all", "hybrid"])), targets=targets),

@@ -125,7 +125,7 @@ class SourceConfig(StrictModel):
 class TargetSpec(StrictModel):
     """What a named target looks like to perception; unset fields match anything."""
 
-    marker_id: int | None = None  # fiducial id (aruco / apriltag detections)
+    marker_id: int | None = Field(None, ge=0)  # fiducial id (aruco / apriltag detections)
     label: str | None = None  # detection label (an AprilTag's entity name, the VLM's target_label)
     source: str | None = None  # instance name of the source that must have produced the detection
 
@@ -161,10 +161,19 @@ class MissionConfig(StrictModel):
 
 
 def check_config(cfg: MissionConfig, file: str | None = None) -> None:
-    """Cross-key checks the schema cannot express: a target that names a source must name a configured one
-    (otherwise no detection can ever match it and the mission silently never sees its target)."""
+    """Cross-key checks the schema cannot express. Each would otherwise load and fail silently at run time:
+    two targets that look alike (one detection is both), or a target naming a source that is not configured
+    (no detection can ever match it)."""
     names = [s.name or s.plugin for s in cfg.perception.sources]
-    for target, spec in cfg.perception.targets.items():
+    targets = list(cfg.perception.targets.items())
+    for i, (target, spec) in enumerate(targets):
+        twin = next((name for name, other in targets[:i] if other == spec), None)
+        if twin is not None:  # one detection would be both targets: the tree could not tell them apart
+            raise ConfigError(
+                f"looks exactly like target {twin!r}; expected a marker_id, label or source that tells them apart",
+                file=file,
+                key=f"perception.targets.{target}",
+            )
         if spec.source is not None and spec.source not in names:
             raise ConfigError(
                 f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
