@@ -51,23 +51,12 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
 
     Also applied to ``os.environ`` (this process's rclpy must use the same profile and domain).
     """
-    dds_env = {
-        "FASTRTPS_DEFAULT_PROFILES_FILE": str(dds.shm_profile_path()),
-        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
-        "ROS_DOMAIN_ID": str(domain_id if domain_id is not None else 101 + os.getpid() % 100),
-        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
-    }
+    dds_env = dds.private_env(domain_id if domain_id is not None else 101 + os.getpid() % 100)
     os.environ.update(dds_env)
     setup = INSTALL / "setup.bash"
     if not setup.is_file():
         raise MissionError(f"{setup} does not exist; run scripts/build_ros first")
-    base = {**os.environ, "PATH": f"{ROOT / '.venv' / 'bin'}:{os.environ.get('PATH', '')}"}
-    out = subprocess.run(["bash", "-c", f"source {setup} >/dev/null && env -0"], capture_output=True, env=base,
-                         check=True).stdout  # fmt: skip
-    env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
-    env.update(dds_env)
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
+    return dds.package_env(setup, dds_env, ROOT / ".venv" / "bin")
 
 
 def node_command(marker_id: int, marker_size_m: float, tick_hz: float = 30.0,

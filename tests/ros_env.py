@@ -26,18 +26,15 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from mission.ros import dds
+
 ROOT = Path(__file__).resolve().parents[1]
-PROFILE = ROOT / "ros" / "fastdds_shm.xml"
 INSTALL = ROOT / "install"
 TREE_EXE = INSTALL / "mission" / "lib" / "mission" / "tree"
+PROFILE = dds.shm_profile_path()  # the repo's ros/fastdds_shm.xml
 DOMAIN_ID = 1 + os.getpid() % 100
 
-ROS_ENV = {
-    "FASTRTPS_DEFAULT_PROFILES_FILE": str(PROFILE),
-    "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
-    "ROS_DOMAIN_ID": str(DOMAIN_ID),
-    "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
-}
+ROS_ENV = dds.private_env(DOMAIN_ID)
 os.environ.update(ROS_ENV)
 
 
@@ -62,13 +59,7 @@ def build_ros() -> None:
 
 def installed_env() -> dict[str, str]:
     """The environment `ros2 run` gives a package executable: ours plus install/setup.bash."""
-    script = f"source {INSTALL / 'setup.bash'} >/dev/null && env -0"
-    env = {**os.environ, "PATH": f"{ROOT / '.venv' / 'bin'}:{os.environ.get('PATH', '')}"}
-    out = subprocess.run(["bash", "-c", script], capture_output=True, env=env, check=True).stdout
-    result = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
-    result.update(ROS_ENV)
-    result["PYTHONUNBUFFERED"] = "1"
-    return result
+    return dds.package_env(INSTALL / "setup.bash", ROS_ENV, ROOT / ".venv" / "bin")
 
 
 class NodeProcess:

@@ -15,7 +15,8 @@ Network rule of this project: DDS must never send on a non-loopback interface. F
 from __future__ import annotations
 
 import os
-from collections.abc import MutableMapping
+import subprocess
+from collections.abc import Mapping, MutableMapping
 from pathlib import Path
 
 PROFILE_NAME = "fastdds_shm.xml"
@@ -54,3 +55,32 @@ def configure_transport(env: MutableMapping[str, str] | None = None) -> list[str
     if not Path(profile).is_file():
         notes.append(f"DDS: FASTRTPS_DEFAULT_PROFILES_FILE={profile} does not exist; FastDDS falls back to UDP")
     return notes
+
+
+def private_env(domain_id: int) -> dict[str, str]:
+    """The variables of a run that talks only to itself: shared memory only, on its own ROS_DOMAIN_ID.
+
+    Tests and benchmarks start node processes with these (and set them in their own process before
+    rclpy.init), so nothing leaves the machine and no other run on it hears them.
+    """
+    return {
+        "FASTRTPS_DEFAULT_PROFILES_FILE": str(shm_profile_path()),
+        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+        "ROS_DOMAIN_ID": str(domain_id),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
+    }
+
+
+def package_env(setup_bash: Path, overrides: Mapping[str, str], bin_dir: Path | None = None) -> dict[str, str]:
+    """The environment `ros2 run` gives a package executable: `setup_bash` sourced over os.environ
+    (with `bin_dir` first on PATH), then `overrides`. Raises CalledProcessError if the script fails."""
+    base = dict(os.environ)
+    if bin_dir is not None:
+        base["PATH"] = f"{bin_dir}{os.pathsep}{base.get('PATH', '')}"
+    out = subprocess.run(
+        ["bash", "-c", f"source {setup_bash} >/dev/null && env -0"], capture_output=True, env=base, check=True
+    ).stdout
+    env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
+    env.update(overrides)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
