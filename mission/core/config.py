@@ -174,7 +174,8 @@ def check_config(cfg: MissionConfig, file: str | None = None) -> None:
                 file=file,
                 key=f"perception.targets.{target}",
             )
-        if spec.source is not None and spec.source not in names:
+        plugins = {s.plugin for s in cfg.perception.sources}  # matching accepts a plugin name too
+        if spec.source is not None and spec.source not in names and spec.source not in plugins:
             raise ConfigError(
                 f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
                 file=file,
