@@ -193,11 +193,12 @@ class AprilTagSource:
 
     def _intrinsics(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
         k = frame.intrinsics
-        if k is not None and k.is_valid():
+        problem = None if k is None else k.problem(frame.width, frame.height)
+        if k is not None and problem is None:
             return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
         if "intrinsics" not in self._warned:
             self._warned.add("intrinsics")
-            why = "missing" if k is None else f"invalid ({k.problem()})"
+            why = "missing" if k is None else f"invalid ({problem})"
             log.warning("%s: camera intrinsics %s; using the fallback pinhole fx = fy = 0.9·width "
                         "(degraded pose accuracy)", self.name, why)
         return CameraIntrinsics.fallback(frame.width, frame.height), True

@@ -141,12 +141,13 @@ class ArucoSource:
     def intrinsics_for(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
         """(intrinsics to use, True if they are the degraded fallback) for this frame."""
         k = frame.intrinsics
-        if k is not None and k.is_valid():
+        problem = None if k is None else k.problem(frame.width, frame.height)
+        if k is not None and problem is None:
             return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
         reason = "missing" if k is None else "invalid"
         if reason not in self._warned:
             self._warned.add(reason)
-            detail = "" if k is None else f" ({k.problem()})"
+            detail = "" if k is None else f" ({problem})"
             log.warning(
                 "%s: camera intrinsics %s%s; using the fallback pinhole fx = fy = 0.9·width, principal point at "
                 "the image centre (degraded pose accuracy)", self.name, reason, detail,

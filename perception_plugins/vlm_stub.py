@@ -299,7 +299,8 @@ class VlmStubSource:
         if self.latch.breaker_open:
             self.state = "breaker_open"
             return
-        if frame.depth is None or frame.intrinsics is None or not frame.intrinsics.is_valid():
+        k = frame.intrinsics
+        if frame.depth is None or k is None or k.problem(frame.width, frame.height) is not None:
             self.state = "no_depth"  # an answer could not be placed in 3D: do not spend a call on it
             self.counters["frames_without_depth"] += 1
             return

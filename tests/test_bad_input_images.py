@@ -130,6 +130,23 @@ def test_a_distortion_vector_opencv_rejects_warns_once_and_falls_back_instead_of
     assert "invalid" in warning and expected in warning
 
 
+@pytest.mark.parametrize("source", list(SOURCES))
+def test_intrinsics_calibrated_for_another_resolution_are_not_used_for_this_image(source, caplog):
+    """A 640×480 image with a 1920×1080 calibration (a driver switching modes): its pose would be wrong by
+    the scale; the source falls back and says why, once, as the ROS adapter does for CameraInfo."""
+    make, view = SOURCES[source]
+    k = view.intrinsics
+    hd = CameraIntrinsics(k.fx * 3, k.fy * 3, 960.0, 540.0, 1920, 1080)
+    with caplog.at_level(logging.WARNING):
+        [det] = make().process(Frame(view.image, stamp=0.0, intrinsics=hd))
+    assert det.extra["intrinsics"] == "fallback"
+    [warning] = [r.getMessage() for r in caplog.records if "fallback pinhole" in r.getMessage()]
+    assert "calibrated for 1920×1080, the image is 640×480" in warning
+    unsized = CameraIntrinsics(k.fx, k.fy, k.cx, k.cy, 0, 0)  # size not stated: used as given
+    [det] = make().process(Frame(view.image, stamp=0.0, intrinsics=unsized))
+    assert det.extra["intrinsics"] == "calibrated"
+
+
 # -- markers at the border -------------------------------------------------------------------------------
 
 

@@ -41,8 +41,12 @@ class CameraIntrinsics:
         distortion vector OpenCV rejects: its pose solvers fail on every frame, losing every detection)."""
         return self.problem() is None
 
-    def problem(self) -> str | None:
-        """Why the calibration cannot be used for pose, in a few words (None when it can)."""
+    def problem(self, width: int | None = None, height: int | None = None) -> str | None:
+        """Why the calibration cannot be used for pose, in a few words (None when it can); with an image
+        size, also when it was made for another size (0 × 0 means "not stated" and fits any image)."""
+        stated = width is not None and height is not None and self.width and self.height
+        if stated and (self.width, self.height) != (width, height):
+            return f"calibrated for {self.width}×{self.height}, the image is {width}×{height}"
         vals = (self.fx, self.fy, self.cx, self.cy)
         if not (all(math.isfinite(v) for v in vals) and self.fx > 0 and self.fy > 0):
             return f"fx={self.fx:g}, fy={self.fy:g}, cx={self.cx:g}, cy={self.cy:g}; expected finite fx > 0 and fy > 0"
