@@ -27,15 +27,21 @@ from behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.errors import ConfigError
-from mission.core.types import CameraIntrinsics
+from mission.core.types import CameraIntrinsics, LaserScan, Pose2D, RobotState, Twist
 from mission.ros.conversions import (
     BadMessage,
     array_to_image,
     camera_info_to_intrinsics,
+    grid_from_msg,
     image_to_camera_array,
     image_to_depth_m,
     intrinsics_to_camera_info,
+    matrix_to_pose,
+    scan_from_msg,
+    scan_to_msg,
+    state_to_odometry,
 )
+from mission.ros.messages import header_msg, time_msg
 from mission.ros.node import PARAMETERS, check_params, given_params
 from perception_plugins import synthetic_views as sv
 from perception_plugins.aruco import ArucoSource
@@ -272,3 +278,54 @@ def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
     assert proc.returncode == 2, proc.stderr
     errors = [ln for ln in proc.stderr.splitlines() if "DDS: shared memory only" not in ln]
     assert len(errors) == 1 and errors[0].startswith(line), proc.stderr
+
+
+# -- odometry, AMCL, scans and maps with impossible numbers ------------------------------------------------
+
+
+def _odom(**change: float) -> object:
+    msg = state_to_odometry(MSGS, RobotState(pose=Pose2D(1.0, 2.0, 0.3), twist=Twist(0.2, 0.1), stamp=1.0), "odom",
+                            "base_link")  # fmt: skip
+    p, tw = msg.pose.pose, msg.twist.twist
+    for key, value in change.items():
+        target, attr = {"x": (p.position, "x"), "z": (p.position, "z"), "v": (tw.linear, "x"),
+                        "w": (tw.angular, "z")}[key]  # fmt: skip
+        setattr(target, attr, value)
+    return msg
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        ({"x": float("nan")}, "pose has a non-finite position (nan, 2, 0)"),
+        ({"z": float("inf")}, "pose has a non-finite position (1, 2, inf)"),
+        ({"v": float("nan")}, "odometry twist is not finite (v=nan, w=0.1)"),
+        ({"w": float("-inf")}, "odometry twist is not finite (v=0.2, w=-inf)"),
+    ],
+)
+def test_odometry_with_nan_or_inf_is_dropped_and_the_last_good_pose_kept(change, words):
+    """Before: a NaN pose was taken as the robot's, and every target placed through it became NaN."""
+    world = RecordingWorld()
+    assert world.cache.on_odometry(_odom(), "/odom")
+    assert world.cache.on_odometry(_odom(**change), "/odom") is False
+    pose = world.cache.robot_state().pose
+    assert (pose.x, pose.y, pose.yaw) == pytest.approx((1.0, 2.0, 0.3))
+    assert world.cache.stats.dropped == {"odom:value": 1}
+    assert world.warnings == [f"dropped a message on /odom: {words}"]
+
+
+def test_a_scan_with_nan_angles_and_a_map_with_zero_resolution_are_dropped():
+    scan = scan_to_msg(MSGS, LaserScan(angle_min=0.0, angle_increment=0.1, ranges=np.ones(8, np.float32),
+                                       range_min=0.1, range_max=5.0, stamp=1.0, frame_id="laser"))  # fmt: skip
+    scan.angle_increment = float("nan")
+    with pytest.raises(BadMessage, match=r"scan has angle_min=0, angle_increment=nan; expected finite, increment ≠ 0"):
+        scan_from_msg(scan)
+    scan.angle_increment = 0.0
+    world = RecordingWorld()
+    assert world.cache.on_scan(scan, "/scan") is False and world.cache.stats.dropped == {"scan:value": 1}
+    info = MSGS.new("nav_msgs/msg/MapMetaData", map_load_time=time_msg(MSGS, 0.0), resolution=0.0, width=5, height=4,
+                    origin=matrix_to_pose(MSGS, np.eye(4)))  # fmt: skip
+    grid = MSGS.new("nav_msgs/msg/OccupancyGrid", header=header_msg(MSGS, 1.0, "map"), info=info,
+                    data=np.zeros(20, np.int8))  # fmt: skip
+    with pytest.raises(BadMessage, match=r"map resolution is 0; expected a cell size > 0 \(m\)"):
+        grid_from_msg(grid)

@@ -202,8 +202,12 @@ def intrinsics_to_camera_info(factory: MessageFactory, intr: CameraIntrinsics, s
 
 
 def pose_to_matrix(pose: Any) -> np.ndarray:
-    """geometry_msgs/Pose → 4×4. Raises BadMessage for a zero / non-finite quaternion."""
+    """geometry_msgs/Pose → 4×4. Raises BadMessage for a non-finite position or a zero / non-finite
+    quaternion (a NaN pose would carry on into the map, the target's place and the goals sent to Nav2)."""
     p, q = pose.position, pose.orientation
+    xyz = (float(p.x), float(p.y), float(p.z))
+    if not all(math.isfinite(v) for v in xyz):
+        raise BadMessage("value", f"pose has a non-finite position ({', '.join(f'{v:g}' for v in xyz)})")
     try:
         return se3.from_pos_quat((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
     except ValueError as err:
@@ -271,9 +275,12 @@ def _pose2d_of(pose: Any) -> Pose2D:
 def odometry_to_state(msg: Any) -> RobotState:
     """nav_msgs/Odometry → RobotState (planar pose in the odometry's frame, body-frame twist)."""
     tw = msg.twist.twist
+    v, w = float(tw.linear.x), float(tw.angular.z)
+    if not (math.isfinite(v) and math.isfinite(w)):
+        raise BadMessage("value", f"odometry twist is not finite (v={v:g}, w={w:g})")
     return RobotState(
         pose=_pose2d_of(msg.pose.pose),
-        twist=Twist(v=float(tw.linear.x), w=float(tw.angular.z)),
+        twist=Twist(v=v, w=w),
         stamp=stamp_to_sec(msg.header.stamp),
     )
 
@@ -306,9 +313,12 @@ def scan_from_msg(msg: Any) -> LaserScan:
     if ranges.size == 0:
         raise BadMessage("empty", "scan has no ranges")
     rmin, rmax = float(msg.range_min), float(msg.range_max)
+    a0, da = float(msg.angle_min), float(msg.angle_increment)
+    if not (math.isfinite(a0) and math.isfinite(da) and da != 0.0):
+        raise BadMessage("value", f"scan has angle_min={a0:g}, angle_increment={da:g}; expected finite, increment ≠ 0")
     ranges[~np.isfinite(ranges) | (ranges < rmin) | (ranges > rmax)] = np.inf
     return LaserScan(
-        angle_min=float(msg.angle_min), angle_increment=float(msg.angle_increment), ranges=ranges,
+        angle_min=a0, angle_increment=da, ranges=ranges,
         range_min=rmin, range_max=rmax, stamp=stamp_to_sec(msg.header.stamp), frame_id=str(msg.header.frame_id),
     )  # fmt: skip
 
@@ -337,8 +347,11 @@ def grid_from_msg(msg: Any) -> OccupancyGrid:
     data = np.asarray(msg.data, dtype=np.int8)
     if h <= 0 or w <= 0 or data.size != h * w:
         raise BadMessage("size", f"map has {data.size} cells, expected width×height = {w}×{h}")
+    res = float(info.resolution)
+    if not (math.isfinite(res) and res > 0):
+        raise BadMessage("value", f"map resolution is {res:g}; expected a cell size > 0 (m)")
     return OccupancyGrid(
-        data=data.reshape(h, w).copy(), resolution=float(info.resolution), origin=_pose2d_of(info.origin),
+        data=data.reshape(h, w).copy(), resolution=res, origin=_pose2d_of(info.origin),
         frame_id=str(msg.header.frame_id) or "map",
     )  # fmt: skip
 
