@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import sys
 from collections.abc import Sequence
 
@@ -23,18 +24,51 @@ VERBS = {
 }
 
 
+def positive_seconds(text: str) -> float:
+    """argparse type: a finite number of seconds > 0 (nan, inf, 0 and negatives say what was expected)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds (a number > 0), got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected seconds (a finite number > 0), got {text!r}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: a whole number ≥ 0 (seeds, ticks, ports)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number ≥ 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number ≥ 0, got {text!r}")
+    return value
+
+
+def rate(text: str) -> float:
+    """argparse type: a finite number ≥ 0 (0 = as fast as possible)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number ≥ 0, got {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number ≥ 0, got {text!r}")
+    return value
+
+
 def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", default=None, help="scenario name under sim/scenarios/ or a YAML path")
     p.add_argument("--config", default=None, help="mission config YAML (defaults built in)")
     p.add_argument("--tree", default=None, help="tree XML file (overrides the config's `tree`)")
-    p.add_argument("--seed", type=int, default=0, help="randomisation seed (default 0)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="randomisation seed (default 0)")
     p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR")
-    p.add_argument("--max-duration", type=float, default=None, help="simulated seconds before giving up")
+    p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds before giving up")
     p.add_argument("--record", default=None, metavar="FILE", help="record the camera + map view (.gif/.mp4)")
     p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
     p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
-    p.add_argument("--port", type=int, default=8765, help="port for --serve (127.0.0.1 only)")
+    p.add_argument("--port", type=non_negative_int, default=8765, help="port for --serve (127.0.0.1 only)")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
@@ -54,7 +88,7 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
                    help="unicode|ascii|dot|svg|png|html (svg/html need no Graphviz; png uses `dot` when present)")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write here instead of stdout")
     p.add_argument("--log", default=None, metavar="FILE", help="a JSON-lines tick log from `mission run --log`")
-    p.add_argument("--tick", type=int, default=None, help="with --log: render the tree as it was at tick N")
+    p.add_argument("--tick", type=non_negative_int, default=None, help="with --log: the tree as it was at tick N")
 
 
 def _add_tree(p: argparse.ArgumentParser) -> None:
@@ -67,7 +101,7 @@ def _add_tree(p: argparse.ArgumentParser) -> None:
 def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("bag", metavar="BAG", help="a rosbag2 directory (sqlite3 or mcap)")
     p.add_argument("--config", default=None, help="mission config YAML")
-    p.add_argument("--rate", type=float, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
+    p.add_argument("--rate", type=rate, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
 
 
