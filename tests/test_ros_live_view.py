@@ -28,6 +28,12 @@ def _get(url: str) -> bytes | None:
         return None
 
 
+def _header_with_tree(url: str) -> dict | None:
+    body = _get(url)
+    header = json.loads(body) if body else None
+    return header if header and header.get("tree") else None
+
+
 def _names(node: dict) -> list[str]:
     return [node["name"], *(n for c in node.get("children", []) for n in _names(c))]
 
@@ -38,7 +44,8 @@ def test_the_node_serves_the_live_tree_on_loopback_and_its_ticks_advance(tmp_pat
     cmd = [*MISSION, "tree", "--ros-args", "-p", "tree:=follow.xml", "-p", f"serve_port:={port}", "-p", "tick_hz:=20"]
     with node_process(cmd, installed_env(), tmp_path / "node.log") as node:
         try:
-            header = json.loads(wait_for(lambda: _get(f"{base}/api/header"), 30, "the live view to answer"))
+            # the server answers as soon as it listens; the tree arrives with the node's first tick
+            header = wait_for(lambda: _header_with_tree(f"{base}/api/header"), 30, "the live view to show the tree")
             names = _names(header["tree"])
             assert "FollowTarget" in json.dumps(header["tree"]) and len(names) == header["nodes"] > 5
             page = _get(f"{base}/").decode()
