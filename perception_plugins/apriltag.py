@@ -213,15 +213,20 @@ class AprilTagSource:
         if not raw:
             return []
         intr, degraded = self._intrinsics(frame)
+        camera = (intr.matrix, intr.dist_coeffs, degraded)  # built once per frame, not per tag
         out = []
         for tag in raw:
-            det = self._detection(frame, tag, intr, degraded)
+            det = self._detection(frame, tag, camera)
             if det is not None:
                 out.append(det)
         return out
 
-    def _detection(self, frame: Frame, tag: RawTag, intr: CameraIntrinsics, degraded: bool) -> Detection | None:
+    def _detection(
+        self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]
+    ) -> Detection | None:
+        """`camera`: (K, distortion, degraded) of this frame's intrinsics."""
         p = self.params
+        K, dist, degraded = camera
         if tag.hamming > p.max_hamming:
             self._count("rejected_hamming")
             return None
@@ -233,7 +238,7 @@ class AprilTagSource:
             self._count("ignored_unknown")
             return None
         size = self.tag_size(tag.tag_id)
-        hyps = square_pose.solve_square(tag.corners, size, intr.matrix, intr.dist_coeffs)
+        hyps = square_pose.solve_square(tag.corners, size, K, dist)
         if not hyps:
             self._count("pose_failed")
             return None
@@ -242,7 +247,6 @@ class AprilTagSource:
         else:
             choice = square_pose.choose_naive(hyps)
         best = choice.chosen
-        T_camera_tag = best.T
         side_px = square_pose.pixel_side(tag.corners)
         err = best.reprojection_error if math.isfinite(best.reprojection_error) else math.inf
         confidence = square_pose.confidence(err, side_px, choice.ambiguity) * decode_confidence(
@@ -266,17 +270,19 @@ class AprilTagSource:
         if p.report_frame == "base":
             assert self.T_base_camera is not None
             # robot base → camera (left), camera → tag (measured), tag → entity base (right)
+            T_camera_tag = best.T
             reported = se3.compose(self.T_base_camera, T_camera_tag)
             if T_tag_entity is not None:
                 reported = se3.compose(reported, T_tag_entity)
             frame_id = p.base_frame
             extra["T_camera_tag"] = _pose7(T_camera_tag)
+            pos, quat = se3.to_pos_quat(reported)
         else:
-            reported = T_camera_tag
+            # T_camera_tag itself: its parts as solved, without building the 4×4 (every tag, every frame)
+            pos, quat = best.tvec.copy(), se3.matrix_to_quat(best.rotation)
             frame_id = frame.frame_id
             if T_tag_entity is not None:
-                extra["T_camera_entity"] = _pose7(se3.compose(T_camera_tag, T_tag_entity))
-        pos, quat = se3.to_pos_quat(reported)
+                extra["T_camera_entity"] = _pose7(se3.compose(best.T, T_tag_entity))
         return Detection(
             source=self.name,
             marker_id=tag.tag_id,

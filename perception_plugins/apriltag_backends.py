@@ -182,7 +182,7 @@ class _Grid:
 
     side: int  # px of the warped square (tag + one quiet-zone cell each side)
     dst: np.ndarray  # 4×2 float32: where the black square's corners go in the warped image
-    pick: np.ndarray  # cells × side float64: 1 on each cell's central half (rows) — the cell sums
+    pick: np.ndarray  # cells × side float32: 1 on each cell's central half (rows) — the cell sums
     area: float  # pixels summed per cell
     ring: np.ndarray  # flat indices of the quiet-zone cells
     border: np.ndarray  # flat indices of the black-border cells
@@ -196,7 +196,7 @@ def _grid(n: int, ppc: int) -> _Grid:
     lo, hi = ppc - 0.5, (cells - 1) * ppc - 0.5
     dst = np.array([[lo, lo], [hi, lo], [hi, hi], [lo, hi]], dtype=np.float32)
     q = ppc // 4
-    pick = np.zeros((cells, side))
+    pick = np.zeros((cells, side), np.float32)
     for c in range(cells):
         pick[c, c * ppc + q : (c + 1) * ppc - q] = 1.0
     ring = np.zeros((cells, cells), bool)
@@ -240,16 +240,17 @@ def sample_bits(gray: np.ndarray, corners: Any, n: int, ppc: int = 8) -> tuple[n
             gray, hom, (g.side, g.side), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         )
     cells = n + 4
-    means = (g.pick @ warped.astype(np.float64) @ g.pick.T) / g.area  # count × cells × cells
+    # Cell sums of whole grey levels are exact in float32 (< 2^24); the division is float64, as np.mean's.
+    sums = g.pick @ warped.astype(np.float32) @ g.pick.T
+    means = sums.astype(np.float64) / g.area  # count × cells × cells
     flat = means.reshape(count, cells * cells)
     threshold = (_median(flat[:, g.ring]) + _median(flat[:, g.border])) / 2.0
-    data = means[:, 2:-2, 2:-2]
-    t = threshold[:, None, None]
+    data = means[:, 2:-2, 2:-2].reshape(count, n * n)
+    t = threshold[:, None]
     bits = data > t
-    n_white = np.count_nonzero(bits, axis=(1, 2))
+    n_white = np.count_nonzero(bits, axis=1)
     n_black = n * n - n_white
-    with np.errstate(divide="ignore", invalid="ignore"):
-        white = np.where(bits, data - t, 0.0).sum(axis=(1, 2)) / n_white
-        black = np.where(bits, 0.0, t - data).sum(axis=(1, 2)) / n_black
+    white = np.where(bits, data - t, 0.0).sum(axis=1) / np.maximum(n_white, 1)
+    black = np.where(bits, 0.0, t - data).sum(axis=1) / np.maximum(n_black, 1)
     margins = np.minimum(np.where(n_white > 0, white, np.inf), np.where(n_black > 0, black, np.inf))
-    return bits, margins
+    return bits.reshape(count, n, n), margins

@@ -40,6 +40,14 @@ def object_points(side_m: float) -> np.ndarray:
     return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]], dtype=np.float64)
 
 
+@functools.lru_cache(maxsize=64)
+def _pnp_object_points(side_m: float) -> np.ndarray:
+    """object_points(side_m) shaped 4×1×3 for solvePnP, built once per size (read-only: shared)."""
+    pts = object_points(side_m).reshape(4, 1, 3)
+    pts.flags.writeable = False
+    return pts
+
+
 def pixel_side(corners: np.ndarray) -> float:
     """Mean side length (px) of the marker's image quadrilateral: how big, hence how precise, it is."""
     c = np.asarray(corners, dtype=np.float64).reshape(4, 2).tolist()
@@ -73,17 +81,19 @@ def solve_square(corners: np.ndarray, side_m: float, K: np.ndarray, dist: np.nda
     img = np.asarray(corners, dtype=np.float64).reshape(4, 1, 2)
     try:
         n, rvecs, tvecs, errs = cv2.solvePnPGeneric(
-            object_points(side_m).reshape(4, 1, 3), img, K, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE
+            _pnp_object_points(float(side_m)), img, K, dist, flags=cv2.SOLVEPNP_IPPE_SQUARE
         )
     except cv2.error:
         return []
-    errs_arr = np.asarray(errs, dtype=np.float64).reshape(-1) if errs is not None else np.zeros(int(n))
+    # Scalars through Python floats: this runs for every marker of every frame (bench: perception).
+    errs_list = np.asarray(errs, dtype=np.float64).reshape(-1).tolist() if errs is not None else [0.0] * int(n)
     out = []
     for i in range(int(n)):
         rvec = np.asarray(rvecs[i], np.float64).reshape(3)
         tvec = np.asarray(tvecs[i], np.float64).reshape(3)
-        if np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)) and tvec[2] > 0:  # in front of the camera
-            out.append(PoseHypothesis(rvec, tvec, float(errs_arr[i])))
+        values = rvec.tolist() + tvec.tolist()
+        if all(map(math.isfinite, values)) and values[5] > 0:  # finite and in front of the camera
+            out.append(PoseHypothesis(rvec, tvec, errs_list[i]))
     return sorted(out, key=lambda h: h.reprojection_error)
 
 

@@ -15,13 +15,17 @@ ArrayLike = Sequence[float] | np.ndarray
 
 
 def normalize_quat(q: ArrayLike) -> np.ndarray:
-    """Unit quaternion with w ≥ 0 (one representative of ±q); raises on a zero or non-finite input."""
-    q = np.asarray(q, dtype=np.float64).reshape(4)
-    n = float(np.linalg.norm(q))
+    """Unit quaternion with w ≥ 0 (one representative of ±q); raises on a zero or non-finite input.
+
+    On Python floats: every detection's orientation passes through here (bench: perception).
+    """
+    x, y, z, w = np.asarray(q, dtype=np.float64).reshape(4).tolist()
+    n = math.hypot(x, y, z, w)  # no overflow or underflow at any scale, as np.linalg.norm
     if not math.isfinite(n) or n < 1e-12:
-        raise ValueError(f"quaternion {q.tolist()} cannot be normalised")
-    q = q / n
-    return -q if q[3] < 0 else q
+        raise ValueError(f"quaternion {[x, y, z, w]} cannot be normalised")
+    if w < 0:
+        n = -n
+    return np.array([x / n, y / n, z / n, w / n])
 
 
 def quat_to_matrix(q: ArrayLike) -> np.ndarray:
@@ -38,20 +42,21 @@ def quat_to_matrix(q: ArrayLike) -> np.ndarray:
 
 def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     """Quaternion (x, y, z, w) of a 3×3 rotation matrix (Shepperd's method, stable for all angles)."""
-    m = np.asarray(r, dtype=np.float64)[:3, :3]
-    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    # Python floats, not numpy element reads: it runs for every detection (bench: perception).
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = np.asarray(r, dtype=np.float64)[:3, :3].tolist()
+    tr = m00 + m11 + m22
     if tr > 0:
         s = math.sqrt(tr + 1.0) * 2
-        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
-        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
-    elif m[1, 1] > m[2, 2]:
-        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
-        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+        q = [(m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s]
+    elif m00 > m11 and m00 > m22:
+        s = math.sqrt(1.0 + m00 - m11 - m22) * 2
+        q = [0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s]
+    elif m11 > m22:
+        s = math.sqrt(1.0 + m11 - m00 - m22) * 2
+        q = [(m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s]
     else:
-        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
-        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+        s = math.sqrt(1.0 + m22 - m00 - m11) * 2
+        q = [(m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s]
     return normalize_quat(q)
 
 
@@ -159,8 +164,8 @@ def yaw_of(t: np.ndarray) -> float:
 
 def rotation_angle(r_a: np.ndarray, r_b: np.ndarray) -> float:
     """Angle (rad) of the relative rotation between two 3×3 rotations."""
-    # trace(Aᵀ·B) is the sum of the element-wise product: no matrix product needed
-    c = (float(np.multiply(np.asarray(r_a)[:3, :3], np.asarray(r_b)[:3, :3]).sum()) - 1.0) / 2.0
+    # trace(Aᵀ·B) is the sum of the element-wise product: one dot product of the flattened matrices
+    c = (float(np.vdot(np.asarray(r_a)[:3, :3], np.asarray(r_b)[:3, :3])) - 1.0) / 2.0
     return math.acos(max(-1.0, min(1.0, c)))
 
 
