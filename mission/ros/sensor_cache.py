@@ -64,6 +64,7 @@ class ThrottledLog:
 class _Stamped:
     stamp: float
     value: Any
+    topic: str = ""  # where it came from, for warnings about it later
 
 
 def _nearest(items: deque[_Stamped], stamp: float) -> _Stamped | None:
@@ -167,7 +168,7 @@ class SensorCache:
             self.stats.dropped[f"camera_info:{err.kind}"] = self.stats.dropped.get(f"camera_info:{err.kind}", 0) + 1
             self.log("camera_info", f"invalid camera info on {topic}: {err.detail}; using the fallback intrinsics")
             value, ok = err.detail, False
-        self._insert(self._infos, _Stamped(stamp, value))
+        self._insert(self._infos, _Stamped(stamp, value, topic))
         return ok
 
     def on_odometry(self, msg: Any, topic: str = "odom") -> bool:
@@ -248,11 +249,13 @@ class SensorCache:
         if isinstance(value, CameraIntrinsics):
             if value.width == 0 or value.height == 0:
                 value = dataclasses.replace(value, width=w, height=h)
-            if (value.width, value.height) == (w, h):
+            problem = value.problem(w, h)  # the one check (mission/core/types.py) the sources use too
+            if problem is None:
                 return value
-            value = f"camera info is for {value.width}×{value.height}, the image is {w}×{h}"
+            assert near is not None
+            value = f"camera info on {near.topic}: {problem}"
         self.stats.fallback_intrinsics += 1
-        self.log("fallback_intrinsics", f"{value}: using the fallback pinhole fx = fy = 0.9·{w}")
+        self.log("fallback_intrinsics", f"{value}; using the fallback pinhole fx = fy = 0.9·{w}")
         return CameraIntrinsics.fallback(w, h)
 
     def _depth_for(self, stamp: float, image: np.ndarray) -> np.ndarray | None:
