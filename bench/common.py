@@ -16,9 +16,12 @@ import platform
 import sys
 from dataclasses import asdict, dataclass
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from mission.core.files import atomic_path
 
 
 @dataclass
@@ -97,3 +100,18 @@ def machine_info() -> dict[str, Any]:
 def progress(msg: str) -> None:
     """A progress line on stderr (stdout stays machine-readable under --json)."""
     print(f"bench: {msg}", file=sys.stderr, flush=True)
+
+
+def save_figure(fig: Any, path: Path, dpi: int = 110) -> None:
+    """Write a matplotlib figure to `path` atomically (mission/core/files.py) and close it.
+
+    A benchmark interrupted while plotting, or a reader of bench/results/ during a run, then sees the
+    previous picture or the new one, never a truncated PNG; the figure is closed even when saving fails.
+    """
+    import matplotlib.pyplot as plt
+
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi)
+    finally:
+        plt.close(fig)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.common import Figure, pct, progress
+from bench.common import Figure, pct, progress, save_figure
 from bench.tick_recording import record
 
 
@@ -67,6 +67,5 @@ def _plot(e2e: list[float], det: list[float], out: Path) -> str:
     ax.legend(fontsize=8)
     fig.tight_layout()
     name = "latency_cdf.png"
-    fig.savefig(out / name, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / name)
     return name

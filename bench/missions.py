@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.common import Figure, pct, progress
+from bench.common import Figure, pct, progress, save_figure
 
 SCENARIOS = ("follow_occlusion", "search_corner", "explore_dock", "mission_full")
 QUICK_SCENARIOS = ("follow_occlusion", "explore_dock")
@@ -290,6 +290,5 @@ def _plot(per: dict[str, Any], out: Path) -> str:
     axes[1].set_title("Loss handling")
     fig.tight_layout()
     name = "missions.png"
-    fig.savefig(out / name, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / name)
     return name

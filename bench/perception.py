@@ -23,7 +23,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from bench.common import Figure, progress, ratio
+from bench.common import Figure, progress, ratio, save_figure
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT, Scene, render_scene
 from mission.core.types import Frame
 from perception_plugins.apriltag import AprilTagSource
@@ -179,6 +179,5 @@ def _plot(rows: list[dict[str, Any]], out: Path) -> str | None:
     ax.legend()
     fig.tight_layout()
     name = "perception_overhead.png"
-    fig.savefig(out / name, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / name)
     return name

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 import pupil_apriltags
 
-from bench.common import Figure, pct, progress
+from bench.common import Figure, pct, progress, save_figure
 from bench.perception import raw_aruco_poses
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT
 from mission.core import se3
@@ -200,6 +200,5 @@ def _plot(table: dict[str, Any], out: Path) -> str:
     axes[0].legend(fontsize=7)
     fig.tight_layout()
     name = "pose_accuracy.png"
-    fig.savefig(out / name, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / name)
     return name

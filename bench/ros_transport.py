@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.common import Figure, load_average, pct, progress, ratio
+from bench.common import Figure, load_average, pct, progress, ratio, save_figure
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env
 from mission.core import se3
 from mission.core.types import CameraIntrinsics, Frame
@@ -315,8 +315,7 @@ def _plot(samples: dict[str, list[float]], out: Path) -> str:
     ax.legend(fontsize=7)
     fig.tight_layout()
     name = "ros_transport_cdf.png"
-    fig.savefig(out / name, dpi=110)
-    plt.close(fig)
+    save_figure(fig, out / name)
     return name
 
 
