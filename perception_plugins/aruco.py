@@ -185,8 +185,8 @@ class ArucoSource:
         best = choice.chosen
         side_px = square_pose.pixel_side(corners)
         extra: dict[str, Any] = {
-            "rvec": [round(float(v), 6) for v in best.rvec],
-            "tvec": [round(float(v), 6) for v in best.tvec],
+            "rvec": [round(v, 6) for v in best.rvec.tolist()],  # tolist: Python floats, not numpy scalars
+            "tvec": [round(v, 6) for v in best.tvec.tolist()],
             "ambiguity": round(choice.ambiguity, 4),
             "error_ratio": round(choice.error_ratio, 4),
             "pixel_size": round(side_px, 2),
@@ -199,8 +199,8 @@ class ArucoSource:
         if choice.alternative is not None:
             alt = choice.alternative
             extra["alternative"] = {
-                "rvec": [round(float(v), 6) for v in alt.rvec],
-                "tvec": [round(float(v), 6) for v in alt.tvec],
+                "rvec": [round(v, 6) for v in alt.rvec.tolist()],
+                "tvec": [round(v, 6) for v in alt.tvec.tolist()],
                 "reprojection_error": round(alt.reprojection_error, 4),
             }
         err = best.reprojection_error if math.isfinite(best.reprojection_error) else float("inf")
