@@ -100,22 +100,30 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
     t = np.array(rec.times, dtype=float)
     fig, (ax_s, ax_d) = plt.subplots(2, 1, figsize=(10, 4.2), sharex=True, height_ratios=[1.2, 1])
     if len(t) > 1:
-        rows = {
-            "state": [STATE_COLOURS.get(s, NO_STATE) for s in rec.states],
-            "line of sight": ["#2ca02c" if v else "#d62728" for v in rec.los],
-            "in view": ["#2ca02c" if v else "#d9d9d9" for v in rec.fov],
-        }
-        for y, colours in zip((2.0, 1.0, 0.0), rows.values(), strict=True):
+        d = np.array(rec.target_distance, dtype=float)
+        has_target = bool(np.isfinite(d).any())
+        rows = {"state": [STATE_COLOURS.get(s, NO_STATE) for s in rec.states]}
+        if has_target:
+            rows["line of sight"] = ["#2ca02c" if v else "#d62728" for v in rec.los]
+            rows["in view"] = ["#2ca02c" if v else "#d9d9d9" for v in rec.fov]
+        ys = (2.0, 1.0, 0.0)[: len(rows)]
+        for y, colours in zip(ys, rows.values(), strict=True):
             # one bar per stretch of equal colour: a 30-minute run is a few hundred bars, not 27 000
             for a, b, colour in _stretches(colours, len(t) - 1):
                 ax_s.barh(y, t[b] - t[a], left=t[a], height=0.8, color=colour)
-        ax_s.set_yticks([2.0, 1.0, 0.0], list(rows))
+        ax_s.set_yticks(list(ys), list(rows))
+        ax_s.set_ylim(ys[-1] - 0.5, ys[0] + 0.5)
+        last_label = -np.inf
         for tt, s in rec.transitions:
-            if s:
-                ax_s.annotate(s, (tt, 2.45), fontsize=7, rotation=30)
-        d = np.array(rec.target_distance, dtype=float)
-        ax_d.plot(t, d, color="#1f77b4")
-        ax_d.set_ylabel("robot–target (m)")
+            if s and tt - last_label >= (t[-1] - t[0]) / 25:  # flickers would print on top of each other
+                ax_s.annotate(s, (tt, ys[0] + 0.45), fontsize=7, rotation=30, annotation_clip=False)
+                last_label = tt
+        if has_target:
+            ax_d.plot(t, d, color="#1f77b4")
+            ax_d.set_ylabel("robot–target (m)")
+        else:
+            ax_d.text(0.5, 0.5, "no target in this scenario", ha="center", va="center", transform=ax_d.transAxes)
+            ax_d.set_yticks([])
     ax_d.set_xlabel("sim time (s)")
     ax_s.set_title(title or "timeline")
     _save(fig, path)
