@@ -15,7 +15,7 @@ from mission.cli import main
         (["run", "--scenario", "explore_dock", "--max-duration", "inf"], "--max-duration", "finite number > 0"),
         (["run", "--scenario", "explore_dock", "--max-duration", "-5"], "--max-duration", "finite number > 0"),
         (["run", "--scenario", "explore_dock", "--max-duration", "0"], "--max-duration", "finite number > 0"),
-        (["run", "--scenario", "explore_dock", "--max-duration", "soon"], "--max-duration", "a number > 0"),
+        (["run", "--scenario", "explore_dock", "--max-duration", "soon"], "--max-duration", "finite number > 0"),
         (["run", "--scenario", "explore_dock", "--seed", "-3"], "--seed", "whole number ≥ 0"),
         (["run", "--scenario", "explore_dock", "--seed", "1.5"], "--seed", "whole number ≥ 0"),
         (["run", "--scenario", "explore_dock", "--serve", "--port", "-1"], "--port", "whole number ≥ 0"),
