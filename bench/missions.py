@@ -148,88 +148,45 @@ def aggregate(name: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _figures(name: str, a: dict[str, Any]) -> list[Figure]:
-    def le(v: float | None, t: float) -> bool | None:
-        return None if v is None else v <= t
+def _vs_target(label: str, value: float | None, unit: str, key: str, target: str) -> Figure:
+    """A figure beside its design target; `target` reads "≥ x", "≤ x" or "< x" and decides the check."""
+    goal = TARGETS[key]
+    if value is None:
+        meets = None
+    elif target.startswith("≥"):
+        meets = value >= goal
+    elif target.startswith("<"):
+        meets = value < goal
+    else:
+        meets = value <= goal
+    return Figure(label, value, unit, baseline=DESIGN, baseline_value=goal, target=target, meets_target=meets)
 
-    f = [
-        Figure(
-            f"{name}: success rate ({a['runs']} seeds)",
-            a["success_rate"],
-            "fraction",
-            baseline=DESIGN,
-            baseline_value=TARGETS["success_rate"],
-            target="≥ 0.90",
-            meets_target=None if a["success_rate"] is None else a["success_rate"] >= TARGETS["success_rate"],
-        )
-    ]
+
+def _figures(name: str, a: dict[str, Any]) -> list[Figure]:
+    f = [_vs_target(f"{name}: success rate ({a['runs']} seeds)", a["success_rate"], "fraction", "success_rate",
+                    "≥ 0.90")]  # fmt: skip
     if a["loss_events"]:
-        frac = a["loss_recovered_fraction"]
-        f.append(
-            Figure(
-                f"{name}: loss events recovered ({a['loss_events_recovered']}/{a['loss_events']})",
-                frac,
-                "fraction",
-                baseline=DESIGN,
-                baseline_value=TARGETS["loss_recovered"],
-                target="≥ 0.90",
-                meets_target=frac >= TARGETS["loss_recovered"],
-            )
-        )
-    if a["occlusion_latency_s_max"] is not None:
-        f.append(
-            Figure(
-                f"{name}: occlusion-detection latency, worst run (median of runs {a['occlusion_latency_s_median']} s)",
-                a["occlusion_latency_s_max"],
-                "s",
-                baseline=DESIGN,
-                baseline_value=TARGETS["occlusion_latency_s"],
-                target="≤ 0.5 s",
-                meets_target=le(a["occlusion_latency_s_max"], TARGETS["occlusion_latency_s"]),
-            )
-        )
-    if a["reacquisition_s_max"] is not None:
-        f.append(
-            Figure(
-                f"{name}: re-acquisition time, worst run (median of runs {a['reacquisition_s_median']} s)",
-                a["reacquisition_s_max"],
-                "s",
-                baseline=DESIGN,
-                baseline_value=TARGETS["reacquisition_s"],
-                target="≤ 10 s",
-                meets_target=le(a["reacquisition_s_max"], TARGETS["reacquisition_s"]),
-            )
-        )
+        f.append(_vs_target(f"{name}: loss events recovered ({a['loss_events_recovered']}/{a['loss_events']})",
+                            a["loss_recovered_fraction"], "fraction", "loss_recovered", "≥ 0.90"))  # fmt: skip
+    worst_runs = (
+        ("occlusion_latency_s", "occlusion-detection latency", "s", "occlusion_latency_s", "≤ 0.5 s"),
+        ("reacquisition_s", "re-acquisition time", "s", "reacquisition_s", "≤ 10 s"),
+    )
+    for field, what, unit, key, target in worst_runs:
+        if a[f"{field}_max"] is not None:
+            label = f"{name}: {what}, worst run (median of runs {a[f'{field}_median']} s)"
+            f.append(_vs_target(label, a[f"{field}_max"], unit, key, target))
     if a["goal_jitter_m_max"] is not None:
-        f.append(
-            Figure(
-                f"{name}: goal jitter s.d. while the target stands still, worst run (median "
-                f"{a['goal_jitter_m_median']} m)",
-                a["goal_jitter_m_max"],
-                "m",
-                baseline=DESIGN,
-                baseline_value=TARGETS["goal_jitter_m"],
-                target="< 0.2 m",
-                meets_target=a["goal_jitter_m_max"] < TARGETS["goal_jitter_m"],
-            )
-        )
+        still = "goal jitter s.d. while the target stands still"
+        label = f"{name}: {still}, worst run (median {a['goal_jitter_m_median']} m)"
+        f.append(_vs_target(label, a["goal_jitter_m_max"], "m", "goal_jitter_m", "< 0.2 m"))
     if a["docked_runs"]:
-        for key, unit, tgt in (("lateral_m", "m", "≤ 0.03 m"), ("distance_m", "m", "≤ 0.025 m"),
-                               ("skew_deg", "°", "≤ 10°")):  # fmt: skip
-            v = a[f"dock_{key}_max"]
-            f.append(
-                Figure(
-                    f"{name}: docking {key.split('_')[0]} error, worst of {a['docked_runs']} docks (median "
-                    f"{a[f'dock_{key}_median']})",
-                    v,
-                    unit,
-                    baseline=DESIGN,
-                    baseline_value=TARGETS[f"dock_{key}"],
-                    target=tgt,
-                    meets_target=le(v, TARGETS[f"dock_{key}"]),
-                )
-            )
-    return f  # fmt: skip
+        for key, unit, target in (("lateral_m", "m", "≤ 0.03 m"), ("distance_m", "m", "≤ 0.025 m"),
+                                  ("skew_deg", "°", "≤ 10°")):  # fmt: skip
+            label = (f"{name}: docking {key.split('_')[0]} error, worst of {a['docked_runs']} docks "
+                     f"(median {a[f'dock_{key}_median']})")  # fmt: skip
+            f.append(_vs_target(label, a[f"dock_{key}_max"], unit, f"dock_{key}", target))
+    return f
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:
