@@ -85,7 +85,10 @@ def rss_mb(pid: int | None = None) -> float:
 
 
 class Subprocess:
-    """A ROS process under test; stdout and stderr go to `log_path` (quoted when it dies)."""
+    """A ROS process under test; stdout and stderr go to `log_path` (quoted when it dies).
+
+    The tests' node processes are these too (tests/ros_env.py), so a node is started and stopped one way.
+    """
 
     def __init__(self, cmd: list[str], env: dict[str, str], log_path: Path) -> None:
         self.log_path = log_path
@@ -101,9 +104,13 @@ class Subprocess:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def log_tail(self, lines: int = 3) -> str:
+    def log(self) -> str:
+        """Everything the process printed so far."""
         self._log.flush()
-        text = self.log_path.read_text(errors="replace").strip().splitlines()
+        return self.log_path.read_text(errors="replace")
+
+    def log_tail(self, lines: int = 3) -> str:
+        text = self.log().strip().splitlines()
         return " | ".join(text[-lines:]) if text else "(empty log)"
 
     def interrupt(self) -> None:

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import signal
 import subprocess
 import sys
 import threading
@@ -26,6 +25,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from bench.ros_feed import Subprocess as NodeProcess
 from mission.ros import dds
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,38 +60,6 @@ def build_ros() -> None:
 def installed_env() -> dict[str, str]:
     """The environment `ros2 run` gives a package executable: ours plus install/setup.bash."""
     return dds.package_env(INSTALL / "setup.bash", ROS_ENV, ROOT / ".venv" / "bin")
-
-
-class NodeProcess:
-    """The node under test in its own process; stderr/stdout go to a log file shown on failure."""
-
-    def __init__(self, cmd: list[str], env: dict[str, str], log_path: Path) -> None:
-        self.log_path = log_path
-        self._log = log_path.open("wb")
-        self.proc = subprocess.Popen(cmd, env=env, stdout=self._log, stderr=subprocess.STDOUT, cwd=ROOT)
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
-
-    def log(self) -> str:
-        self._log.flush()
-        return self.log_path.read_text(errors="replace")
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self, timeout: float = 10.0) -> int:
-        """SIGINT (what Ctrl-C and ros2 launch send), then SIGKILL if it does not exit."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self._log.close()
-        return int(self.proc.returncode)
 
 
 class RosClient:
