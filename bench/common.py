@@ -115,3 +115,23 @@ def save_figure(fig: Any, path: Path, dpi: int = 110) -> None:
             fig.savefig(tmp, dpi=dpi)
     finally:
         plt.close(fig)
+
+
+def plot_cdf(series: dict[str, Any], title: str, path: Path, fontsize: int = 8) -> str:
+    """Latency CDFs, one line per labelled series of ms values (empty series are left out); returns the file name."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    for label, values in series.items():
+        v = np.sort(np.asarray(values, dtype=float))
+        if len(v):
+            ax.plot(v, np.arange(1, len(v) + 1) / len(v), label=label)
+    ax.set(xlabel="ms", ylabel="fraction of frames", title=title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=fontsize)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return path.name

@@ -13,9 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from bench.common import Figure, pct, progress, save_figure
+from bench.common import Figure, pct, plot_cdf, progress
 from bench.tick_recording import record
 
 
@@ -53,19 +51,5 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
 
 
 def _plot(e2e: list[float], det: list[float], out: Path) -> str:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.5, 3.8))
-    for vals, label in ((det, "detector alone"), (e2e, "frame → command (tree tick incl. perception)")):
-        v = np.sort(np.asarray(vals))
-        ax.plot(v, np.arange(1, len(v) + 1) / len(v), label=label)
-    ax.set(xlabel="ms", ylabel="fraction of frames", title="Latency CDF (mission_full, live sim run)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    name = "latency_cdf.png"
-    save_figure(fig, out / name)
-    return name
+    series = {"detector alone": det, "frame → command (tree tick incl. perception)": e2e}
+    return plot_cdf(series, "Latency CDF (mission_full, live sim run)", out / "latency_cdf.png")

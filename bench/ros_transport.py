@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.common import Figure, load_average, pct, progress, ratio, save_figure
+from bench.common import Figure, load_average, pct, plot_cdf, progress, ratio
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env
 from mission.core import se3
 from mission.core.types import CameraIntrinsics, Frame
@@ -293,11 +293,6 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
 
 
 def _plot(samples: dict[str, list[float]], out: Path) -> str:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     labels = {
         NODE.name: "node (install/…/tree, tree:=none, 30 Hz tick)",
         STREAMER.name: "hand-written rclpy streamer (raw OpenCV in the callback)",
@@ -305,18 +300,8 @@ def _plot(samples: dict[str, list[float]], out: Path) -> str:
         DETECTOR: "our aruco source alone (no ROS)",
         NODE_FAST.name: f"diagnostic: the node at tick_hz {FAST_TICK_HZ:g}",
     }
-    fig, ax = plt.subplots(figsize=(6.5, 3.8))
-    for name in samples:
-        v = np.sort(np.asarray(samples[name]))
-        if len(v):
-            ax.plot(v, np.arange(1, len(v) + 1) / len(v), label=labels[name])
-    ax.set(xlabel="ms", ylabel="fraction of frames", title="Image → /detected_aruco_pose latency, 30 Hz, SHM DDS")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    name = "ros_transport_cdf.png"
-    save_figure(fig, out / name)
-    return name
+    title = "Image → /detected_aruco_pose latency, 30 Hz, SHM DDS"
+    return plot_cdf({labels[name]: v for name, v in samples.items()}, title, out / "ros_transport_cdf.png", 7)
 
 
 def main(argv: list[str] | None = None) -> int:
