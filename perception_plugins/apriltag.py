@@ -37,7 +37,7 @@ from pydantic import Field, PositiveFloat, field_validator, model_validator
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
-from mission.core.types import CameraIntrinsics, Detection, Frame
+from mission.core.types import Detection, Frame
 from perception_plugins import square_pose
 from perception_plugins.apriltag_backends import (
     APRILTAG3_MAX_HAMMING,
@@ -47,6 +47,7 @@ from perception_plugins.apriltag_backends import (
     RawTag,
 )
 from perception_plugins.aruco import to_grey
+from perception_plugins.frame_intrinsics import FrameIntrinsics
 
 log = logging.getLogger(__name__)
 
@@ -178,7 +179,7 @@ class AprilTagSource:
         else:
             self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=p.refine_edges)
         self._disambiguator = square_pose.TemporalDisambiguator()
-        self._warned: set[str] = set()
+        self._intrinsics = FrameIntrinsics(self.name, log)
         self.counters: dict[str, int] = {}
 
     # -- lookups -----------------------------------------------------------------------------------
@@ -190,18 +191,6 @@ class AprilTagSource:
         """The attributed entity name of a tag id (None when the table does not know it)."""
         row = self.params.tags.get(tag_id)
         return row.name if row is not None else None
-
-    def _intrinsics(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
-        k = frame.intrinsics
-        problem = None if k is None else k.problem(frame.width, frame.height)
-        if k is not None and problem is None:
-            return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
-        if "intrinsics" not in self._warned:
-            self._warned.add("intrinsics")
-            why = "missing" if k is None else f"invalid ({problem})"
-            log.warning("%s: camera intrinsics %s; using the fallback pinhole fx = fy = 0.9·width "
-                        "(degraded pose accuracy)", self.name, why)
-        return CameraIntrinsics.fallback(frame.width, frame.height), True
 
     def _count(self, key: str) -> None:
         self.counters[key] = self.counters.get(key, 0) + 1

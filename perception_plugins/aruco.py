@@ -23,8 +23,9 @@ from pydantic import Field, PositiveFloat
 
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
-from mission.core.types import CameraIntrinsics, Detection, Frame
+from mission.core.types import Detection, Frame
 from perception_plugins import square_pose
+from perception_plugins.frame_intrinsics import FrameIntrinsics
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +131,7 @@ class ArucoSource:
         self._detect = _make_detector(getattr(cv2.aruco, self.dictionary), self.params.corner_refinement)
         self._allowed = None if self.params.allowed_ids is None else set(self.params.allowed_ids)
         self._disambiguator = square_pose.TemporalDisambiguator()
-        self._warned: set[str] = set()
+        self._intrinsics = FrameIntrinsics(self.name, log)
 
     # ------------------------------------------------------------------------------------------------
 
@@ -138,28 +139,12 @@ class ArucoSource:
         """The side length (m) configured for `marker_id`."""
         return float(self.params.marker_sizes.get(marker_id, self.params.marker_size_m))
 
-    def intrinsics_for(self, frame: Frame) -> tuple[CameraIntrinsics, bool]:
-        """(intrinsics to use, True if they are the degraded fallback) for this frame."""
-        k = frame.intrinsics
-        problem = None if k is None else k.problem(frame.width, frame.height)
-        if k is not None and problem is None:
-            return k, k.is_fallback  # an adapter's fallback (it warned already): a valid but degraded pose
-        reason = "missing" if k is None else "invalid"
-        if reason not in self._warned:
-            self._warned.add(reason)
-            detail = "" if k is None else f" ({problem})"
-            log.warning(
-                "%s: camera intrinsics %s%s; using the fallback pinhole fx = fy = 0.9·width, principal point at "
-                "the image centre (degraded pose accuracy)", self.name, reason, detail,
-            )  # fmt: skip
-        return CameraIntrinsics.fallback(frame.width, frame.height), True
-
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
         corners_list, ids = self._detect(grey)
         if ids is None or len(ids) == 0:
             return []
-        intrinsics, degraded = self.intrinsics_for(frame)
+        intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs
         out: list[Detection] = []
         for c, mid in zip(corners_list, np.asarray(ids).reshape(-1), strict=True):

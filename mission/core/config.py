@@ -165,6 +165,7 @@ def check_config(cfg: MissionConfig, file: str | None = None) -> None:
     two targets that look alike (one detection is both), or a target naming a source that is not configured
     (no detection can ever match it)."""
     names = [s.name or s.plugin for s in cfg.perception.sources]
+    plugins = {s.plugin for s in cfg.perception.sources}  # matching accepts a plugin name too
     targets = list(cfg.perception.targets.items())
     for i, (target, spec) in enumerate(targets):
         twin = next((name for name, other in targets[:i] if other == spec), None)
@@ -174,7 +175,6 @@ def check_config(cfg: MissionConfig, file: str | None = None) -> None:
                 file=file,
                 key=f"perception.targets.{target}",
             )
-        plugins = {s.plugin for s in cfg.perception.sources}  # matching accepts a plugin name too
         if spec.source is not None and spec.source not in names and spec.source not in plugins:
             raise ConfigError(
                 f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
