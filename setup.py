@@ -20,7 +20,6 @@ else:
         import tomllib
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
-    from setuptools import find_packages
     from setuptools.dist import Distribution
 
     class AmentDistribution(Distribution):
@@ -43,11 +42,13 @@ else:
         distclass=AmentDistribution,
         name=name,
         version=manifest.findtext("version"),
-        packages=find_packages(include=tool["packages"]["find"]["include"]),
+        packages=tool["packages"],
+        # absolute: colcon runs this file from a build directory that links only the first-level package
+        package_dir={name: str(here / folder) for name, folder in tool["package-dir"].items()},
         package_data=tool.get("package-data", {}),
         data_files=[
             ("share/ament_index/resource_index/packages", [f"resource/{name}"]),
-            (f"share/{name}", ["package.xml", "ros/fastdds_shm.xml"]),
+            (f"share/{name}", ["package.xml", "mission/ros/fastdds_shm.xml"]),
         ],
         entry_points=entry_points,
         zip_safe=False,

@@ -5,7 +5,7 @@ The catalogue of tags, ports and meanings is /work/catalogue.md (and the README'
 
 from __future__ import annotations
 
-from behaviours import (  # noqa: F401  (imported for their @register side effect)
+from mission.behaviours import (  # noqa: F401  (imported for their @register side effect)
     dock,
     explore,
     follow,

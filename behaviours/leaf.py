@@ -25,7 +25,7 @@ from typing import Any, ClassVar
 import numpy as np
 import py_trees
 
-from behaviours.ports import PortsDeclared
+from mission.behaviours.ports import PortsDeclared
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import Key

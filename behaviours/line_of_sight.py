@@ -31,9 +31,9 @@ from typing import ClassVar
 import numpy as np
 import py_trees
 
-from behaviours.leaf import MissionLeaf
-from behaviours.ports import Port
-from behaviours.registry import register
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.ports import Port
+from mission.behaviours.registry import register
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack

@@ -12,10 +12,10 @@ from typing import ClassVar
 
 import py_trees
 
-from behaviours.approach import approach_goal
-from behaviours.leaf import MissionLeaf
-from behaviours.ports import Port
-from behaviours.registry import register
+from mission.behaviours.approach import approach_goal
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.ports import Port
+from mission.behaviours.registry import register
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.types import NavGoal

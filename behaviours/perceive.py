@@ -21,10 +21,10 @@ from typing import ClassVar
 import numpy as np
 import py_trees
 
-from behaviours.leaf import MissionLeaf
-from behaviours.ports import Dependencies, Port
-from behaviours.registry import register
-from behaviours.target_matching import SourcedDetection, assign, detection_problem
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.ports import Dependencies, Port
+from mission.behaviours.registry import register
+from mission.behaviours.target_matching import SourcedDetection, assign, detection_problem
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.types import Detection, Frame, RobotState, TargetTrack

@@ -24,6 +24,6 @@ def register(cls: T) -> T:
 
 def all_behaviours() -> dict[str, type]:
     """Every registered leaf, importing the modules that define them."""
-    import behaviours.catalogue  # noqa: F401  (imports every behaviour module so they register)
+    import mission.behaviours.catalogue  # noqa: F401  (imports every behaviour module so they register)
 
     return dict(REGISTRY)

@@ -20,11 +20,11 @@ from typing import ClassVar
 
 import py_trees
 
-from behaviours.approach import bearing_to
-from behaviours.leaf import MissionLeaf
-from behaviours.line_of_sight import PREDICT_HORIZON_S, predicted_position
-from behaviours.ports import Port
-from behaviours.registry import register
+from mission.behaviours.approach import bearing_to
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.line_of_sight import PREDICT_HORIZON_S, predicted_position
+from mission.behaviours.ports import Port
+from mission.behaviours.registry import register
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState

@@ -14,9 +14,9 @@ from typing import ClassVar
 
 import py_trees
 
-from behaviours.leaf import MissionLeaf
-from behaviours.ports import Port
-from behaviours.registry import register
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.ports import Port
+from mission.behaviours.registry import register
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState

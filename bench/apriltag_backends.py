@@ -29,8 +29,8 @@ import numpy as np
 from bench.common import Figure
 from mission.core import se3
 from mission.core.types import Frame
-from perception_plugins import synthetic_views as sv
-from perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.apriltag import AprilTagSource
 
 CONFIGS = {
     "apriltag3 (decimate 2)": {"backend": "apriltag3", "decimate": 2.0},

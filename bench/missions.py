@@ -1,6 +1,6 @@
 """Benchmark: mission outcomes over many seeds per scenario, against the design notes' targets.
 
-Each run is ``mission.sim_run.run_scenario(name, seed=…)`` — the code path of ``mission run`` — in a
+Each run is ``mission.app.sim_run.run_scenario(name, seed=…)`` — the code path of ``mission run`` — in a
 worker process (one per core, spawned; a rich progress bar on stderr). Every finished run is appended
 to ``<out>/missions_runs.jsonl`` as it completes, so a cut-short sweep still leaves its data.
 
@@ -46,7 +46,7 @@ DESIGN = "design target (seeds/001 follow coordinator, seeds/002 docking)"
 def _one(task: tuple[str, int, float | None]) -> dict[str, Any]:
     """One simulated run in a worker process (imports here: the parent never touches pybullet for this)."""
     name, seed, max_duration = task
-    from mission.sim_run import run_scenario
+    from mission.app.sim_run import run_scenario
 
     t0 = time.perf_counter()
     try:

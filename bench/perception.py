@@ -26,10 +26,10 @@ import numpy as np
 from bench.common import Figure, progress, ratio, save_figure
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT, Scene, render_scene
 from mission.core.types import Frame
-from perception_plugins.apriltag import AprilTagSource
-from perception_plugins.apriltag_backends import SafeDetector
-from perception_plugins.aruco import ArucoSource
-from perception_plugins.square_pose import object_points
+from mission.perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins.apriltag_backends import SafeDetector
+from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.square_pose import object_points
 
 RESOLUTIONS = ((640, 480), (1280, 720))
 MARKER_COUNTS = (0, 1, 8)

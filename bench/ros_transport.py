@@ -67,7 +67,7 @@ FULL_SLOTS = (*SLOTS, NODE_FAST.name)
 
 def render_views(n: int = N_VIEWS, seed: int = 11) -> tuple[list[np.ndarray], CameraIntrinsics]:
     """`n` rendered 640×480 frames of the marker at varied poses (each one is found by the detector)."""
-    from perception_plugins.synthetic_views import default_intrinsics, pose_facing_camera, render_marker_view
+    from mission.perception_plugins.synthetic_views import default_intrinsics, pose_facing_camera, render_marker_view
 
     k = default_intrinsics()
     rng = np.random.default_rng(seed)
@@ -171,7 +171,7 @@ def _detector_slot(views: list[np.ndarray], k: CameraIntrinsics, seconds: float,
 
 def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
     """Start the node and the two baseline nodes, feed them in interleaved slots, return the samples."""
-    from perception_plugins.aruco import ArucoSource
+    from mission.perception_plugins.aruco import ArucoSource
 
     slot_s, rounds = (1.0, 2) if quick else (4.0, 15)
     build_ros()
@@ -277,7 +277,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             "node": "install/mission/lib/mission/tree, tree:=none, tick_hz:=30, target_marker_id:=7",
             "frames": f"640x480 bgr8, {N_VIEWS} rendered views of a {MARKER_SIZE_M} m DICT_4X4_250 marker, "
             f"{HZ:g} Hz, with CameraInfo",
-            "transport": "ros/fastdds_shm.xml (shared memory only), private ROS_DOMAIN_ID",
+            "transport": "mission/ros/fastdds_shm.xml (shared memory only), private ROS_DOMAIN_ID",
             "slots": f"{m['rounds']} rounds × ({', '.join(m['slots'])}) × {m['slot_s']:g} s, one fed at a time",
             "startup_s": m["startup_s"],
             "frames_fed": m["fed"],

@@ -7,7 +7,7 @@
   interleaved in the same loop (so the ratio is our capture's overhead).
 * Sim only: the `follow_open` scenario driven by a scripted follower on ground truth (navigator goals
   at 5 Hz, camera 15 Hz at 640×480, lidar 10 Hz) — the world's own cost without perception or a tree.
-* Closed loop: ``mission run`` 's code path (``mission.sim_run.run_scenario``: aruco perception + the
+* Closed loop: ``mission run`` 's code path (``mission.app.sim_run.run_scenario``: aruco perception + the
   follow tree + the sim) on `follow_open`, simulated seconds per wall second — against the sim alone.
 
 Wall time on a shared machine varies with load; the load average is reported with the figures.
@@ -32,8 +32,8 @@ from bench.common import Figure, progress
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.types import NavGoal, Pose2D
-from sim.adapter import SimAdapter
-from sim.scenario import load_scenario
+from mission.sim.adapter import SimAdapter
+from mission.sim.scenario import load_scenario
 
 RENDER_POSES = [(1.3, 2.0, 0.0), (1.3, 2.0, 0.6), (4.0, 4.0, 2.0), (4.5, 2.0, 0.0), (5.0, 5.0, -2.5), (3.0, 6.0, 3.1)]
 
@@ -49,7 +49,7 @@ def render_times(width: int, height: int, renderer: str, frames: int) -> dict[st
     """Wall ms per captured frame over RENDER_POSES (each pose `frames` times), and of the bare render."""
     import pybullet as p
 
-    from sim.quiet import quiet
+    from mission.sim.quiet import quiet
 
     sc = load_scenario("follow_open")
     sc.camera.width, sc.camera.height = width, height
@@ -116,7 +116,7 @@ def sim_only(duration_s: float) -> dict[str, float]:
 
 def closed_loop(duration_s: float) -> dict[str, Any]:
     """The `mission run` code path on follow_open (aruco + follow tree + sim)."""
-    from mission.sim_run import run_scenario  # the application layer: imported only for this figure
+    from mission.app.sim_run import run_scenario  # the application layer: imported only for this figure
 
     c0 = time.process_time()
     outcome, _, _ = run_scenario("follow_open", seed=1, max_duration=duration_s)

@@ -115,7 +115,7 @@ class _Sampler:
 
 def run_sim(minutes: float, trace: bool, out: Path | None = None) -> dict[str, Any]:
     """mission_full for `minutes` simulated minutes; samples every simulated minute (every 15 s in short runs)."""
-    from mission.sim_run import run_scenario
+    from mission.app.sim_run import run_scenario
 
     period = 60.0 if minutes >= 5 else 15.0
     sampler = _Sampler(period, trace, out)
@@ -164,7 +164,7 @@ MARKER_SIZE = 0.15
 def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
     """The node fed marker / empty frames alternately (1 s each) at 30 Hz for `seconds` (bench/ros_feed.py)."""
     from mission.core import se3
-    from perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
+    from mission.perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
     build_ros()
     env = ros_env()

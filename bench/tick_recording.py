@@ -18,14 +18,14 @@ from typing import Any
 
 import numpy as np
 
+from mission.app.runner import TreeRunner
+from mission.app.sim_run import DEFAULT_SIM_CONFIG, choose_tree, shipped_config
 from mission.core import blackboard as bbk
 from mission.core.types import Detection, Frame
-from mission.runner import TreeRunner
-from mission.sim_run import DEFAULT_SIM_CONFIG, choose_tree, shipped_config
-from perception_plugins import registry
-from sim.adapter import SimAdapter
-from sim.config import apply_overrides
-from sim.scenario import load_scenario
+from mission.perception_plugins import registry
+from mission.sim.adapter import SimAdapter
+from mission.sim.config import apply_overrides
+from mission.sim.scenario import load_scenario
 
 # What a world adapter writes in sense(): the tree's inputs.
 INPUT_KEYS = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.MAP, bbk.NAV_STATUS, bbk.FRAME, bbk.FRAME_SEQ,

@@ -23,11 +23,11 @@ from py_trees.common import Status
 
 from bench.common import Figure, pct, progress
 from bench.tick_recording import Recording, record
+from mission.app.runner import TreeRunner
+from mission.app.sim_run import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.config import load_config
 from mission.core.types import Detection, Frame
-from mission.runner import TreeRunner
-from mission.sim_run import shipped_config
 
 TARGET = 1.2
 

@@ -38,16 +38,16 @@ from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
-from perception_plugins import square_pose
-from perception_plugins.apriltag_backends import (
+from mission.perception_plugins import square_pose
+from mission.perception_plugins.apriltag_backends import (
     APRILTAG3_MAX_HAMMING,
     SUPPORTED_FAMILIES,
     Apriltag3Backend,
     OpenCvBackend,
     RawTag,
 )
-from perception_plugins.aruco import to_grey
-from perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins.aruco import to_grey
+from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 
 log = logging.getLogger(__name__)
 

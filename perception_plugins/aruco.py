@@ -24,8 +24,8 @@ from pydantic import Field, PositiveFloat
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.types import Detection, Frame
-from perception_plugins import square_pose
-from perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins import square_pose
+from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 
 log = logging.getLogger(__name__)
 

@@ -7,7 +7,7 @@ oblique views they differ by < 0.1 px, so taking the lower error per frame picks
 of views (FIELD_NOTES). :class:`TemporalDisambiguator` fixes that by following both hypotheses of each
 marker over frames and choosing on the accumulated evidence.
 
-Shared by every square-fiducial source (``perception_plugins.aruco``, ``perception_plugins.apriltag``):
+Shared by every square-fiducial source (``mission.perception_plugins.aruco``, ``mission.perception_plugins.apriltag``):
 
 * :func:`object_points` — corners in the marker frame in the order IPPE_SQUARE needs (TL TR BR BL);
 * :func:`solve_square` — both IPPE poses with their RMS reprojection errors, best first;

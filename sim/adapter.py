@@ -31,15 +31,15 @@ from mission.core.types import (
     RobotState,
     Twist,
 )
-from sim.faults import FaultInjector
-from sim.geometry import Footprint, clearance
-from sim.ground_truth import GroundTruth
-from sim.navigator import Navigator
-from sim.robot import DiffDriveBase
-from sim.scenario import Scenario
-from sim.static_map import static_map
-from sim.target_motion import TargetPath
-from sim.world import World, intrinsics_for, static_footprints, unknown_footprints
+from mission.sim.faults import FaultInjector
+from mission.sim.geometry import Footprint, clearance
+from mission.sim.ground_truth import GroundTruth
+from mission.sim.navigator import Navigator
+from mission.sim.robot import DiffDriveBase
+from mission.sim.scenario import Scenario
+from mission.sim.static_map import static_map
+from mission.sim.target_motion import TargetPath
+from mission.sim.world import World, intrinsics_for, static_footprints, unknown_footprints
 
 SUBSTEP_S = 0.02
 TARGET_ROBOT_GAP_M = 0.05  # the target waits rather than come closer than this to the robot

@@ -16,7 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 from mission.core.errors import ConfigError
-from sim.scenario import Scenario, scenario_from_dict
+from mission.sim.scenario import Scenario, scenario_from_dict
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:

@@ -45,7 +45,7 @@ class _Pending:
 
 @dataclass
 class FaultInjector:
-    """The sim-side faults of one run. ``spec`` is a validated ``sim.scenario.Faults``."""
+    """The sim-side faults of one run. ``spec`` is a validated ``mission.sim.scenario.Faults``."""
 
     spec: Any
     seed: int = 0

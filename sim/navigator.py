@@ -26,7 +26,7 @@ import numpy as np
 
 from mission.core.se3 import wrap_angle
 from mission.core.types import LaserScan, NavStatus, OccupancyGrid, Pose2D, Twist
-from sim.scenario import NavSpec
+from mission.sim.scenario import NavSpec
 
 SQRT2 = math.sqrt(2.0)
 SOFT_BAND_M = 0.35  # beyond the inflation, cost fades to nothing over this band

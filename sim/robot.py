@@ -14,8 +14,8 @@ import math
 from dataclasses import dataclass
 
 from mission.core.se3 import wrap_angle
-from sim.geometry import Footprint, clearance
-from sim.scenario import RobotSpec
+from mission.sim.geometry import Footprint, clearance
+from mission.sim.scenario import RobotSpec
 
 CONTACT_EPS_M = 0.002  # a step ending closer than this to an obstacle counts as touching it
 

@@ -19,8 +19,8 @@ from pydantic import Field, model_validator
 
 from mission.core.config import StrictModel, load_model, validate_model
 from mission.core.errors import ConfigError
-from sim.geometry import Footprint
-from sim.markers import dictionary_size, quad_side
+from mission.sim.geometry import Footprint
+from mission.sim.markers import dictionary_size, quad_side
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
 

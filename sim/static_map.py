@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from mission.core.types import OccupancyGrid, Pose2D
-from sim.scenario import Scenario
-from sim.world import static_footprints
+from mission.sim.scenario import Scenario
+from mission.sim.world import static_footprints
 
 MARGIN_M = 0.25  # map border beyond the room's inner walls
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mission.core.se3 import wrap_angle
-from sim.scenario import TargetSpec
+from mission.sim.scenario import TargetSpec
 
 
 @dataclass(frozen=True)

@@ -21,10 +21,10 @@ import numpy as np
 from mission.core import se3
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics
-from sim.geometry import Footprint
-from sim.markers import marker_asset, quad_side
-from sim.quiet import pybullet, quiet
-from sim.scenario import CameraSpec, Lighting, Obstacle, Scenario, obstacle_footprint
+from mission.sim.geometry import Footprint
+from mission.sim.markers import marker_asset, quad_side
+from mission.sim.quiet import pybullet, quiet
+from mission.sim.scenario import CameraSpec, Lighting, Obstacle, Scenario, obstacle_footprint
 
 MARKER_OFFSET_M = 0.005  # quads float this far in front of the face they sit on (FIELD_NOTES)
 DOCK_PANEL_T = 0.02  # thickness of the white board carrying the dock tag

@@ -13,7 +13,7 @@ import ctypes
 import cv2
 import numpy as np
 
-from perception_plugins.apriltag_backends import OPENCV_DICTIONARIES, SafeDetector, pupil_corner_order
+from mission.perception_plugins.apriltag_backends import OPENCV_DICTIONARIES, SafeDetector, pupil_corner_order
 
 
 def tag_cells(family: str, tag_id: int) -> tuple[np.ndarray, int, int]:

@@ -2,7 +2,7 @@
 
 Importing this module sets the environment **before** any rclpy context exists (rclpy reads it at init):
 
-* ``FASTRTPS_DEFAULT_PROFILES_FILE`` = ros/fastdds_shm.xml and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp``:
+* ``FASTRTPS_DEFAULT_PROFILES_FILE`` = mission/ros/fastdds_shm.xml and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp``:
   shared memory only — nothing is sent on any network interface, loopback included;
 * ``ROS_DOMAIN_ID`` = 1 + pid % 100, private to this test run (other runs on the machine use others);
 * ``ROS_AUTOMATIC_DISCOVERY_RANGE=SYSTEM_DEFAULT``. Not LOCALHOST: in Jazzy's rmw_fastrtps, LOCALHOST
@@ -31,7 +31,7 @@ from mission.ros import dds
 ROOT = Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "install"
 TREE_EXE = INSTALL / "mission" / "lib" / "mission" / "tree"
-PROFILE = dds.shm_profile_path()  # the repo's ros/fastdds_shm.xml
+PROFILE = dds.shm_profile_path()  # the repo's mission/ros/fastdds_shm.xml
 DOMAIN_ID = 1 + os.getpid() % 100
 
 ROS_ENV = dds.private_env(DOMAIN_ID)

@@ -15,9 +15,9 @@ from apriltag_images import flip_data_cells, place_tag, tag_cells
 
 from mission.core import se3
 from mission.core.types import Frame
-from perception_plugins import synthetic_views as sv
-from perception_plugins.apriltag import AprilTagSource
-from perception_plugins.apriltag_backends import pupil_corner_order
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins.apriltag_backends import pupil_corner_order
 
 OPENCV_DICT = {
     "tag36h11": cv2.aruco.DICT_APRILTAG_36h11,
@@ -124,7 +124,7 @@ def test_many_tag16h5_detectors_can_be_made_and_freed(tmp_path):
         """
         import numpy as np
         from mission.core.types import Frame
-        from perception_plugins.apriltag import AprilTagSource
+        from mission.perception_plugins.apriltag import AprilTagSource
         img = np.full((120, 160), 128, np.uint8)
         for _ in range(4):
             s = AprilTagSource({"family": "tag16h5"})
@@ -166,7 +166,7 @@ def _cell_by_cell(gray: np.ndarray, quad: np.ndarray, code: np.ndarray, ppc: int
 def test_the_opencv_backends_decode_quality_is_the_cell_by_cell_definition():
     """Eight rendered tags per frame (perspective, blur, noise), at full and at low contrast, and tags with
     1–3 flipped bits: the batched sampling reports exactly the hamming and margin of the definition."""
-    from perception_plugins.apriltag_backends import OpenCvBackend, dictionary_codes
+    from mission.perception_plugins.apriltag_backends import OpenCvBackend, dictionary_codes
 
     rng = np.random.default_rng(11)
     k = sv.default_intrinsics()

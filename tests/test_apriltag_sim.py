@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from mission.core import se3
-from perception_plugins.apriltag import AprilTagSource
-from sim.adapter import SimAdapter
-from sim.scenario import load_scenario
+from mission.perception_plugins.apriltag import AprilTagSource
+from mission.sim.adapter import SimAdapter
+from mission.sim.scenario import load_scenario
 
 TABLE = {7: {"name": "target", "size_m": 0.20}, 0: {"name": "dock", "size_m": 0.15}}
 

@@ -15,9 +15,9 @@ from mission.core import se3
 from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
-from perception_plugins import registry
-from perception_plugins import synthetic_views as sv
-from perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins import registry
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.apriltag import AprilTagSource
 
 K = sv.default_intrinsics()
 FRONTAL = sv.R_FRONTAL  # a tag squarely facing the camera: x right, y up, z towards the camera
@@ -137,7 +137,7 @@ def test_report_frame_camera_keeps_the_tag_pose_and_adds_the_entity_pose(image):
 
 
 def test_a_transform_is_given_as_xyz_and_quat_or_rpy():
-    from perception_plugins.apriltag import TransformSpec
+    from mission.perception_plugins.apriltag import TransformSpec
 
     by_rpy = TransformSpec(xyz=(1.0, 2.0, 3.0), rpy=(-math.pi / 2, 0.0, -math.pi / 2)).matrix()
     by_quat = TransformSpec(xyz=(1.0, 2.0, 3.0), quat=(-0.5, 0.5, -0.5, 0.5)).matrix()

@@ -14,10 +14,10 @@ from mission.core import se3
 from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Frame
-from perception_plugins import registry
-from perception_plugins import synthetic_views as sv
-from perception_plugins.aruco import ArucoSource
-from perception_plugins.square_pose import pixel_side
+from mission.perception_plugins import registry
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.square_pose import pixel_side
 
 MARKER = 0.20  # the sim's target marker size
 
@@ -173,7 +173,7 @@ def test_a_bad_param_is_a_config_error_naming_the_key(params, key):
 
 
 def test_unsupported_dictionary_warns_and_falls_back_to_4x4_250(caplog):
-    with caplog.at_level(logging.WARNING, logger="perception_plugins.aruco"):
+    with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.aruco"):
         src = ArucoSource({"dictionary": "DICT_7X7_1000", "marker_size_m": MARKER})
     assert "unsupported dictionary 'DICT_7X7_1000'" in caplog.text and "DICT_4X4_250" in caplog.text
     assert src.dictionary == "DICT_4X4_250" and src.requested_dictionary == "DICT_7X7_1000"
@@ -195,7 +195,7 @@ def _fallback_reference(view: sv.SyntheticView):
 def test_missing_or_invalid_intrinsics_warn_once_and_use_the_degraded_pinhole(caplog, bad):
     view = _one_view(1.0, seed=9)
     src = ArucoSource({"marker_size_m": MARKER})
-    with caplog.at_level(logging.WARNING, logger="perception_plugins.aruco"):
+    with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.aruco"):
         first = src.process(Frame(image=view.image, stamp=0.0, intrinsics=bad))
         second = src.process(Frame(image=view.image, stamp=0.1, intrinsics=bad))
     warnings = [r for r in caplog.records if "fallback pinhole" in r.getMessage()]
@@ -213,7 +213,7 @@ def test_empty_distortion_means_an_ideal_lens_without_any_warning(caplog):
     k = view.intrinsics
     zeros = CameraIntrinsics(k.fx, k.fy, k.cx, k.cy, k.width, k.height, distortion=(0.0,) * 5)
     assert k.distortion == ()
-    with caplog.at_level(logging.WARNING, logger="perception_plugins.aruco"):
+    with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.aruco"):
         a = ArucoSource({"marker_size_m": MARKER}).process(_frame(view, intrinsics=k))[0]
     b = ArucoSource({"marker_size_m": MARKER}).process(_frame(view, intrinsics=zeros))[0]
     assert caplog.records == []

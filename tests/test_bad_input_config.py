@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
+from mission.app.runner import TreeRunner
 from mission.cli import main
 from mission.core.config import MissionConfig, load_config
 from mission.core.errors import ConfigError, TreeError
-from mission.runner import TreeRunner
 
 CASES = {
     # name: (file content, the message after "<file>: ")

@@ -24,16 +24,16 @@ from behaviour_world import Scene, marker_facing, read, tick
 from vlm_scene import Box, camera_pose, render, yaw_towards
 from vlm_scene import Scene as VlmScene
 
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import CameraIntrinsics, Frame, Pose2D
-from perception_plugins import synthetic_views as sv
-from perception_plugins.apriltag import AprilTagSource
-from perception_plugins.aruco import ArucoSource
-from perception_plugins.vlm_stub import VlmStubSource
-from trees.loader import load_tree
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.vlm_stub import VlmStubSource
+from mission.trees.loader import load_tree
 
 S = py_trees.common.Status
 MARKER = 0.2
@@ -250,7 +250,7 @@ def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_
 ):
     src, clock = vlm(tmp_path)
     try:
-        with caplog.at_level(logging.WARNING, logger="perception_plugins.vlm_stub"):
+        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm_stub"):
             feed(src, clock, Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth,
                                    VLM_FRAME.T_anchor_camera))  # fmt: skip
         status = src.status()

@@ -18,7 +18,7 @@ from mission.cli import main
 from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError, PluginError
 from mission.core.perception import ENTRY_POINT_GROUP
-from perception_plugins import registry
+from mission.perception_plugins import registry
 
 
 class ExplodingSource:

@@ -22,12 +22,14 @@ import ros_env
 from behaviour_world import read, tick
 from test_ros_world_io import MSGS, RecordingWorld
 
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, LaserScan, Pose2D, RobotState, Twist
+from mission.perception_plugins import synthetic_views as sv
+from mission.perception_plugins.aruco import ArucoSource
 from mission.ros.conversions import (
     BadMessage,
     array_to_image,
@@ -43,8 +45,6 @@ from mission.ros.conversions import (
 )
 from mission.ros.messages import header_msg, time_msg
 from mission.ros.node import PARAMETERS, check_params, given_params
-from perception_plugins import synthetic_views as sv
-from perception_plugins.aruco import ArucoSource
 
 pytestmark = pytest.mark.ros
 

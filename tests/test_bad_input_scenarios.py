@@ -17,7 +17,7 @@ import yaml
 
 from mission.cli import main
 from mission.core.errors import ConfigError
-from sim.scenario import load_scenario, scenario_from_dict
+from mission.sim.scenario import load_scenario, scenario_from_dict
 
 CRATE = {"name": "crate", "shape": "box", "x": 4.0, "y": 4.0, "yaw_deg": 45, "size": [1.0, 0.4, 0.5]}
 

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import pytest
 
+from mission.app.runner import TreeRunner
 from mission.cli import main
 from mission.core.config import MissionConfig, PerceptionConfig, TargetSpec
 from mission.core.errors import TreeError
-from mission.runner import TreeRunner
-from trees.loader import check_targets, validate_tree
-from trees.xml_source import MAX_DEPTH
+from mission.trees.loader import check_targets, validate_tree
+from mission.trees.xml_source import MAX_DEPTH
 
 V4 = '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    {node}\n  </BehaviorTree>\n</root>\n'
 

@@ -6,8 +6,8 @@ import inspect
 
 import py_trees
 
-from behaviours.ports import REQUIRED
-from behaviours.registry import all_behaviours
+from mission.behaviours.ports import REQUIRED
+from mission.behaviours.registry import all_behaviours
 
 # tag → (node type, {port: (type, default)}) — the table in the README / catalogue.md
 CATALOGUE = {

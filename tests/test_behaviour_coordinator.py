@@ -12,13 +12,13 @@ import math
 import py_trees
 from behaviour_world import Scene, grid_with_boxes, marker_facing, read
 
-from behaviours.follow import FollowTarget
-from behaviours.line_of_sight import IsLineOfSightBlocked
-from behaviours.lost import HoldLastGoal
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
-from behaviours.search import SearchSweep
-from behaviours.visibility import IsTargetVisible
+from mission.behaviours.follow import FollowTarget
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked
+from mission.behaviours.lost import HoldLastGoal
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
+from mission.behaviours.search import SearchSweep
+from mission.behaviours.visibility import IsTargetVisible
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D

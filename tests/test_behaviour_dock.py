@@ -9,9 +9,9 @@ import py_trees
 import pytest
 from behaviour_world import Scene, camera_in_map, marker_facing, read
 
-from behaviours.dock import FloorTagFilter, VisualServoDock
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.behaviours.dock import FloorTagFilter, VisualServoDock
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.docking import dock_offsets

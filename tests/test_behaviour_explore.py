@@ -8,9 +8,9 @@ import py_trees
 import pytest
 from behaviour_world import Scene, ScriptedNavigator, marker_facing, read
 
-from behaviours.explore import Explore, parse_waypoints
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.behaviours.explore import Explore, parse_waypoints
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D, Twist

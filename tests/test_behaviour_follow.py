@@ -8,9 +8,9 @@ import numpy as np
 import py_trees
 from behaviour_world import Scene, board, marker_facing, read, tick
 
-from behaviours.follow import FollowTarget
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.behaviours.follow import FollowTarget
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import NavGoal, Pose2D, Twist

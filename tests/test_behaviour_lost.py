@@ -7,7 +7,7 @@ import math
 import py_trees
 from behaviour_world import board, marker_facing, read, tick
 
-from behaviours.lost import HoldLastGoal
+from mission.behaviours.lost import HoldLastGoal
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
 

@@ -6,7 +6,7 @@ import py_trees
 import pytest
 from behaviour_world import read, tick
 
-from behaviours.mission_state import SetMissionState
+from mission.behaviours.mission_state import SetMissionState
 from mission.core import blackboard as bbk
 
 S = py_trees.common.Status

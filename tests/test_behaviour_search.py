@@ -7,7 +7,7 @@ import math
 import py_trees
 from behaviour_world import Scene, board, marker_facing, read
 
-from behaviours.search import SearchSweep
+from mission.behaviours.search import SearchSweep
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, TargetTrack, Twist
 

@@ -7,9 +7,9 @@ import math
 import py_trees
 from behaviour_world import Scene, ScriptedNavigator, board, marker_facing, read, tick
 
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
-from behaviours.staging import GoToStaging
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
+from mission.behaviours.staging import GoToStaging
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import NavStatus, Pose2D, TargetTrack

@@ -5,7 +5,7 @@ from __future__ import annotations
 import py_trees
 from behaviour_world import board, tick
 
-from behaviours.visibility import IsTargetVisible
+from mission.behaviours.visibility import IsTargetVisible
 from mission.core import blackboard as bbk
 from mission.core.types import TargetTrack
 

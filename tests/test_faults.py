@@ -15,14 +15,14 @@ import pytest
 import yaml
 from behaviour_world import IMAGE, ScriptedSource, board, read, tick
 
-from behaviours.perceive import PerceiveTargets
-from behaviours.ports import Dependencies
+from mission.app.sim_run import RunOutcome, run_scenario, shipped_config
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
-from mission.sim_run import RunOutcome, run_scenario, shipped_config
-from sim.config import apply_overrides
-from sim.scenario import load_scenario
+from mission.sim.config import apply_overrides
+from mission.sim.scenario import load_scenario
 
 TICK_HZ = 15.0
 

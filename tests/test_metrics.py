@@ -9,11 +9,11 @@ import numpy as np
 import py_trees
 import pytest
 
+from mission.app.metrics import MetricsRecorder, dock_errors
+from mission.app.sim_run import evaluate
 from mission.core import se3
 from mission.core.docking import dock_offsets
 from mission.core.types import NavGoal, Pose2D
-from mission.metrics import MetricsRecorder, dock_errors
-from mission.sim_run import evaluate
 
 
 @dataclass

@@ -3,7 +3,7 @@ report.json: occlusion detected within 0.5 s (ground-truth line of sight blocked
 re-acquired within 10 s (LOST/SEARCH → FOLLOW), docking within 3 cm lateral / 2.5 cm distance / 10° skew
 at the 0.30 m stand-off, no collisions, mission success.
 
-Each run is the `mission run` code path (`mission.sim_run.run_scenario`): pybullet renders, the real
+Each run is the `mission run` code path (`mission.app.sim_run.run_scenario`): pybullet renders, the real
 ArUco source, the shipped trees ticked by py_trees. One seed per scenario runs by default (cut to the
 stretch that holds the hard part where a full run adds nothing); every other seed of 0..9 runs with
 ``-m slow``.
@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from mission.sim_run import RunOutcome, run_scenario
+from mission.app.sim_run import RunOutcome, run_scenario
 
 OCCLUSION_LATENCY_S = 0.5
 REACQUISITION_S = 10.0

@@ -7,7 +7,7 @@ import pytest
 from mission.cli import main
 from mission.core.config import SourceConfig
 from mission.core.errors import PluginError
-from perception_plugins import registry
+from mission.perception_plugins import registry
 
 
 def test_shipped_plugins_are_registered():

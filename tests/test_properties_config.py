@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from mission.core.config import MissionConfig, PerceptionConfig, RunConfig, SourceConfig, TargetSpec, load_config
 from mission.core.errors import ConfigError
-from sim.scenario import Scenario, scenario_from_dict
+from mission.sim.scenario import Scenario, scenario_from_dict
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

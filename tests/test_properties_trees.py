@@ -11,9 +11,9 @@ import py_trees
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from behaviours.ports import Dependencies
+from mission.behaviours.ports import Dependencies
 from mission.core.errors import TreeError
-from trees.loader import describe_tree, load_tree, validate_tree
+from mission.trees.loader import describe_tree, load_tree, validate_tree
 
 SETTINGS = settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from mission.cli import VERBS
-from mission.reference import BLOCKS, README
+from tools.readme_tables import BLOCKS, README
 
 
 def test_the_readme_opens_with_the_two_set_up_commands_and_they_exist():
@@ -25,7 +25,7 @@ def test_every_reference_table_is_in_the_readme_and_up_to_date():
     text = README.read_text()
     for name in BLOCKS:
         assert f"<!-- reference:{name} -->" in text, f"README has no generated {name} table"
-    proc = subprocess.run([sys.executable, "-m", "mission.reference", "--check"], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "tools.readme_tables", "--check"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
 
 

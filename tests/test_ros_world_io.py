@@ -253,7 +253,7 @@ def test_the_target_pose_is_the_target_tracks_detection_in_this_frame_only():
 def test_without_a_profile_the_node_uses_shared_memory_only():
     env: dict[str, str] = {}
     notes = dds.configure_transport(env)
-    assert env["FASTRTPS_DEFAULT_PROFILES_FILE"] == str(dds.REPO_PROFILE) and "shared memory only" in notes[0]
+    assert env["FASTRTPS_DEFAULT_PROFILES_FILE"] == str(dds.PACKAGE_PROFILE) and "shared memory only" in notes[0]
 
 
 def test_localhost_discovery_range_is_replaced_because_it_adds_udp_on_every_interface():

@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from mission.core.errors import ConfigError
-from sim.config import apply_overrides
-from sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
+from mission.sim.config import apply_overrides
+from mission.sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
 
 SHIPPED = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner"]
 

@@ -13,9 +13,9 @@ import pytest
 
 from mission.core import blackboard as bbk
 from mission.core.types import NavGoal, Pose2D
-from sim.adapter import SimAdapter
-from sim.config import apply_overrides
-from sim.scenario import load_scenario
+from mission.sim.adapter import SimAdapter
+from mission.sim.config import apply_overrides
+from mission.sim.scenario import load_scenario
 
 
 def ideal_follow(name: str, seed: int) -> tuple[list[tuple[float, float]], int]:

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 import yaml
 
-from behaviours.target_matching import SourcedDetection, assign
 from mission import cli
+from mission.app.sim_run import run_scenario, shipped_config
+from mission.behaviours.target_matching import SourcedDetection, assign
 from mission.core.config import load_config
-from mission.sim_run import run_scenario, shipped_config
-from perception_plugins import registry
-from sim.adapter import SimAdapter
-from sim.scenario import load_scenario, scenario_path
+from mission.perception_plugins import registry
+from mission.sim.adapter import SimAdapter
+from mission.sim.scenario import load_scenario, scenario_path
 
 CONFIGS = ("sim_aruco.yaml", "sim_apriltag.yaml", "sim_vlm.yaml")
 

@@ -10,12 +10,12 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from behaviours.ports import Dependencies
-from behaviours.registry import all_behaviours
+from mission.behaviours.ports import Dependencies
+from mission.behaviours.registry import all_behaviours
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
-from trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
-from trees.nodes_model import nodes_model_section, with_nodes_model
+from mission.trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
+from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
 SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml"]
 
@@ -113,7 +113,7 @@ def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_p
 def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_registered_behaviours(name):
     text = (TREES_DIR / name).read_text()
     assert nodes_model_section(text) is not None
-    assert with_nodes_model(text, all_behaviours()) == text, "stale: run `python -m trees.nodes_model`"
+    assert with_nodes_model(text, all_behaviours()) == text, "stale: run `python -m mission.trees.nodes_model`"
 
 
 def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_path):

@@ -16,12 +16,12 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from behaviours.ports import REQUIRED, Dependencies, Port, PortsDeclared
+from mission.behaviours.ports import REQUIRED, Dependencies, Port, PortsDeclared
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
-from trees.controls import BtParallel, ClockTimeout, RetryUntilSuccessful
-from trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
-from trees.nodes_model import nodes_model_xml
+from mission.trees.controls import BtParallel, ClockTimeout, RetryUntilSuccessful
+from mission.trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
+from mission.trees.nodes_model import nodes_model_xml
 
 # --------------------------------------------------------------------------- test-only behaviours
 BUILT: list[str] = []  # names of every test leaf constructed (to prove nothing is built on errors)

@@ -10,9 +10,9 @@ import pytest
 from PIL import Image
 
 from mission.cli import main
+from mission.trees.loader import describe_tree, resolve_tree_path
 from mission.viz.layout import layout_tree
 from mission.viz.model import from_description
-from trees.loader import describe_tree, resolve_tree_path
 
 SVG = "{http://www.w3.org/2000/svg}"
 

@@ -7,7 +7,7 @@ import io
 
 from viz_world import step, watch_runner
 
-from mission.live_status import LiveStatus
+from mission.app.live_status import LiveStatus
 
 
 def test_a_log_gets_a_line_per_state_change_with_progress_distance_and_branch(tmp_path):

@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import py_trees
 
+from mission.app.runner import TreeRunner
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import MissionConfig
 from mission.core.types import Frame, NavStatus, OccupancyGrid, Pose2D, RobotState, Twist
-from mission.runner import TreeRunner
-from perception_plugins.synthetic_views import default_intrinsics, render_marker_view
+from mission.perception_plugins.synthetic_views import default_intrinsics, render_marker_view
 
 WATCH_TREE = """<root BTCPP_format="4" main_tree_to_execute="Watch">
   <BehaviorTree ID="Watch">
@@ -115,7 +115,7 @@ def watch_runner(tmp_path: Path, visible_ticks: int = 3) -> tuple[TreeRunner, Ma
 
 
 def step(runner: TreeRunner, world: MarkerWorld, observers: list, n: int = 1) -> None:
-    """`n` cycles of the run loop, as mission.sim_run does them: tick, observers, advance."""
+    """`n` cycles of the run loop, as mission.app.sim_run does them: tick, observers, advance."""
     for _ in range(n):
         runner.tick()
         gt = world.ground_truth()

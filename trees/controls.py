@@ -1,7 +1,7 @@
 """BehaviorTree.CPP v4 built-in nodes, mapped to py_trees.
 
 Each built-in is a :class:`BuiltinNode`: its XML tag, Groot2 kind, ports (declared with the same
-:class:`behaviours.ports.Port` as leaves, so the loader checks them the same way) and a ``build``
+:class:`mission.behaviours.ports.Port` as leaves, so the loader checks them the same way) and a ``build``
 function. Mapping (and where it differs from BT.CPP):
 
 =======================  ==========================================================================
@@ -38,7 +38,7 @@ import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
-from behaviours.ports import REQUIRED, Port
+from mission.behaviours.ports import REQUIRED, Port
 from mission.core import blackboard as bbk
 
 NodeKind = Literal["Action", "Condition", "Control", "Decorator", "SubTree"]

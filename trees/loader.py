@@ -32,10 +32,10 @@ from typing import Any
 
 from py_trees.behaviour import Behaviour
 
-from behaviours.ports import Dependencies, Port
+from mission.behaviours.ports import Dependencies, Port
 from mission.core.errors import TreeError
-from trees.controls import BUILTINS, RESERVED_TAGS, UNSUPPORTED_BUILTINS, BuiltinNode, NodeKind
-from trees.xml_source import SourceElement, display_path, parse_file
+from mission.trees.controls import BUILTINS, RESERVED_TAGS, UNSUPPORTED_BUILTINS, BuiltinNode, NodeKind
+from mission.trees.xml_source import SourceElement, display_path, parse_file
 
 TREES_DIR = Path(__file__).resolve().parent
 FORMAT = "4"
@@ -384,7 +384,7 @@ class _Compiler:
 
 
 def _default_registry() -> dict[str, type]:
-    from behaviours.registry import all_behaviours
+    from mission.behaviours.registry import all_behaviours
 
     return all_behaviours()
 

@@ -2,7 +2,7 @@
 
 Groot2 shows a node's ports (and offers them in its palette) only when the file describes the node
 type. The shipped tree files carry this section, generated from the registry; a test regenerates it
-and compares, and ``python -m trees.nodes_model`` rewrites the shipped files after a behaviour's
+and compares, and ``python -m mission.trees.nodes_model`` rewrites the shipped files after a behaviour's
 ports change (``--check`` only reports).
 """
 
@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
-from behaviours.ports import Port
+from mission.behaviours.ports import Port
 from mission.core.files import atomic_write_text
 
 #: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows)
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Regenerate the TreeNodesModel section of the shipped tree files.")
     parser.add_argument("--check", action="store_true", help="report stale files, change nothing (exit 1 if any)")
     args = parser.parse_args(argv)
-    from behaviours.registry import all_behaviours
+    from mission.behaviours.registry import all_behaviours
 
     registry = all_behaviours()
     stale = []

@@ -20,8 +20,8 @@ import yaml
 
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Detection, Frame
-from perception_plugins import registry
-from sim.quiet import quiet
+from mission.perception_plugins import registry
+from mission.sim.quiet import quiet
 
 FRAME_PERIOD_S = 1.0 / 30.0
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from perception_plugins import registry
+from mission.perception_plugins import registry
 
 
 def main(args: argparse.Namespace) -> int:

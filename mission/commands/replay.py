@@ -11,7 +11,7 @@ import json
 import sys
 
 from mission.core.config import load_config
-from mission.replay import FrameResult, replay
+from mission.ros.replay import FrameResult, replay
 
 
 def main(args: argparse.Namespace) -> int:

@@ -6,9 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from mission.observers import TickObserver
-from mission.report import plot_timeline, plot_trajectories, write_json
-from mission.sim_run import run_scenario
+from mission.app.observers import TickObserver
+from mission.app.report import plot_timeline, plot_trajectories, write_json
+from mission.app.sim_run import run_scenario
 
 DEFAULT_SCENARIO = "mission_full"
 
@@ -16,7 +16,7 @@ DEFAULT_SCENARIO = "mission_full"
 def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
     observers: list[TickObserver] = []
     if not args.quiet:
-        from mission.live_status import LiveStatus
+        from mission.app.live_status import LiveStatus
 
         observers.append(LiveStatus(label, total_s=args.max_duration))
     # Viewers (mission.viz): each fails here, before the simulation starts, on a bad path or a busy port.
@@ -37,7 +37,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
 
         observers.append(TransitionTrees(args.report))
     if getattr(args, "record_bag", None):
-        from mission.bag_record import BagObserver
+        from mission.app.bag_record import BagObserver
 
         observers.append(BagObserver(args.record_bag))
     return observers

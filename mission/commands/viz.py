@@ -73,7 +73,7 @@ def main(args: argparse.Namespace) -> int:
         raise MissionError("--tick needs --log FILE (a JSON-lines tick log from `mission run --log`)")
     if not args.tree:
         raise MissionError("give a tree file (mission viz TREE.xml) or a tick log (mission viz --log run.jsonl)")
-    from trees.loader import describe_tree, resolve_tree_path
+    from mission.trees.loader import describe_tree, resolve_tree_path
 
     path = resolve_tree_path(args.tree)
     root = from_description(describe_tree(path))

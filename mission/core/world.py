@@ -7,7 +7,7 @@ A runner drives every world the same way, once per tick::
     adapter.act(bb)     # intent → the simulated base / Nav2 goal_pose, cmd_vel, docking
     adapter.advance(dt) # simulated worlds step time; live worlds return at once
 
-Implementations: ``sim.adapter.SimAdapter`` (pybullet), ``mission.ros.adapter`` (rclpy) and replay.
+Implementations: ``mission.sim.adapter.SimAdapter`` (pybullet), ``mission.ros.adapter`` (rclpy) and replay.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 Network rule of this project: DDS must never send on a non-loopback interface. FastDDS's defaults
 (UDPv4 multicast discovery on every interface) break it, so before rclpy starts:
 
-* ``FASTRTPS_DEFAULT_PROFILES_FILE`` unset → it is set to the repo's ``ros/fastdds_shm.xml``
+* ``FASTRTPS_DEFAULT_PROFILES_FILE`` unset → it is set to the package's own ``mission/ros/fastdds_shm.xml``
+  (package data, so a wheel install has it too)
   (builtin transports off, one shared-memory transport of 16 MB). An operator who wants the robot's
   network sets that variable to their own profile, explicitly.
 * ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` with this profile → changed to ``SYSTEM_DEFAULT``.
@@ -20,18 +21,12 @@ from collections.abc import Mapping, MutableMapping
 from pathlib import Path
 
 PROFILE_NAME = "fastdds_shm.xml"
-REPO_PROFILE = Path(__file__).resolve().parents[2] / "ros" / PROFILE_NAME
+PACKAGE_PROFILE = Path(__file__).resolve().parent / PROFILE_NAME
 
 
 def shm_profile_path() -> Path:
-    """The shared-memory-only profile: the repo's, or the one colcon installed under share/mission."""
-    if REPO_PROFILE.is_file():
-        return REPO_PROFILE
-    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-        candidate = Path(prefix) / "share" / "mission" / PROFILE_NAME if prefix else None
-        if candidate is not None and candidate.is_file():
-            return candidate
-    return REPO_PROFILE
+    """The shared-memory-only profile shipped inside the package (mission/ros/fastdds_shm.xml)."""
+    return PACKAGE_PROFILE
 
 
 def configure_transport(env: MutableMapping[str, str] | None = None) -> list[str]:

@@ -9,7 +9,7 @@ adapter publishes the tree's commands, and the node publishes what perception fo
 ``/aruco_poses`` and ``/tf``. A 1 Hz timer publishes the heartbeat with the counters; ``/mission/tree``
 carries the tree snapshot when it changes (at most 2 Hz, latched for late viewers).
 
-``tree:=none`` runs perception only (ros/perception_only.xml): the design notes' aruco_pose_streamer.
+``tree:=none`` runs perception only (mission/ros/perception_only.xml): the design notes' aruco_pose_streamer.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from mission.core.types import Detection, Frame
 from mission.ros import dds
 
 NODE_NAME = "mission_tree"
-PERCEPTION_ONLY_TREE = Path(__file__).resolve().parents[2] / "ros" / "perception_only.xml"
+PERCEPTION_ONLY_TREE = Path(__file__).resolve().parent / "perception_only.xml"
 TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
 
 # name → (default, description): the node's ROS parameters (the README's table lists the same)
@@ -170,12 +170,12 @@ class MissionNode:
     def setup(self) -> None:
         from rclpy.qos import QoSProfile
 
+        from mission.app.runner import TreeRunner
         from mission.ros.adapter import LATCHED, RELIABLE, RosAdapter
         from mission.ros.marker_outputs import VisibilityEdge
         from mission.ros.messages import RclpyMessages
         from mission.ros.tf_support import load_tf_message
         from mission.ros.world_io import RosTopics
-        from mission.runner import TreeRunner
 
         p, n = self.params, self.node
         check_params(p, self.given)
@@ -184,7 +184,7 @@ class MissionNode:
         self.perception_only = tree.lower() == "none"
         if self.perception_only:
             tree = str(PERCEPTION_ONLY_TREE)
-        from perception_plugins import registry
+        from mission.perception_plugins import registry
 
         # a bad param is an error naming the config file and key; an unknown dictionary only warns
         self.sources = registry.create_all(config.perception.sources, file=config_file)

@@ -1,7 +1,7 @@
 """The one data shape every tree drawing starts from: a node with its kind, ports, status and feedback.
 
-Three sources feed it — a live tree's snapshot dict (:func:`mission.snapshot.snapshot`), a tree file's
-static description (``trees.loader.describe_tree``) and a recorded tick of a JSON-lines log — so the
+Three sources feed it — a live tree's snapshot dict (:func:`mission.app.snapshot.snapshot`), a tree file's
+static description (``mission.trees.loader.describe_tree``) and a recorded tick of a JSON-lines log — so the
 text, DOT, SVG, PNG and HTML renderers never care where a tree came from. Nodes are numbered in
 pre-order (``id``); that number is how a tick log and the live page refer to a node.
 """
@@ -79,7 +79,7 @@ def _renumber(root: VizNode) -> VizNode:
 
 
 def from_snapshot(snap: dict[str, Any]) -> VizNode:
-    """A tree from :func:`mission.snapshot.snapshot` (a live tree, the ROS topic, a log header)."""
+    """A tree from :func:`mission.app.snapshot.snapshot` (a live tree, the ROS topic, a log header)."""
 
     def build(d: dict[str, Any]) -> VizNode:
         return VizNode(
@@ -119,7 +119,8 @@ def _kind_of(tag: str, given: str | None, has_children: bool) -> str:
 
 
 def from_description(desc: Any) -> VizNode:
-    """A tree from a static description (``trees.loader.describe_tree``): tag, name, kind, ports, children, line.
+    """A tree from a static description (``mission.trees.loader.describe_tree``): tag, name, kind, ports,
+    children, line.
 
     Duck-typed on attributes (or dict keys) so the loader's dataclass can evolve without breaking drawings.
     """

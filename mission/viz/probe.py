@@ -21,8 +21,8 @@ from typing import Any
 
 import py_trees
 
+from mission.app.snapshot import active_branch, snapshot
 from mission.core import blackboard as bbk
-from mission.snapshot import active_branch, snapshot
 from mission.viz.model import VizNode, flatten_subtrees, from_description, from_snapshot, merge_static
 
 _READS = {"READ", "ACCESSED"}
@@ -42,7 +42,7 @@ def static_tree(root: py_trees.behaviour.Behaviour, tree_path: Any = None) -> Vi
     live = from_snapshot(snapshot(root))
     if tree_path:
         try:
-            from trees.loader import describe_tree
+            from mission.trees.loader import describe_tree
 
             merge_static(live, flatten_subtrees(from_description(describe_tree(tree_path))))
         except Exception:  # a tree we cannot describe is still drawn, with py_trees class names

@@ -17,16 +17,16 @@ from typing import Any
 
 import py_trees
 
-from behaviours.ports import Dependencies
+from mission.app.snapshot import active_branch, snapshot
+from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import TreeError
 from mission.core.perception import PerceptionSource
 from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
-from mission.snapshot import active_branch, snapshot
-from perception_plugins import registry
-from trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
+from mission.perception_plugins import registry
+from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:

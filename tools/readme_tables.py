@@ -3,7 +3,7 @@
 Config keys, plugin params, scenario keys, ROS parameters, behaviours and CLI flags are declared once
 (pydantic models, the ROS parameter table, the behaviour registry, the argparse parser); this module
 renders them as markdown between ``<!-- reference:NAME -->`` … ``<!-- /reference:NAME -->`` markers so
-the README cannot drift from the code. ``python -m mission.reference`` rewrites README.md;
+the README cannot drift from the code. ``python -m tools.readme_tables`` rewrites README.md;
 ``--check`` only reports (a test runs it).
 
 A field's description is its trailing ``# comment`` in the model's source — the comment a developer
@@ -130,7 +130,7 @@ def config_block() -> str:
 
 
 def plugins_block() -> str:
-    from perception_plugins import registry
+    from mission.perception_plugins import registry
 
     parts = []
     for name in registry.known_names():
@@ -150,7 +150,7 @@ def _params_model(cls: type) -> type[BaseModel] | None:
 
 
 def scenario_block() -> str:
-    from sim import scenario as sc
+    from mission.sim import scenario as sc
 
     items = []
     lists = (("Each of `obstacles` / `unknown_obstacles`", sc.Obstacle), ("Each of `target.markers`", sc.Marker),
@@ -168,8 +168,8 @@ def ros_block() -> str:
 
 
 def behaviours_block() -> str:
-    from behaviours.ports import REQUIRED
-    from behaviours.registry import all_behaviours
+    from mission.behaviours.ports import REQUIRED
+    from mission.behaviours.registry import all_behaviours
 
     rows = []
     for tag, cls in sorted(all_behaviours().items()):
@@ -243,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
     if new == text:
         return 0
     if args.check:
-        print(f"{path}: reference tables are stale; run `python -m mission.reference`", file=sys.stderr)
+        print(f"{path}: reference tables are stale; run `python -m tools.readme_tables`", file=sys.stderr)
         return 1
     atomic_write_text(path, new)  # README.md: never left half-written
     print(f"{path}: reference tables regenerated")

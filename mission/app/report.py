@@ -16,9 +16,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
 
+from mission.app.metrics import MetricsRecorder
 from mission.core.files import atomic_path, atomic_write_text
 from mission.core.types import OccupancyGrid
-from mission.metrics import MetricsRecorder
 from mission.viz.style import STATE_COLOURS
 
 NO_STATE = "#c7c7c7"  # ticks before the mission state is first written

@@ -18,7 +18,7 @@ from mission.core import blackboard as bbk
 
 
 class LiveStatus:
-    """A TickObserver (mission.observers) that shows progress."""
+    """A TickObserver (mission.app.observers) that shows progress."""
 
     def __init__(
         self, label: str, stream: TextIO | None = None, every_s: float = 10.0, total_s: float | None = None

@@ -1,6 +1,6 @@
 """Regenerate the screenshots in ``docs/``: the live page during a simulated run, and a run report.
 
-    python -m mission.viz.screenshots docs/ [--live mission_full:30] [--report follow_occlusion:40]
+    python -m tools.screenshots docs/ [--live mission_full:30] [--report follow_occlusion:40]
 
 Runs a scenario with the live view and photographs the page at the end, and runs another with the
 report observers and photographs report.html, in headless Chromium (mission.viz.browser). Needs Debian's
@@ -19,8 +19,8 @@ from mission.viz.browser import HeadlessChromium
 
 def _run(scenario: str, seconds: float, observers: list) -> Path:
     """Run `scenario` with `observers` and the report pictures; returns the report directory."""
-    from mission.report import plot_timeline, plot_trajectories, write_json
-    from mission.sim_run import run_scenario
+    from mission.app.report import plot_timeline, plot_trajectories, write_json
+    from mission.app.sim_run import run_scenario
     from mission.viz.report_trees import TransitionTrees
 
     report = Path(tempfile.mkdtemp(prefix="mission-report-"))
@@ -61,7 +61,7 @@ def report_page(out: Path, scenario: str, seconds: float, width: int = 1400, hei
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m mission.viz.screenshots", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m tools.screenshots", description=__doc__.splitlines()[0])
     p.add_argument("out_dir", type=Path)
     p.add_argument("--live", default="mission_full:30", help="SCENARIO:SECONDS for the live page")
     p.add_argument("--report", default="follow_occlusion:40", help="SCENARIO:SECONDS for the report")

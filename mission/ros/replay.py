@@ -150,7 +150,7 @@ def replay(
     warn: Callable[[str], None] = lambda message: None,
 ) -> ReplayResult:
     """Tick the tree once per recorded image; report each processed frame's detections."""
-    from mission.runner import TreeRunner
+    from mission.app.runner import TreeRunner
 
     world = BagWorld(path, warn=warn)
     runner = TreeRunner(config, world, tree, config_file=config_file)

@@ -24,7 +24,7 @@ OCCLUSION_MIN_S = 0.5  # an occlusion this long must be detected (the design not
 
 
 class GroundTruthSample(Protocol):
-    """The ground truth a world gives per tick (sim.ground_truth.GroundTruth satisfies it)."""
+    """The ground truth a world gives per tick (mission.sim.ground_truth.GroundTruth satisfies it)."""
 
     stamp: float
     robot: Pose2D

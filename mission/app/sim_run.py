@@ -14,16 +14,16 @@ from typing import Any
 
 import py_trees
 
+from mission.app.metrics import DockErrors, MetricsRecorder
+from mission.app.observers import TickObserver
+from mission.app.runner import TreeRunner
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
-from mission.metrics import DockErrors, MetricsRecorder
-from mission.observers import TickObserver
-from mission.runner import TreeRunner
-from sim.adapter import SimAdapter
-from sim.config import apply_overrides
-from sim.faults import fault_summary, wrap_sources
-from sim.scenario import Scenario, load_scenario
+from mission.sim.adapter import SimAdapter
+from mission.sim.config import apply_overrides
+from mission.sim.faults import fault_summary, wrap_sources
+from mission.sim.scenario import Scenario, load_scenario
 
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
 

@@ -1,0 +1,1 @@
+"""The application: the one loop (runner), a simulated run start to finish, its metrics, report and observers."""
