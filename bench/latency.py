@@ -3,7 +3,7 @@
 From the live `mission_full` run recorded in bench/tick_recording.py (the loop of ``mission run``):
 for every tick on which the sim adapter delivered a new camera frame, the wall time from the end of
 ``sense()`` (the frame is on the blackboard) to the end of ``tree.tick()`` (the goal / twist / dock
-setpoint the frame led to is on the blackboard; perception runs inside the tick). The baseline is the
+setpoint the frame led to is on the blackboard): the perception stage, then the tick. The baseline is the
 detector alone: the perception source's ``process()`` time on the same frames. p50 and p99 of both;
 their difference is what the tree adds to the reaction time.
 """
@@ -20,14 +20,14 @@ from bench.tick_recording import record
 def run(quick: bool, out: Path) -> dict[str, Any]:
     seconds = 12.0 if quick else 60.0
     rec = record("mission_full", seconds)
-    e2e = [t.tick_s * 1000 for t in rec.ticks if t.new_frame and t.detector_s is not None]
+    e2e = [t.e2e_s * 1000 for t in rec.ticks if t.new_frame and t.detector_s is not None]
     det = [t.detector_s * 1000 for t in rec.ticks if t.new_frame and t.detector_s is not None]
     added = [a - b for a, b in zip(e2e, det, strict=True)]
     progress(f"latency: {len(e2e)} frames; e2e p50 {pct(e2e, 50)} ms, detector p50 {pct(det, 50)} ms")
     by_state: dict[str, list[float]] = {}
     for t in rec.ticks:
         if t.new_frame and t.detector_s is not None:
-            by_state.setdefault(t.state, []).append(t.tick_s * 1000)
+            by_state.setdefault(t.state, []).append(t.e2e_s * 1000)
     figures = []
     for q in (50, 99):
         a, b = pct(e2e, q, 2), pct(det, q, 2)
@@ -51,5 +51,5 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
 
 
 def _plot(e2e: list[float], det: list[float], out: Path) -> str:
-    series = {"detector alone": det, "frame → command (tree tick incl. perception)": e2e}
+    series = {"detector alone": det, "frame → command (perception stage + tree tick)": e2e}
     return plot_cdf(series, "Latency CDF (mission_full, live sim run)", out / "latency_cdf.png")

@@ -28,6 +28,7 @@ import numpy as np
 
 from bench.common import Figure, load_average, pct
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
+from mission.app.observers import RunObserver, Tick
 from mission.core.files import atomic_write_text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,7 +50,7 @@ def _write(out: Path, name: str, data: dict[str, Any]) -> None:
 # --------------------------------------------------------------------------------------------------
 
 
-class _Sampler:
+class _Sampler(RunObserver):
     """A TickObserver sampling memory and tick wall time once per simulated minute."""
 
     def __init__(self, period_s: float, trace: bool, out: Path | None) -> None:
@@ -64,12 +65,13 @@ class _Sampler:
         self._t0: float | None = None
         self._snap0: Any = None
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
         if self.trace:
             tracemalloc.start(1)
         self._last = time.perf_counter()
 
-    def on_tick(self, runner: Any, adapter: Any, gt: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        gt = tick.ground_truth
         now = time.perf_counter()
         ms = (now - self._last) * 1e3
         self._last = now
@@ -108,7 +110,7 @@ class _Sampler:
         if self.out is not None:
             _write(self.out, ".soak_sim_partial.json", {"samples": self.samples})
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         if self.trace:
             tracemalloc.stop()
 

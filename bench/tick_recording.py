@@ -1,23 +1,23 @@
-"""A live simulated mission, recorded tick by tick: the inputs the tree saw and what each tick cost.
+"""A live simulated mission, recorded tick by tick: the inputs the tree saw and what each step cost.
 
 Shared by the `tree` benchmark (which replays the inputs into a fresh tree and a bare py_trees tree of
 the same shape) and the `latency` benchmark (frame on the blackboard → command on the blackboard, and
 the detector's own time on the same frames). Recorded once per process and reused.
 
-The loop is TreeRunner's (``sense → tree.tick → act → advance``, the code path of ``mission run``),
-opened up so the parts can be timed separately. Perception sources are wrapped to time each
-``process`` call and to keep its detections, keyed by the frame's stamp.
+The loop is the runner's own (``TreeRunner.run``, the code path of ``mission run``); nothing here
+re-writes it. It is watched from the edges: the world is wrapped to note when ``sense()`` returned,
+py_trees' pre/post tick handlers time ``tree.tick()`` alone, perception sources are wrapped to time each
+``process`` call and keep its detections by frame stamp, and an observer keeps each tick's inputs.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import copy
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
+from mission.app.observers import RunObserver, Tick
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import DEFAULT_SIM_CONFIG, choose_tree, shipped_config
 from mission.core import blackboard as bbk
@@ -27,10 +27,8 @@ from mission.sim.adapter import SimAdapter
 from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario
 
-# What a world adapter writes in sense(): the tree's inputs.
-INPUT_KEYS = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.MAP, bbk.NAV_STATUS, bbk.FRAME, bbk.FRAME_SEQ,
-              bbk.SCAN)  # fmt: skip
-TINY = np.zeros((8, 8, 3), np.uint8)
+# What the tree reads: written by the world in sense() and, for the tracks, by the perception stage.
+INPUT_KEYS = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.MAP, bbk.NAV_STATUS, bbk.SCAN, bbk.TRACKS)
 
 
 class TimedSource:
@@ -52,12 +50,28 @@ class TimedSource:
         self.inner.close()
 
 
+class SensedWorld:
+    """The sim adapter, noting the wall time at which each sense() returned (the frame is on the board)."""
+
+    def __init__(self, inner: SimAdapter) -> None:
+        self.inner = inner
+        self.sensed_at = 0.0
+
+    def sense(self, bb: Any) -> None:
+        self.inner.sense(bb)
+        self.sensed_at = time.perf_counter()
+
+    def __getattr__(self, name: str) -> Any:  # setup, act, advance, now, ground_truth, close: the sim's own
+        return getattr(self.inner, name)
+
+
 @dataclass
 class TickRecord:
-    inputs: dict[str, Any]  # blackboard key path → value after sense() (frames shrunk to 8×8)
+    inputs: dict[str, Any]  # blackboard key path → value the tree saw (INPUT_KEYS)
     new_frame: bool
     frame_stamp: float | None
-    tick_s: float  # tree.tick() wall time (perception included: it runs inside the tree)
+    tick_s: float  # tree.tick() wall time alone (perception runs before it, as a stage)
+    e2e_s: float  # end of sense() → end of tree.tick(): perception + tick, the step's reaction time
     detector_s: float | None  # the sources' process() time on this tick's frame
     state: str
     command: str  # which command the tick left on the blackboard: goal / twist / none
@@ -74,11 +88,45 @@ class Recording:
     wall_s: float = 0.0
 
 
+class _Recorder(RunObserver):
+    """Keeps each tick's inputs (as the tree saw them) and the step's timings."""
+
+    def __init__(self, rec: Recording, world: SensedWorld, sources: list[TimedSource]) -> None:
+        self.rec, self.world, self.sources = rec, world, sources
+        self._inputs: dict[str, Any] = {}
+        self._tick_start = self._tick_end = 0.0
+
+    def on_start(self, run: TreeRunner) -> None:
+        assert run.tree is not None
+        run.tree.add_pre_tick_handler(lambda _tree: self._before_tick(run))
+        run.tree.add_post_tick_handler(lambda _tree: self._after_tick())
+
+    def _before_tick(self, run: TreeRunner) -> None:
+        # the tracks are copied: the stage updates them in place on the next frame
+        self._inputs = {k.path: copy.deepcopy(run.get(k)) if k is bbk.TRACKS else run.get(k) for k in INPUT_KEYS}
+        self._tick_start = time.perf_counter()
+
+    def _after_tick(self) -> None:
+        self._tick_end = time.perf_counter()
+
+    def on_tick(self, run: TreeRunner, tick: Tick) -> None:
+        frame = tick.perceived.frame if tick.perceived is not None and tick.perceived.processed else None
+        stamp = None if frame is None else float(frame.stamp)
+        det_s = None
+        if stamp is not None:
+            det_s = sum(s.calls[stamp][0] for s in self.sources if stamp in s.calls)
+        twist, goal = run.get(bbk.TWIST), run.get(bbk.NAV_GOAL)
+        command = "twist" if twist is not None else ("goal" if goal is not None else "none")
+        self.rec.ticks.append(TickRecord(self._inputs, frame is not None, stamp, self._tick_end - self._tick_start,
+                                         self._tick_end - self.world.sensed_at, det_s,
+                                         str(run.get(bbk.STATE, "")), command))  # fmt: skip
+
+
 _CACHE: dict[tuple[str, float, int], Recording] = {}
 
 
 def record(scenario_name: str = "mission_full", seconds: float = 20.0, seed: int = 0) -> Recording:
-    """Run `scenario_name` for `seconds` of sim time with the default sim config, timing every tick."""
+    """Run `scenario_name` for `seconds` of sim time with the default sim config, timing every step."""
     key = (scenario_name, seconds, seed)
     if key in _CACHE:
         return _CACHE[key]
@@ -87,41 +135,16 @@ def record(scenario_name: str = "mission_full", seconds: float = 20.0, seed: int
     config_path = shipped_config(DEFAULT_SIM_CONFIG)
     config = load_config(config_path)
     scenario = apply_overrides(load_scenario(scenario_name), config.sim, file=str(config_path))
-    adapter = SimAdapter(scenario, seed=seed)
+    world = SensedWorld(SimAdapter(scenario, seed=seed))
     sources = [TimedSource(s) for s in registry.create_all(config.perception.sources, file=str(config_path))]
     tree = choose_tree(None, config, scenario)
-    runner = TreeRunner(config, adapter, tree, config_file=config_path, sources=sources)
     rec = Recording(scenario_name, seed, tree, config_path.name)
-    dt = 1.0 / config.run.tick_hz
+    runner = TreeRunner(config, world, tree, config_file=config_path, sources=list(sources),
+                        observers=[_Recorder(rec, world, sources)])  # fmt: skip
     wall0 = time.perf_counter()
-    runner.setup()
     try:
-        assert runner.tree is not None
-        last_seq = None
-        while adapter.t < seconds:
-            adapter.sense(runner.bb)
-            seq = bbk.get(runner.bb, bbk.FRAME_SEQ)
-            frame = bbk.get(runner.bb, bbk.FRAME)
-            new = seq != last_seq and frame is not None
-            last_seq = seq
-            t0 = time.perf_counter()
-            runner.tree.tick()
-            tick_s = time.perf_counter() - t0
-            det_s = None
-            if new:
-                det_s = sum(s.calls[float(frame.stamp)][0] for s in sources if float(frame.stamp) in s.calls)
-            inputs = {}
-            for k in INPUT_KEYS:
-                v = bbk.get(runner.bb, k)
-                if k is bbk.FRAME and isinstance(v, Frame):
-                    v = dataclasses.replace(v, image=TINY, depth=None)
-                inputs[k.path] = v
-            twist, goal = bbk.get(runner.bb, bbk.TWIST), bbk.get(runner.bb, bbk.NAV_GOAL)
-            command = "twist" if twist is not None else ("goal" if goal is not None else "none")
-            rec.ticks.append(TickRecord(inputs, new, float(frame.stamp) if new else None, tick_s, det_s,
-                                        str(bbk.get(runner.bb, bbk.STATE, "")), command))  # fmt: skip
-            adapter.act(runner.bb)
-            adapter.advance(dt)
+        runner.setup()
+        runner.run(until=seconds)
     finally:
         runner.close()
         for s in sources:

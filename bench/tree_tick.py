@@ -1,14 +1,15 @@
 """Benchmark: what one tick of the shipped mission tree costs, against a bare py_trees tree of its shape.
 
 Inputs are scripted: a live `mission_full` run (bench/tick_recording.py) is recorded tick by tick —
-everything the sim adapter wrote to the blackboard, and the detections the perception source returned
-for each frame. The replay feeds those inputs to a fresh ``mission.xml`` (built by the real loader, run
-by the real TreeRunner with a replaying world and a replaying source, so no detector and no renderer
-is timed) and, tick for tick, to a *bare* tree: the same composites and decorators (py_trees classes,
-same memory flags) with leaves that do nothing but return the status the real leaf returned on that
-tick. Both are ticked through ``py_trees.trees.BehaviourTree.tick`` interleaved, so the ratio real/bare
-is the price of our behaviours' work (blackboard access, track keeping, goal smoothing, line-of-sight
-raytraces) and the loader's structure, on the same machine load. Target: ratio ≤ 1.2.
+everything the tree reads from the blackboard (what the sim adapter wrote, and the tracks the
+perception stage kept). The replay feeds those inputs to a fresh ``mission.xml`` (built by the real
+loader, stepped by the real TreeRunner with a replaying world, so no detector and no renderer runs)
+and, tick for tick, to a *bare* tree: the same composites and decorators (py_trees classes, same memory
+flags) with leaves that do nothing but return the status the real leaf returned on that tick. Only
+``py_trees.trees.BehaviourTree.tick`` is timed (pre/post tick handlers), so the ratio real/bare is the
+price of our behaviours' work (blackboard access, goal smoothing, line-of-sight raytraces) and the
+loader's structure, on the same machine load. Perception is a stage before the tick and is not in it.
+Target: ratio ≤ 1.2.
 """
 
 from __future__ import annotations
@@ -23,37 +24,22 @@ from py_trees.common import Status
 
 from bench.common import Figure, pct, progress
 from bench.tick_recording import Recording, record
+from mission.app.observers import RunObserver, Tick
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.config import load_config
-from mission.core.types import Detection, Frame
 
 TARGET = 1.2
 
 
-class ReplaySource:
-    """A perception source that returns what the recorded source returned for the frame with this stamp."""
-
-    description = "replay of recorded detections (benchmark)"
-
-    def __init__(self, name: str, by_stamp: dict[float, list[Detection]]) -> None:
-        self.name = name
-        self._by_stamp = by_stamp
-
-    def process(self, frame: Frame) -> list[Detection]:
-        return list(self._by_stamp.get(float(frame.stamp), []))
-
-    def close(self) -> None:
-        pass
-
-
 class ReplayWorld:
-    """A WorldAdapter whose sense() writes the recorded inputs of tick `i`; act() and advance() do nothing."""
+    """A WorldAdapter whose sense() writes the recorded inputs of tick `i`; advance() moves to the next."""
 
     def __init__(self, rec: Recording) -> None:
         self.rec = rec
         self.i = 0
+        self.exhausted = not rec.ticks
 
     def setup(self) -> None:
         pass
@@ -67,10 +53,56 @@ class ReplayWorld:
         pass
 
     def advance(self, dt: float) -> None:
-        pass
+        self.i += 1
+        self.exhausted = self.i >= len(self.rec.ticks)
+
+    def now(self) -> float:
+        return float(self.rec.ticks[min(self.i, len(self.rec.ticks) - 1)].inputs.get(bbk.CLOCK.path) or 0.0)
 
     def close(self) -> None:
         pass
+
+
+class TickTimer(RunObserver):
+    """µs of each ``tree.tick()`` alone (py_trees' pre/post tick handlers), and each leaf's status after it."""
+
+    def __init__(self) -> None:
+        self.us: list[float] = []
+        self.leaves: list[py_trees.behaviour.Behaviour] = []
+        self.scripts: dict[int, list[Status]] = {}
+        self.roots: list[Status] = []
+        self.states: list[str] = []
+        self._t0 = 0.0
+
+    def on_start(self, run: TreeRunner) -> None:
+        assert run.tree is not None
+        self.leaves = _leaves(run.tree.root)
+        self.scripts = {id(leaf): [] for leaf in self.leaves}
+        run.tree.add_pre_tick_handler(self._before)
+        run.tree.add_post_tick_handler(self._after)
+
+    def _before(self, _tree: Any) -> None:
+        self._t0 = time.perf_counter()
+
+    def _after(self, _tree: Any) -> None:
+        self.us.append((time.perf_counter() - self._t0) * 1e6)
+
+    def on_tick(self, run: TreeRunner, tick: Tick) -> None:
+        for leaf in self.leaves:
+            self.scripts[id(leaf)].append(leaf.status)
+        self.roots.append(tick.status)
+        self.states.append(str(run.get(bbk.STATE, "")))
+
+
+def _replay_tree(rec: Recording, observers: list[RunObserver]) -> TreeRunner:
+    """mission.xml stepped by the runner over the recorded inputs (the caller closes it)."""
+    config_path = shipped_config(rec.config)
+    py_trees.blackboard.Blackboard.clear()
+    runner = TreeRunner(load_config(config_path), ReplayWorld(rec), rec.tree, config_file=config_path, sources=[],
+                        observers=observers)  # fmt: skip
+    runner.setup()
+    runner.run()
+    return runner
 
 
 class _Clock:
@@ -128,22 +160,19 @@ def _time_leaves(leaves: list[py_trees.behaviour.Behaviour], spent: dict[str, fl
         leaf.update = timed  # type: ignore[method-assign]
 
 
+class _LeafTimer(RunObserver):
+    def __init__(self, spent: dict[str, float]) -> None:
+        self.spent = spent
+
+    def on_start(self, run: TreeRunner) -> None:
+        assert run.tree is not None
+        _time_leaves(_leaves(run.tree.root), self.spent)
+
+
 def leaf_breakdown(rec: Recording) -> dict[str, float]:
     """Mean µs per tick spent in each leaf class's update() over the recording (one extra pass)."""
-    config_path = shipped_config(rec.config)
-    py_trees.blackboard.Blackboard.clear()
-    world = ReplayWorld(rec)
-    sources = [ReplaySource(name, d) for name, d in rec.detections.items()]
-    runner = TreeRunner(load_config(config_path), world, rec.tree, config_file=config_path, sources=sources)
-    runner.setup()
-    assert runner.tree is not None
     spent: dict[str, float] = {}
-    _time_leaves(_leaves(runner.tree.root), spent)
-    for i in range(len(rec.ticks)):
-        world.i = i
-        world.sense(runner.bb)
-        runner.tree.tick()
-    runner.close()
+    _replay_tree(rec, [_LeafTimer(spent)]).close()
     py_trees.blackboard.Blackboard.clear()
     n = max(1, len(rec.ticks))
     return {k: round(v / n * 1e6, 1) for k, v in sorted(spent.items(), key=lambda kv: -kv[1])}
@@ -151,44 +180,28 @@ def leaf_breakdown(rec: Recording) -> dict[str, float]:
 
 def replay(rec: Recording, passes: int) -> dict[str, Any]:
     """Tick the real tree on the recorded inputs, then the bare tree on the real leaves' statuses."""
-    config_path = shipped_config(rec.config)
-    config = load_config(config_path)
     real_us: list[float] = []
     bare_us: list[float] = []
     n_nodes = 0
     state_match = root_match = total = 0
     for _ in range(passes):
-        py_trees.blackboard.Blackboard.clear()
-        world = ReplayWorld(rec)
-        sources = [ReplaySource(name, d) for name, d in rec.detections.items()]
-        runner = TreeRunner(config, world, rec.tree, config_file=config_path, sources=sources)
-        runner.setup()
-        assert runner.tree is not None
-        leaves = _leaves(runner.tree.root)
-        n_nodes = sum(1 for _ in runner.tree.root.iterate())
         # Pass 1: the real tree, recording every leaf's status after each tick.
-        scripts: dict[int, list[Status]] = {id(leaf): [] for leaf in leaves}
-        roots = []
-        for i, tick in enumerate(rec.ticks):
-            world.i = i
-            world.sense(runner.bb)
-            t0 = time.perf_counter()
-            runner.tree.tick()
-            real_us.append((time.perf_counter() - t0) * 1e6)
-            for leaf in leaves:
-                scripts[id(leaf)].append(leaf.status)
-            roots.append(runner.tree.root.status)
-            state_match += bbk.get(runner.bb, bbk.STATE, "") == tick.state
-            total += 1
-        bare = py_trees.trees.BehaviourTree(bare_mirror(runner.tree.root, scripts, _Clock))
+        timer = TickTimer()
+        runner = _replay_tree(rec, [timer])
+        assert runner.tree is not None
+        n_nodes = sum(1 for _ in runner.tree.root.iterate())
+        real_us.extend(timer.us)
+        state_match += sum(s == t.state for s, t in zip(timer.states, rec.ticks, strict=False))
+        total += len(timer.states)
+        bare = py_trees.trees.BehaviourTree(bare_mirror(runner.tree.root, timer.scripts, _Clock))
         runner.close()
         # Pass 2: the bare tree on the same tick sequence.
-        for i in range(len(rec.ticks)):
+        for i in range(len(timer.roots)):
             _Clock.i = i
             t0 = time.perf_counter()
             bare.tick()
             bare_us.append((time.perf_counter() - t0) * 1e6)
-            root_match += bare.root.status == roots[i]
+            root_match += bare.root.status == timer.roots[i]
     py_trees.blackboard.Blackboard.clear()
     return {"real_us": real_us, "bare_us": bare_us, "nodes": n_nodes,
             "state_matches_live": round(state_match / max(1, total), 3),

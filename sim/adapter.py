@@ -154,6 +154,9 @@ class SimAdapter:
             self._goal_seq = None
             self._cmd, self._mode = Twist(0.0, 0.0), "stop"
 
+    def now(self) -> float:
+        return self.t
+
     def advance(self, dt: float) -> None:
         assert self.base is not None and self.navigator is not None, "call setup() first"
         if dt <= 0:

@@ -16,6 +16,7 @@ import py_trees
 
 from mission.core import blackboard as bbk
 from mission.core import se3
+from mission.core.config import TargetSpec
 from mission.core.types import (
     Detection,
     Frame,
@@ -26,6 +27,7 @@ from mission.core.types import (
     RobotState,
     Twist,
 )
+from mission.perception_plugins.pipeline import PerceptionStage
 
 # Camera 15 cm ahead of the base centre, 30 cm up, looking forward.
 EXTRINSICS = se3.transform(se3.R_BODY_OPTICAL, (0.15, 0.0, 0.30))
@@ -182,6 +184,12 @@ class Scene:
     nav_status: str = NavStatus.IDLE
     navigator: ScriptedNavigator | None = None
     occluders: list[tuple[float, float, float, float]] = field(default_factory=list)  # boxes x0, y0, x1, y1
+    perception: PerceptionStage | None = None  # the runner's perception stage, when the test wants tracks
+
+    def perceive_targets(self, targets: dict[str, TargetSpec], policy: str = "hybrid") -> PerceptionStage:
+        """Perceive with this scene's camera (a scripted source) before every tick, as the runner does."""
+        self.perception = PerceptionStage([self.source()], targets, policy)
+        return self.perception
 
     def occluded(self) -> bool:
         """Does the camera → marker segment pass through an occluder box? (sampled every centimetre)"""
@@ -237,9 +245,15 @@ class Scene:
             )
         self.clock += self.dt
 
+    def perceive(self) -> None:
+        """The perception stage on the frame sense() wrote (nothing when the test set no targets)."""
+        if self.perception is not None:
+            self.perception.update(board())
+
     def cycle(self, root: py_trees.behaviour.Behaviour) -> py_trees.common.Status:
-        """One runner cycle: sense → tick → act."""
+        """One runner cycle: sense → perceive → tick → act."""
         self.sense()
+        self.perceive()
         root.tick_once()
         self.act()
         return root.status

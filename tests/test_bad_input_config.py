@@ -119,7 +119,7 @@ def test_a_named_source_satisfies_a_target_that_names_it(tmp_path):
 def test_a_tree_the_config_names_that_does_not_exist_names_the_config_file_and_key(tmp_path):
     path = tmp_path / "robot.yaml"
     path.write_text("tree: folow.xml\n")
-    runner = TreeRunner(load_config(path), adapter=None, config_file=path)  # type: ignore[arg-type]
+    runner = TreeRunner(load_config(path), world=None, config_file=path)  # type: ignore[arg-type]
     with pytest.raises(TreeError) as err:
         runner.setup()  # fails on the tree, before the (absent) world is touched
     assert str(err.value).startswith(f"{path}: tree: folow.xml: tree file not found; expected a path to a ")

@@ -20,18 +20,17 @@ import cv2
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import Scene, marker_facing, read, tick
+from behaviour_world import Scene, marker_facing, read
 from vlm_scene import Box, camera_pose, render, yaw_towards
 from vlm_scene import Scene as VlmScene
 
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import CameraIntrinsics, Frame, Pose2D
 from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.pipeline import PerceptionStage
 from mission.perception_plugins.vlm_stub import VlmStubSource
 from mission.trees.loader import load_tree
 
@@ -276,16 +275,13 @@ def test_vlm_stub_partly_missing_depth_still_latches(tmp_path):
         src.close()
 
 
-# -- PerceiveTargets keeps ticking -------------------------------------------------------------------------
+# -- the perception stage keeps going ----------------------------------------------------------------------
 
 
-def test_perceive_targets_drops_16_bit_bgra_float_bool_and_nan_stamped_frames_and_keeps_going():
-    """One counted drop each, with the reason in the feedback — not an error raised by every source —
+def test_the_perception_stage_drops_16_bit_bgra_float_bool_and_nan_stamped_frames_and_keeps_going():
+    """One counted drop each, with the reason in its summary — not an error raised by every source —
     and the next good frame is detected as usual."""
-    node = PerceiveTargets(
-        "perceive", deps=Dependencies(sources=[aruco()], targets={"target": TargetSpec(marker_id=7)})
-    )
-    node.setup()
+    stage = PerceptionStage([aruco()], {"target": TargetSpec(marker_id=7)})
     w = bbk.writer("adapter")
     img, k = ARUCO_VIEW.image, ARUCO_VIEW.intrinsics
     bad = {
@@ -298,14 +294,15 @@ def test_perceive_targets_drops_16_bit_bgra_float_bool_and_nan_stamped_frames_an
     for seq, (kind, (image, stamp, words)) in enumerate(bad.items(), 1):
         bbk.set_(w, bbk.FRAME, Frame(image=image, stamp=stamp, intrinsics=k))
         bbk.set_(w, bbk.FRAME_SEQ, seq)
-        assert tick(node) == S.FAILURE, kind
-        assert node.feedback_message == f"dropped frame {seq}: {words}"
+        perceived = stage.update(w)
+        assert perceived is not None and perceived.dropped == "frames_dropped", kind
+        assert perceived.summary == f"dropped frame {seq}: {words}"
     stats = read(bbk.PERCEPTION_STATS)
     assert stats["frames_dropped"] == len(bad)
     assert not any(key.startswith("source_errors") for key in stats), "a dropped frame never reaches a source"
     bbk.set_(w, bbk.FRAME, Frame(image=img, stamp=10.0, intrinsics=k))
     bbk.set_(w, bbk.FRAME_SEQ, 10)
-    assert tick(node) == S.SUCCESS
+    assert stage.update(w).processed
     assert read(bbk.TRACKS)["target"].visible and read(bbk.PERCEPTION_STATS)["frames_processed"] == 1
 
 
@@ -313,8 +310,8 @@ def test_the_shipped_follow_tree_keeps_following_through_a_burst_of_bad_frames()
     """A mission tick with garbage in the middle: the tree never fails or stops, the drops are counted, and
     FOLLOW carries on (a dropped frame is not a miss, so it does not push the tree into LOST or SEARCH)."""
     scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), marker=marker_facing(2.0, 0.0, math.pi))
-    deps = Dependencies(sources=[scene.source()], targets={"target": TargetSpec(marker_id=7)})
-    tree = py_trees.trees.BehaviourTree(load_tree("follow.xml", deps))
+    scene.perceive_targets({"target": TargetSpec(marker_id=7)})
+    tree = py_trees.trees.BehaviourTree(load_tree("follow.xml"))
     tree.setup(timeout=5.0)
     w = bbk.writer("adapter")
 
@@ -322,6 +319,7 @@ def test_the_shipped_follow_tree_keeps_following_through_a_burst_of_bad_frames()
         scene.sense()  # what the adapter writes: pose, clock, a good frame…
         if bad_image is not None:  # …unless the camera sent garbage
             bbk.set_(w, bbk.FRAME, Frame(image=bad_image, stamp=scene.clock))  # type: ignore[arg-type]
+        scene.perceive()
         tree.tick()
         scene.act()
         assert tree.root.status == S.RUNNING

@@ -19,17 +19,16 @@ import numpy as np
 import py_trees
 import pytest
 import ros_env
-from behaviour_world import read, tick
+from behaviour_world import read
 from test_ros_world_io import MSGS, RecordingWorld
 
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, LaserScan, Pose2D, RobotState, Twist
 from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.pipeline import Perceived, PerceptionStage
 from mission.ros.conversions import (
     BadMessage,
     array_to_image,
@@ -58,31 +57,29 @@ ROOT = ros_env.ROOT
 
 
 class Pipeline:
-    """A ROS world feeding PerceiveTargets (real aruco) through the blackboard, one tick per call."""
+    """A ROS world feeding the perception stage (real aruco) through the blackboard, one step per call."""
 
     def __init__(self) -> None:
         self.world = RecordingWorld()
         self.bb = bbk.writer("ros-world")
-        self.node = PerceiveTargets(
-            "perceive",
-            deps=Dependencies(sources=[ArucoSource({"marker_size_m": MARKER})], targets={"t": TargetSpec(marker_id=7)}),
-        )
-        self.node.setup()
+        self.stage = PerceptionStage([ArucoSource({"marker_size_m": MARKER})], {"t": TargetSpec(marker_id=7)})
         self.stamp = 0.0
 
     def good_image(self) -> object:
         self.stamp += 0.1
         return array_to_image(MSGS, VIEW.image, "bgr8", self.stamp, "cam")
 
-    def cycle(self) -> py_trees.common.Status:
+    def cycle(self) -> Perceived | None:
+        """sense → perceive; what the stage made of the frame the world delivered (None: no new frame)."""
         self.world.sense(self.bb)
-        return tick(self.node)
+        return self.stage.update(self.bb)
 
     def detects_the_marker(self) -> bool:
         """Good camera info and image in: is the marker seen with the calibrated intrinsics?"""
         self.world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, self.stamp + 0.1, "cam"))
         assert self.world.cache.on_image(self.good_image(), TOPIC)
-        assert self.cycle() == S.SUCCESS
+        perceived = self.cycle()
+        assert perceived is not None and perceived.processed
         det = read(bbk.TRACKS)["t"].detection
         return read(bbk.TRACKS)["t"].visible and det.extra["intrinsics"] == "calibrated"
 
@@ -120,7 +117,7 @@ def test_an_image_whose_step_or_size_disagrees_is_dropped_counted_and_the_next_o
     world = pipeline.world
     for _ in range(3):
         assert world.cache.on_image(change(pipeline.good_image()), TOPIC) is False
-        pipeline.cycle()  # no new frame: the tree ticks on
+        assert pipeline.cycle() is None  # no new frame: nothing to perceive
     assert world.cache.stats.dropped == {f"image:{reason}": 3}
     [warning] = world.warnings  # throttled: once, not per message
     assert warning.startswith(f"dropped a message on {TOPIC}: ") and words in warning and "\n" not in warning
@@ -137,7 +134,7 @@ def test_row_padding_of_any_size_in_step_is_skipped_and_the_marker_found(pipelin
     assert np.array_equal(image_to_camera_array(msg), image)
     pipeline.world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, 1.0, "cam"))
     assert pipeline.world.cache.on_image(msg, TOPIC)
-    assert pipeline.cycle() == S.SUCCESS and read(bbk.TRACKS)["t"].visible
+    assert pipeline.cycle().processed and read(bbk.TRACKS)["t"].visible
 
 
 def test_a_16uc1_depth_image_with_odd_padding_keeps_its_millimetres():
@@ -181,7 +178,7 @@ def test_bad_camera_info_gives_the_fallback_counted_and_warned_once_and_good_inf
     for i in range(3):
         world.cache.on_camera_info(_with(_info(d=np.zeros(3)), header=pipeline.good_image().header))
         assert world.cache.on_image(pipeline.good_image(), TOPIC)
-        assert pipeline.cycle() == S.SUCCESS
+        assert pipeline.cycle().processed
         assert bbk.get(pipeline.bb, bbk.FRAME).intrinsics == CameraIntrinsics.fallback(640, 480), i
         track = read(bbk.TRACKS)["t"]
         assert track.visible and track.detection.extra["intrinsics"] == "fallback", i  # seen, and labelled degraded
@@ -213,7 +210,7 @@ def test_depth_of_another_size_than_the_image_is_ignored_with_a_warning_and_the_
     world.cache.on_depth(array_to_image(MSGS, np.ones((240, 320), np.float32), "32FC1", 0.1, "cam"))
     world.cache.on_camera_info(intrinsics_to_camera_info(MSGS, K, 0.1, "cam"))
     assert world.cache.on_image(pipeline.good_image(), TOPIC)
-    assert pipeline.cycle() == S.SUCCESS
+    assert pipeline.cycle().processed
     assert bbk.get(pipeline.bb, bbk.FRAME).depth is None and read(bbk.TRACKS)["t"].visible
     assert any("depth (240, 320) does not match the image (480, 640); ignored" in w for w in world.warnings)
 

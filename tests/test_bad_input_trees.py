@@ -142,7 +142,7 @@ def test_a_defaulted_target_port_is_checked_too_and_says_it_is_the_default(tmp_p
 def test_the_runner_checks_targets_before_creating_sources_or_touching_the_world(tmp_path):
     path = tree_file(tmp_path, V4.format(node='<FollowTarget target="person"/>'))
     config = MissionConfig(perception=PerceptionConfig(targets={"target": TargetSpec(marker_id=7)}))
-    runner = TreeRunner(config, adapter=None, tree=str(path))  # type: ignore[arg-type]
+    runner = TreeRunner(config, world=None, tree=str(path))  # type: ignore[arg-type]
     with pytest.raises(TreeError, match="target 'person' is not a perception target"):
         runner.setup()
     assert runner.sources == []

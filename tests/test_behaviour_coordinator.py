@@ -15,8 +15,6 @@ from behaviour_world import Scene, grid_with_boxes, marker_facing, read
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.lost import HoldLastGoal
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.behaviours.search import SearchSweep
 from mission.behaviours.visibility import IsTargetVisible
 from mission.core import blackboard as bbk
@@ -28,7 +26,7 @@ PILLAR = (1.5, -0.3, 1.9, 0.3)
 
 
 def follow_mission(scene: Scene) -> py_trees.behaviour.Behaviour:
-    deps = Dependencies(sources=[scene.source()], targets={"target": TargetSpec(marker_id=7)})
+    scene.perceive_targets({"target": TargetSpec(marker_id=7)})
     Seq, Sel = py_trees.composites.Sequence, py_trees.composites.Selector
     coordinator = Sel(
         "coordinator",
@@ -39,8 +37,7 @@ def follow_mission(scene: Scene) -> py_trees.behaviour.Behaviour:
             SearchSweep(duration_s=20.0),
         ],
     )
-    perceive = py_trees.decorators.FailureIsSuccess("ForceSuccess", PerceiveTargets(deps=deps))
-    root = Seq("FollowMission", memory=False, children=[perceive, coordinator])
+    root = coordinator
     root.setup_with_descendants()
     return root
 

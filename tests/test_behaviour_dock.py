@@ -10,8 +10,6 @@ import pytest
 from behaviour_world import Scene, camera_in_map, marker_facing, read
 
 from mission.behaviours.dock import FloorTagFilter, VisualServoDock
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.docking import dock_offsets
@@ -21,11 +19,9 @@ S = py_trees.common.Status
 TAG = marker_facing(2.0, 0.0, math.pi)  # dock tag on a wall at x = 2, facing −x
 
 
-def dock_tree(scene: Scene, **ports) -> py_trees.composites.Sequence:
-    deps = Dependencies(sources=[scene.source()], targets={"dock": TargetSpec(marker_id=0)})
-    root = py_trees.composites.Sequence(
-        "DOCK", memory=False, children=[PerceiveTargets(deps=deps), VisualServoDock(**ports)]
-    )
+def dock_tree(scene: Scene, **ports) -> VisualServoDock:
+    scene.perceive_targets({"dock": TargetSpec(marker_id=0)})
+    root = VisualServoDock(**ports)
     root.setup_with_descendants()
     return root
 
@@ -57,7 +53,7 @@ def test_docks_within_tolerance_from_offset_starts(x: float, y: float, yaw_deg: 
     )
     root = dock_tree(scene)
     run(scene, root)
-    assert root.status == S.SUCCESS, root.children[1].feedback_message
+    assert root.status == S.SUCCESS, root.feedback_message
     truth = dock_offsets(camera_in_map(scene.robot), TAG, scene.robot.yaw)
     assert abs(truth.standoff_m - 0.30) <= 0.025
     assert abs(truth.lateral_m) <= 0.03

@@ -9,8 +9,6 @@ import pytest
 from behaviour_world import Scene, ScriptedNavigator, marker_facing, read
 
 from mission.behaviours.explore import Explore, parse_waypoints
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D, Twist
@@ -18,9 +16,9 @@ from mission.core.types import Pose2D, Twist
 S = py_trees.common.Status
 
 
-def explore_tree(scene: Scene, **ports) -> py_trees.composites.Sequence:
-    deps = Dependencies(sources=[scene.source()], targets={"dock": TargetSpec(marker_id=0)})
-    root = py_trees.composites.Sequence("root", memory=False, children=[PerceiveTargets(deps=deps), Explore(**ports)])
+def explore_tree(scene: Scene, **ports) -> Explore:
+    scene.perceive_targets({"dock": TargetSpec(marker_id=0)})
+    root = Explore(**ports)
     root.setup_with_descendants()
     return root
 
@@ -44,7 +42,7 @@ def test_with_waypoints_it_visits_each_and_looks_around_until_the_dock_shows_up(
     # the dock hangs on a wall visible only from the second waypoint, looking back toward where it came from
     scene = Scene(marker=marker_facing(6.0, 4.0, math.pi), marker_id=0, navigator=ScriptedNavigator(), dt=0.1)
     root = explore_tree(scene, waypoints="2,0; 4,4", angular_speed=1.0)
-    explore = root.children[1]
+    explore = root
     said = []
     while root.status != S.SUCCESS and scene.clock < 40.0:
         scene.cycle(root)

@@ -9,8 +9,6 @@ import py_trees
 from behaviour_world import Scene, board, marker_facing, read, tick
 
 from mission.behaviours.follow import FollowTarget
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import NavGoal, Pose2D, Twist
@@ -18,11 +16,9 @@ from mission.core.types import NavGoal, Pose2D, Twist
 S = py_trees.common.Status
 
 
-def follow_tree(scene: Scene, **ports) -> py_trees.composites.Sequence:
-    deps = Dependencies(sources=[scene.source()], targets={"target": TargetSpec(marker_id=7)})
-    root = py_trees.composites.Sequence(
-        "FOLLOW", memory=False, children=[PerceiveTargets(deps=deps), FollowTarget(**ports)]
-    )
+def follow_tree(scene: Scene, **ports) -> FollowTarget:
+    scene.perceive_targets({"target": TargetSpec(marker_id=7)})
+    root = FollowTarget(**ports)
     root.setup_with_descendants()
     return root
 
@@ -36,7 +32,7 @@ def test_the_goal_is_offset_before_the_target_on_the_robot_side_facing_it():
     assert math.isclose(goal.pose.x, 3.0 - d, abs_tol=1e-9) and math.isclose(goal.pose.y, 3.0 - d, abs_tol=1e-9)
     assert math.isclose(goal.pose.yaw, math.radians(45), abs_tol=1e-9)
     assert read(bbk.TWIST) is None and read(bbk.STATE) == "FOLLOW"
-    follow = root.children[1]
+    follow = root
     assert follow.feedback_message == f"following target 2.8 m away, goal (2.65, 2.65) seq {goal.seq}"
 
 
@@ -78,7 +74,7 @@ def test_preempted_follow_stops_the_robot_only_if_its_goal_is_still_the_command(
     scene = Scene(marker=marker_facing(3.0, 0.0, math.pi))
     root = follow_tree(scene)
     scene.cycle(root)
-    follow = root.children[1]
+    follow = root
     follow.stop(S.INVALID)  # what a parent does when another branch takes over
     assert read(bbk.NAV_GOAL) is None and read(bbk.TWIST) == Twist(0.0, 0.0)
 
@@ -93,7 +89,7 @@ def test_without_a_map_position_it_waits_and_holds_the_robot():
     scene = Scene(marker=None)
     root = follow_tree(scene)
     scene.cycle(root)
-    follow = root.children[1]
+    follow = root
     assert follow.status == S.RUNNING and follow.feedback_message == "waiting for target's map position"
     assert read(bbk.TWIST) == Twist(0.0, 0.0)
     assert tick(follow) == S.RUNNING

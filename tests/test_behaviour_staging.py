@@ -7,8 +7,6 @@ import math
 import py_trees
 from behaviour_world import Scene, ScriptedNavigator, board, marker_facing, read, tick
 
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.behaviours.staging import GoToStaging
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
@@ -18,11 +16,9 @@ S = py_trees.common.Status
 DOCK = marker_facing(4.0, 2.0, math.radians(180))  # on a wall at x = 4, facing −x
 
 
-def staging_tree(scene: Scene, **ports) -> py_trees.composites.Sequence:
-    deps = Dependencies(sources=[scene.source()], targets={"dock": TargetSpec(marker_id=0)})
-    root = py_trees.composites.Sequence(
-        "root", memory=False, children=[PerceiveTargets(deps=deps), GoToStaging(**ports)]
-    )
+def staging_tree(scene: Scene, **ports) -> GoToStaging:
+    scene.perceive_targets({"dock": TargetSpec(marker_id=0)})
+    root = GoToStaging(**ports)
     root.setup_with_descendants()
     return root
 
@@ -36,7 +32,7 @@ def test_it_navigates_to_the_staging_pose_in_front_of_the_tag_and_succeeds_on_ar
     assert math.isclose(goal.x, 3.3, abs_tol=1e-9) and math.isclose(goal.y, 2.0, abs_tol=1e-9)
     assert math.isclose(goal.yaw, 0.0, abs_tol=1e-9)
     assert read(bbk.STATE) == "DOCK"
-    assert root.children[1].feedback_message == "DOCK: at the staging pose (3.30, 2.00, 0°)"
+    assert root.feedback_message == "DOCK: at the staging pose (3.30, 2.00, 0°)"
 
 
 def test_navigation_failure_fails_with_a_reason():
@@ -84,11 +80,10 @@ def test_the_goal_is_refined_when_the_tag_is_re_measured_from_closer():
     tick(node)
     first = read(bbk.NAV_GOAL)
     scene = Scene(robot=Pose2D(2.5, 2.0, 0.0), marker=DOCK, marker_id=0)  # closer now, correct orientation
-    deps = Dependencies(sources=[scene.source()], targets={"dock": TargetSpec(marker_id=0)})
-    perceive = PerceiveTargets(deps=deps)
+    scene.perceive_targets({"dock": TargetSpec(marker_id=0)})
     scene.clock = 2.0
     scene.sense()
-    tick(perceive)
+    scene.perceive()
     tick(node)
     second = read(bbk.NAV_GOAL)
     assert second.seq > first.seq

@@ -13,14 +13,14 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from behaviour_world import IMAGE, ScriptedSource, board, read, tick
+from behaviour_world import IMAGE, ScriptedSource, board, read
 
+from mission.app.observers import RunObserver, Tick
 from mission.app.sim_run import RunOutcome, run_scenario, shipped_config
-from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
+from mission.perception_plugins.pipeline import PerceptionStage
 from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario
 
@@ -72,17 +72,14 @@ def test_a_duplicated_frame_is_recognised_and_not_processed_twice(tmp_path: Path
     assert 0.75 * injected <= counted <= injected
 
 
-class StaleWatch:
+class StaleWatch(RunObserver):
     """Records, per tick, the stamp of the delivered frame and the target track it left behind."""
 
     def __init__(self) -> None:
         self.rows: list[tuple[float | None, float | None, np.ndarray | None, int]] = []
         self._seq = -1
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
-        pass
-
-    def on_tick(self, runner: Any, adapter: Any, gt: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
         seq = runner.get(bbk.FRAME_SEQ)
         frame = runner.get(bbk.FRAME)
         stamp = float(frame.stamp) if frame is not None and seq != self._seq else None
@@ -91,9 +88,6 @@ class StaleWatch:
         pose = None if track is None or track.pose_map is None else track.pose_map.copy()
         stale = int((runner.get(bbk.PERCEPTION_STATS) or {}).get("frames_stale", 0))
         self.rows.append((stamp, None if track is None else track.last_seen, pose, stale))
-
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
-        pass
 
 
 def test_late_out_of_order_frames_never_move_the_target_back(tmp_path: Path) -> None:
@@ -176,17 +170,15 @@ def test_without_faults_the_report_has_no_fault_section(tmp_path: Path) -> None:
 
 def test_a_frame_older_than_max_frame_age_is_dropped_when_the_age_limit_is_set() -> None:
     src = ScriptedSource("scripted", lambda frame: [])
-    node = PerceiveTargets("perceive", deps=Dependencies(sources=[src]))
-    node.max_frame_age_s = 0.5
-    node.setup()
+    stage = PerceptionStage([src], {}, max_frame_age_s=0.5)
     bb = board()
     bbk.set_(bb, bbk.CLOCK, 10.0)
     bbk.set_(bb, bbk.FRAME, Frame(image=IMAGE, stamp=9.0))  # 1 s old on the clock
     bbk.set_(bb, bbk.FRAME_SEQ, 1)
-    tick(node)
+    perceived = stage.update(bb)
     assert src.calls == 0 and read(bbk.PERCEPTION_STATS)["frames_stale"] == 1
-    assert "max_frame_age_s" in node.feedback_message
+    assert perceived is not None and "max_frame_age_s" in perceived.summary
     bbk.set_(bb, bbk.FRAME, Frame(image=IMAGE, stamp=9.8))
     bbk.set_(bb, bbk.FRAME_SEQ, 2)
-    tick(node)
+    stage.update(bb)
     assert src.calls == 1 and read(bbk.PERCEPTION_STATS)["frames_processed"] == 1

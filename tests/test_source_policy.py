@@ -12,9 +12,9 @@ import yaml
 
 from mission import cli
 from mission.app.sim_run import run_scenario, shipped_config
-from mission.behaviours.target_matching import SourcedDetection, assign
 from mission.core.config import load_config
 from mission.perception_plugins import registry
+from mission.perception_plugins.target_matching import SourcedDetection, assign
 from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import load_scenario, scenario_path
 

@@ -4,6 +4,7 @@ new trees from the shipped behaviours without writing Python."""
 
 from __future__ import annotations
 
+import logging
 import shutil
 
 import py_trees
@@ -38,21 +39,18 @@ FOLLOW = (
     "ReactiveSequence:LOST[IsLineOfSightBlocked(target=target,min_misses=5),HoldLastGoal(target=target,timeout_s=3.0)],"
     "SearchSweep(target=target,duration_s=20.0)]"
 )
-PERCEIVE = "ForceSuccess[PerceiveTargets]"
 CATALOGUE = {
     "explore.xml": "BehaviorTree[Explore(target=dock)]",
     "dock.xml": "BehaviorTree[RetryUntilSuccessful(num_attempts=3)["
     "Sequence:approach[GoToStaging(target=dock),VisualServoDock(target=dock)]]]",
-    "follow.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},SubTree(Follow)]]",
-    "mission.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},"
-    "Sequence:phases[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]]",
-    "explore_dock.xml": f"BehaviorTree[ReactiveSequence[{PERCEIVE},"
-    "Sequence:phases[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]]",
+    "follow.xml": f"BehaviorTree[{FOLLOW}]",
+    "mission.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]",
+    "explore_dock.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]",
 }
 MAIN_TREE = {
     "explore.xml": "Explore",
     "dock.xml": "Dock",
-    "follow.xml": "FollowMission",
+    "follow.xml": "Follow",
     "mission.xml": "Mission",
     "explore_dock.xml": "ExploreDock",
 }
@@ -69,8 +67,8 @@ def test_a_shipped_tree_has_the_shape_the_catalogue_describes(name):
     assert shape(desc) == CATALOGUE[name]
 
 
-def test_the_follow_subtree_is_the_target_coordinator_from_the_catalogue():
-    follow = next(d for d in describe_tree("follow.xml").walk() if d.tag == "SubTree")
+def test_the_follow_subtree_of_the_mission_is_the_target_coordinator_from_the_catalogue():
+    follow = next(d for d in describe_tree("mission.xml").walk() if d.tag == "SubTree" and d.name == "Follow")
     assert shape(follow.children[0]) == FOLLOW
 
 
@@ -84,8 +82,6 @@ def test_a_shipped_tree_loads_and_keeps_ticking_on_an_empty_blackboard(name):
         tree.tick()
         assert root.status != Status.INVALID
     for node in root.iterate():
-        if node.name == "PerceiveTargets":  # no sources, no frame: nothing to do, and that is fine
-            assert node.status == Status.SUCCESS, node.feedback_message
         if node.status != Status.INVALID and not node.children:
             assert node.feedback_message, f"{node.name} ticked without a feedback message"
     tree.shutdown()
@@ -104,9 +100,8 @@ def test_shipped_trees_use_only_the_declared_readable_blackboard_keys(name):
 
 def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_phase():
     root = load_tree("mission.xml")
-    phases = next(n for n in root.iterate() if n.name == "phases")
     assert root.name == "Mission"
-    assert [c.name for c in phases.children] == ["Explore", "Dock", "Follow"]
+    assert [c.name for c in root.children] == ["Explore", "Dock", "Follow"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -122,23 +117,20 @@ def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_p
         f"""<root BTCPP_format="4" main_tree_to_execute="Patrol">
   <include path="{TREES_DIR / "dock.xml"}"/>
   <BehaviorTree ID="Patrol">
-    <ReactiveSequence name="patrol">
-      <ForceSuccess><PerceiveTargets/></ForceSuccess>
-      <Sequence name="steps">
-        <Fallback name="find the dock">
-          <Timeout msec="90000">
-            <Explore target="dock" waypoints="1.0,0.0;1.0,1.5" angular_speed="0.4"/>
-          </Timeout>
-          <SetMissionState name="give up" state="FAILED"/>
-        </Fallback>
-        <SubTree ID="Dock"/>
-        <Parallel success_count="1">
-          <SearchSweep target="target" duration_s="15" angular_speed="0.3"/>
-          <Inverter><IsTargetVisible target="target"/></Inverter>
-        </Parallel>
-        <SetMissionState state="DONE"/>
-      </Sequence>
-    </ReactiveSequence>
+    <Sequence name="steps">
+      <Fallback name="find the dock">
+        <Timeout msec="90000">
+          <Explore target="dock" waypoints="1.0,0.0;1.0,1.5" angular_speed="0.4"/>
+        </Timeout>
+        <SetMissionState name="give up" state="FAILED"/>
+      </Fallback>
+      <SubTree ID="Dock"/>
+      <Parallel success_count="1">
+        <SearchSweep target="target" duration_s="15" angular_speed="0.3"/>
+        <Inverter><IsTargetVisible target="target"/></Inverter>
+      </Parallel>
+      <SetMissionState state="DONE"/>
+    </Sequence>
   </BehaviorTree>
 </root>
 """
@@ -167,3 +159,26 @@ def test_a_typo_in_a_copy_of_a_shipped_tree_names_file_line_and_element(tmp_path
     with pytest.raises(TreeError) as err:
         validate_tree(copy)
     assert str(err.value) == f"{copy.resolve()}:{line}: <FollowTarget>: port offset_m expects float, got 'far'"
+
+
+def test_a_tree_written_before_perception_became_a_stage_still_runs_and_says_the_leaf_is_not_needed(
+    tmp_path, caplog
+):
+    path = tmp_path / "old.xml"
+    path.write_text("""<root BTCPP_format="4" main_tree_to_execute="Old">
+  <BehaviorTree ID="Old">
+    <ReactiveSequence>
+      <ForceSuccess><PerceiveTargets/></ForceSuccess>
+      <SetMissionState state="DONE"/>
+    </ReactiveSequence>
+  </BehaviorTree>
+</root>
+""")
+    tree = py_trees.trees.BehaviourTree(load_tree(path))
+    with caplog.at_level(logging.WARNING):
+        tree.setup(timeout=5.0)
+    tree.tick()
+    assert tree.root.status == Status.SUCCESS
+    leaf = next(n for n in tree.root.iterate() if n.name == "PerceiveTargets")
+    assert leaf.feedback_message.startswith("perception runs as a stage before every tick")
+    assert any("remove it from the tree" in r.getMessage() for r in caplog.records)

@@ -18,9 +18,9 @@ def record(tmp_path, name: str, ticks: int, **kw) -> Recorder:
     runner, world = watch_runner(tmp_path)
     rec = Recorder(tmp_path / name, **kw)
     try:
-        rec.on_start(runner, world)
-        step(runner, world, [rec], ticks)
-        rec.on_end(runner, world, None)
+        runner.attach(rec)
+        step(runner, world, ticks)
+        runner.finish(None)
     finally:
         runner.close()
     return rec

@@ -43,8 +43,8 @@ def test_live_page_follows_the_tree_and_a_recorded_log_can_be_scrubbed(tmp_path)
             browser.open(view.url, width=1280, height=800)
             browser.wait_for("document.body && document.body.textContent.includes('waiting for the run')")
             for o in observers:
-                o.on_start(runner, world)
-            step(runner, world, observers, 1)
+                runner.attach(o)
+            step(runner, world, 1)
             browser.wait_for("document.body && document.body.dataset.tick === '1'")
 
             names = browser.evaluate("Array.from(document.querySelectorAll('#tree .node')).map(g => g.dataset.name)")
@@ -58,7 +58,7 @@ def test_live_page_follows_the_tree_and_a_recorded_log_can_be_scrubbed(tmp_path)
             browser.wait_for("document.getElementById('camera').naturalWidth === 320")  # JPEG with overlays
             assert browser.evaluate("document.querySelectorAll('#m-robot circle').length") == 1
 
-            step(runner, world, observers, 4)  # the marker is gone: SEARCH
+            step(runner, world, 4)  # the marker is gone: SEARCH
             browser.wait_for("document.body.dataset.tick === '5'")
             searching = browser.evaluate(STATUSES_JS)
             assert searching["SearchSweep"] == "RUNNING" and searching["IsTargetVisible"] == "FAILURE"
@@ -71,9 +71,8 @@ def test_live_page_follows_the_tree_and_a_recorded_log_can_be_scrubbed(tmp_path)
             assert browser.evaluate(STATUSES_JS) == following
             assert browser.evaluate("document.getElementById('follow').checked") is False
 
-            step(runner, world, observers, 3)  # the sweep times out: the tree fails
-            for o in observers:
-                o.on_end(runner, world, {"success": False})
+            step(runner, world, 3)  # the sweep times out: the tree fails
+            runner.finish({"success": False})
             browser.wait_for("document.getElementById('conn').textContent === 'run finished'")
             assert browser.console_errors() == []
 
@@ -103,8 +102,8 @@ def test_server_answers_on_localhost_and_a_busy_port_is_one_clear_error(tmp_path
         with pytest.raises(urllib.error.HTTPError) as err:
             urllib.request.urlopen(view.url + "camera.jpg", timeout=5)
         assert err.value.code == 404  # no frame yet
-        view.on_start(runner, world)
-        step(runner, world, [view], 2)
+        runner.attach(view)
+        step(runner, world, 2)
         with urllib.request.urlopen(view.url + "camera.jpg", timeout=5) as r:
             assert r.headers["Content-Type"] == "image/jpeg" and r.read(2) == b"\xff\xd8"
         with urllib.request.urlopen(view.url + "api/history?after=1", timeout=5) as r:

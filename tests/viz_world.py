@@ -23,22 +23,18 @@ from mission.perception_plugins.synthetic_views import default_intrinsics, rende
 
 WATCH_TREE = """<root BTCPP_format="4" main_tree_to_execute="Watch">
   <BehaviorTree ID="Watch">
-    <ReactiveSequence name="watch">
-      <ForceSuccess><PerceiveTargets/></ForceSuccess>
-      <ReactiveFallback name="coordinator">
-        <ReactiveSequence name="FOLLOW">
-          <IsTargetVisible max_misses="0"/>
-          <FollowTarget/>
-        </ReactiveSequence>
-        <SearchSweep duration_s="0.35"/>
-      </ReactiveFallback>
-    </ReactiveSequence>
+    <ReactiveFallback name="coordinator">
+      <ReactiveSequence name="FOLLOW">
+        <IsTargetVisible max_misses="0"/>
+        <FollowTarget/>
+      </ReactiveSequence>
+      <SearchSweep duration_s="0.35"/>
+    </ReactiveFallback>
   </BehaviorTree>
 </root>
 """
 WATCH_NODES = [  # the root is named after its tree ID by the loader
-    "Watch", "ForceSuccess", "PerceiveTargets", "coordinator", "FOLLOW", "IsTargetVisible", "FollowTarget",
-    "SearchSweep",
+    "Watch", "FOLLOW", "IsTargetVisible", "FollowTarget", "SearchSweep",
 ]  # fmt: skip
 CAMERA_EXTRINSICS = se3.transform(se3.R_BODY_OPTICAL, (0.0, 0.0, 0.3))
 T_CAM_MARKER = se3.transform(se3.rot_y(np.pi), (0.0, 0.0, 1.0))  # 1 m ahead, facing the camera
@@ -96,6 +92,9 @@ class MarkerWorld:
     def advance(self, dt: float) -> None:
         self.t += dt
 
+    def now(self) -> float:
+        return self.t
+
     def close(self) -> None:
         pass
 
@@ -114,11 +113,8 @@ def watch_runner(tmp_path: Path, visible_ticks: int = 3) -> tuple[TreeRunner, Ma
     return runner, world
 
 
-def step(runner: TreeRunner, world: MarkerWorld, observers: list, n: int = 1) -> None:
-    """`n` cycles of the run loop, as mission.app.sim_run does them: tick, observers, advance."""
+def step(runner: TreeRunner, world: MarkerWorld, n: int = 1) -> None:
+    """`n` steps of the runner's loop (sense → perceive → tick → act, observers), each followed by `dt`."""
     for _ in range(n):
-        runner.tick()
-        gt = world.ground_truth()
-        for o in observers:
-            o.on_tick(runner, world, gt)
+        runner.step()
         world.advance(world.dt)

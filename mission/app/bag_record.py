@@ -22,6 +22,7 @@ from typing import Any
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.core.types import Frame, LaserScan, RobotState
 from mission.ros.conversions import array_to_image, intrinsics_to_camera_info, scan_to_msg, state_to_odometry
@@ -148,7 +149,7 @@ class BagRecorder:
                 write(item)
 
 
-class BagObserver:
+class BagObserver(RunObserver):
     """A run observer (mission.app.observers.TickObserver) that records the sensors the tree saw each tick.
 
     ``mission run --record-bag PATH``: ``observers.append(BagObserver(PATH))``. It reads the newest
@@ -159,13 +160,13 @@ class BagObserver:
     def __init__(self, path: str | Path, *, storage: str | None = None) -> None:
         self.recorder = BagRecorder(path, storage=storage)
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
         self.recorder.open()
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
         from mission.core import blackboard as bbk
 
         self.recorder.record(frame=runner.get(bbk.FRAME), state=runner.get(bbk.ROBOT_STATE), scan=runner.get(bbk.SCAN))
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         self.recorder.close()

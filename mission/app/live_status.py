@@ -14,11 +14,12 @@ from rich.console import Console
 from rich.live import Live
 from rich.text import Text
 
+from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 
 
-class LiveStatus:
-    """A TickObserver (mission.app.observers) that shows progress."""
+class LiveStatus(RunObserver):
+    """A run observer (mission.app.observers) that shows progress on the terminal."""
 
     def __init__(
         self, label: str, stream: TextIO | None = None, every_s: float = 10.0, total_s: float | None = None
@@ -33,11 +34,13 @@ class LiveStatus:
         self._last_state = None
         self._last_print = -1e9
 
-    def _line(self, runner: Any, gt: Any) -> str:
+    def _line(self, runner: Any, tick: Tick) -> str:
         state = runner.get(bbk.STATE, "") or "…"
-        dist = "" if gt.target is None else f"target {gt.robot.distance_to(gt.target):4.1f} m  "
+        gt = tick.ground_truth
+        target = getattr(gt, "target", None)
+        dist = "" if target is None else f"target {gt.robot.distance_to(target):4.1f} m  "
         branch = " › ".join(runner.active_branch()[-3:])
-        return f"[{self.label}] {self._bar(gt.stamp)}t={gt.stamp:6.1f}s  {state:<7} {dist}{branch}"
+        return f"[{self.label}] {self._bar(tick.clock)}t={tick.clock:6.1f}s  {state:<7} {dist}{branch}"
 
     def _bar(self, stamp: float, width: int = 16) -> str:
         """`▕██████░░░░▏ 40% ` of the run's known length, or nothing when the length is not known."""
@@ -49,25 +52,26 @@ class LiveStatus:
         full = round(frac * width)
         return f"▕{'█' * full}{'░' * (width - full)}▏{frac * 100:3.0f}% "
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
+        adapter = runner.world
         if self.total_s is None:  # a scenario's own length, when the world has one
             self.total_s = getattr(getattr(adapter, "scenario", None), "duration_s", None)
         if self._console.is_terminal:
             self._live = Live(Text(""), console=self._console, refresh_per_second=8, transient=True)
             self._live.start()
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
-        line = self._line(runner, ground_truth)
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        line = self._line(runner, tick)
         if self._live is not None:
             self._live.update(Text(line))
             return
         state = runner.get(bbk.STATE, "")
-        if state != self._last_state or ground_truth.stamp - self._last_print >= self.every_s:
+        if state != self._last_state or tick.clock - self._last_print >= self.every_s:
             print(line, file=self.stream, flush=True)
             self._last_state = state
-            self._last_print = ground_truth.stamp
+            self._last_print = tick.clock
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         if self._live is not None:
             self._live.stop()
             self._live = None

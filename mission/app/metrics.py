@@ -13,6 +13,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from mission.app.observers import RunObserver, Tick
+from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
 from mission.core.docking import dock_offsets
@@ -102,8 +104,8 @@ def _flags() -> array:
 
 
 @dataclass
-class MetricsRecorder:
-    """Feed it once per tick; read `summary()` at the end.
+class MetricsRecorder(RunObserver):
+    """An observer of the run, fed once per tick with the world's ground truth; read `summary()` at the end.
 
     The per-tick history (for the report's pictures) is kept in packed arrays, ~60 bytes a tick, so a
     30-minute soak grows by ~2 MB instead of the ~15 MB that lists of tuples of floats cost. A missing
@@ -133,6 +135,13 @@ class MetricsRecorder:
     collisions: int = 0
     _last_goal_seq: int = -1
     _last_det_stamp: dict[str, float] = field(default_factory=dict)
+    last_ground_truth: GroundTruthSample | None = None
+
+    def on_tick(self, run: Any, tick: Tick) -> None:
+        if tick.ground_truth is None:  # a world without ground truth (ROS, a bag): nothing to measure
+            return
+        self.last_ground_truth = tick.ground_truth
+        self.record(tick.ground_truth, run.get(bbk.STATE, ""), run.get(bbk.NAV_GOAL), run.get(bbk.TRACKS))
 
     def record(
         self,

@@ -1,24 +1,40 @@
-"""TreeRunner: one tree, one world adapter, one perception stack — the loop every world shares.
+"""The one loop every world runs: sense → perceive → tick → act → advance.
 
-The simulated run (`mission run`), the ROS node (`mission tree`) and replay all drive a world through
-this class, so the same tree behaves the same way everywhere::
+The simulation (`mission run`), replay and the benchmarks call :meth:`TreeRunner.run`; the ROS node
+calls :meth:`TreeRunner.step` from its timer (and may call :meth:`TreeRunner.perceive` when an image
+arrives). Nothing else writes this loop, so one tree behaves the same way in every world::
 
-    runner = TreeRunner(config, adapter)
-    runner.setup()            # validate the tree, create sources, build the tree, connect the world
-    while ...:
-        status = runner.tick()   # sense → tick → act
-        adapter.advance(dt)      # simulated worlds only
+    runner = TreeRunner(config, world, observers=[...])
+    runner.setup()                       # check the tree, create sources, build the tree, connect the world
+    status = runner.run(until=60.0)      # steps until the tree finishes, 60 s of world time pass, or a signal
+    runner.finish(outcome)               # observers' on_end (recordings finalized)
+    runner.close()
+
+One step: the world writes its newest inputs to the blackboard (``sense``); if a new frame arrived the
+perception stage turns it into detections and tracks (``perceive``, perception_plugins/pipeline.py);
+the tree ticks once; the world carries out the tree's commands (``act``); observers see the step.
+Between steps a simulated world lets ``1 / run.tick_hz`` seconds pass (``advance``), optionally paced to
+the wall clock.
+
+SIGINT and SIGTERM during :meth:`run` end the loop after the current step (a second one stops at once):
+the caller still evaluates, reports and finalizes what was measured so far, and exits 130 or 143.
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import py_trees
 
+from mission.app.observers import RunObserver, Tick
 from mission.app.snapshot import active_branch, snapshot
-from mission.behaviours.ports import Dependencies
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import TreeError
@@ -26,7 +42,12 @@ from mission.core.perception import PerceptionSource
 from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
+from mission.perception_plugins.pipeline import Perceived, PerceptionStage
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
+
+log = logging.getLogger(__name__)
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
@@ -38,53 +59,98 @@ def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
     return resolve_tree_path(tree)
 
 
+class Pacer(Protocol):
+    """How :meth:`TreeRunner.run` waits between steps (None: as fast as the machine goes)."""
+
+    def wait(self, clock: float) -> None:
+        """Return when the world's `clock` (seconds) is due on the wall clock."""
+
+
+class WallClockPacer:
+    """World time at `speed` × wall-clock time: a simulation you can watch, a bag at its recorded rate."""
+
+    def __init__(self, speed: float = 1.0, should_stop: Callable[[], bool] = lambda: False) -> None:
+        self.speed = max(1e-6, float(speed))
+        self.should_stop = should_stop
+        self._origin: tuple[float, float] | None = None  # (wall, world) at the first wait
+
+    def wait(self, clock: float) -> None:
+        now = time.monotonic()
+        if self._origin is None:
+            self._origin = (now, clock)
+            return
+        wall0, world0 = self._origin
+        due = wall0 + (clock - world0) / self.speed
+        while not self.should_stop() and (left := due - time.monotonic()) > 0:
+            time.sleep(min(left, 0.1))  # short naps: a stop request is noticed within 0.1 s
+
+
+Until = float | Callable[["TreeRunner"], bool] | None
+
+
 class TreeRunner:
-    """Owns the tree, the perception sources and the blackboard; borrows the world adapter."""
+    """Owns the tree, the perception stage and the blackboard; borrows the world and the observers."""
 
     def __init__(
         self,
         config: MissionConfig,
-        adapter: WorldAdapter,
+        world: WorldAdapter,
         tree: str | None = None,
         *,
         config_file: str | Path | None = None,
         sources: list[PerceptionSource] | None = None,
+        observers: list[RunObserver] | tuple[RunObserver, ...] = (),
+        perception_only: bool = False,
     ) -> None:
         self.config = config
-        self.adapter = adapter
+        self.world = world
         self.tree_name = tree or config.tree
         self.config_file = config_file
+        self.perception_only = perception_only
         self.sources: list[PerceptionSource] = list(sources) if sources is not None else []
         self._own_sources = sources is None
+        self.observers: list[RunObserver] = list(observers)
         self.tree_path: Path | None = None
         self.tree: py_trees.trees.BehaviourTree | None = None
+        self.perception: PerceptionStage | None = None
         self.bb = bbk.writer("runner")
+        self.dt = 1.0 / float(config.run.tick_hz)
         self.ticks = 0
+        self.status = py_trees.common.Status.INVALID
+        self.start_clock: float | None = None
+        self.stop_signal: int | None = None  # the signal that ended run(), if one did
+        self._started = False
+        self._finished = False
 
     # -- lifecycle ---------------------------------------------------------------------------------
     def setup(self) -> None:
-        """Validate before anything heavy, then create sources, build the tree and connect the world."""
-        try:
-            self.tree_path = resolve_tree(self.tree_name, self.config_file)
-        except TreeError as err:
-            if self.config_file is None or self.tree_name != self.config.tree:
-                raise
-            raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
-        validate_tree(self.tree_path)
-        check_targets(self.tree_path, self.config.perception.targets)
+        """Check the tree before anything heavy, then create sources, build the tree, connect the world."""
+        if not self.perception_only:
+            try:
+                self.tree_path = resolve_tree(self.tree_name, self.config_file)
+            except TreeError as err:
+                if self.config_file is None or self.tree_name != self.config.tree:
+                    raise
+                raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
+            validate_tree(self.tree_path)
+            check_targets(self.tree_path, self.config.perception.targets)
         if self._own_sources:
             file = None if self.config_file is None else str(self.config_file)
             self.sources = registry.create_all(self.config.perception.sources, file=file)
-        deps = Dependencies(
-            sources=self.sources, targets=dict(self.config.perception.targets), policy=self.config.perception.policy
-        )
-        root = load_tree(self.tree_path, deps)
+        perception = self.config.perception
+        self.perception = PerceptionStage(self.sources, dict(perception.targets), perception.policy)
         self._seed_blackboard()
-        self.tree = py_trees.trees.BehaviourTree(root)
-        self.tree.setup(timeout=30.0)
-        self.adapter.setup()
+        if self.tree_path is not None:
+            root = load_tree(self.tree_path)
+            self.tree = py_trees.trees.BehaviourTree(root)
+            self.tree.setup(timeout=30.0)
+        self.world.setup()
+        self._started = True
+        for o in self.observers:
+            o.on_start(self)
 
     def _seed_blackboard(self) -> None:
+        assert self.perception is not None
         for key, value in (
             (bbk.NAV_GOAL, None),
             (bbk.TWIST, None),
@@ -92,7 +158,7 @@ class TreeRunner:
             (bbk.DOCK_SETPOINT, None),
             (bbk.STATE, ""),
             (bbk.REASON, ""),
-            (bbk.TRACKS, {}),
+            (bbk.TRACKS, self.perception.tracks),
             (bbk.DETECTIONS, []),
             (bbk.PERCEPTION_STATS, {}),
             (bbk.FRAME, None),
@@ -100,40 +166,136 @@ class TreeRunner:
         ):
             bbk.set_(self.bb, key, value)
 
-    def tick(self) -> py_trees.common.Status:
-        """One cycle: the world's newest inputs → one tree tick → the tree's commands to the world."""
-        assert self.tree is not None, "call setup() first"
-        self.adapter.sense(self.bb)
-        self.tree.tick()
-        self.adapter.act(self.bb)
+    def attach(self, observer: RunObserver) -> None:
+        """Watch this run from now on (an observer attached after set-up starts at once)."""
+        self.observers.append(observer)
+        if self._started:
+            observer.on_start(self)
+
+    # -- one step ------------------------------------------------------------------------------------
+    def perceive(self) -> Perceived | None:
+        """The perception stage on the newest frame the world wrote (None when it was perceived already);
+        observers are told. Safe to call more than once per step: the ROS node may call it on image arrival."""
+        assert self.perception is not None, "call setup() first"
+        perceived = self.perception.update(self.bb)
+        if perceived is not None:
+            for o in self.observers:
+                o.on_perception(self, perceived)
+        return perceived
+
+    def step(self) -> py_trees.common.Status:
+        """sense → perceive → tick → act, then the observers; returns the root's status."""
+        assert self._started, "call setup() first"
+        self.world.sense(self.bb)
+        clock = float(bbk.get(self.bb, bbk.CLOCK, 0.0) or 0.0)
+        if self.start_clock is None:
+            self.start_clock = clock
+        perceived = self.perceive()
+        if self.tree is not None:
+            self.tree.tick()
+            self.status = self.tree.root.status
+        self.world.act(self.bb)
         self.ticks += 1
-        return self.tree.root.status
+        truth = getattr(self.world, "ground_truth", None)
+        tick = Tick(self.ticks, clock, self.status, truth() if callable(truth) else None, perceived)
+        for o in self.observers:
+            o.on_tick(self, tick)
+        return self.status
+
+    def elapsed(self) -> float:
+        """World seconds since the first step."""
+        if self.start_clock is None:
+            return 0.0
+        return float(bbk.get(self.bb, bbk.CLOCK, 0.0) or 0.0) - self.start_clock
+
+    # -- the loop ------------------------------------------------------------------------------------
+    def run(self, until: Until = None, pacer: Pacer | None = None) -> py_trees.common.Status:
+        """Step until the tree finishes, `until` (world seconds, or a predicate) is reached, the world is
+        exhausted (a bag at its end) or SIGINT/SIGTERM arrives; returns the root's last status."""
+        done = until if callable(until) else (lambda r: until is not None and r.elapsed() >= until)
+        running = py_trees.common.Status.RUNNING
+        with self._stop_on_signals():
+            while True:
+                status = self.step()
+                if self.tree is not None and status != running:
+                    break
+                if self.stop_signal is not None or done(self) or getattr(self.world, "exhausted", False):
+                    break
+                self.world.advance(self.dt)
+                if getattr(self.world, "exhausted", False):
+                    break
+                if pacer is not None:
+                    pacer.wait(float(self.world.now()))
+        return self.status
+
+    def stop_requested(self) -> bool:
+        return self.stop_signal is not None
+
+    @contextlib.contextmanager
+    def _stop_on_signals(self) -> Iterator[None]:
+        """SIGINT/SIGTERM end the loop after the current step; a second one interrupts at once."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum: int, _frame: Any) -> None:
+            if self.stop_signal is not None:  # asked twice: stop now
+                raise KeyboardInterrupt
+            self.stop_signal = signum
+            log.warning("%s: stopping after this step (again to stop at once)", signal.Signals(signum).name)
+
+        previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
+        try:
+            yield
+        finally:
+            for s, h in previous.items():
+                signal.signal(s, h)
+
+    def finish(self, outcome: Any = None) -> None:
+        """Tell every observer the run is over (once). Each observer ends even if another one fails."""
+        if self._finished or not self._started:
+            return
+        self._finished = True
+        errors: list[BaseException] = []
+        for o in self.observers:
+            try:
+                o.on_end(self, outcome)
+            except Exception as err:  # finalize the others, then report the first failure
+                errors.append(err)
+        if errors:
+            raise errors[0]
 
     def close(self) -> None:
-        if self.tree is not None:
-            self.tree.shutdown()
-        if self._own_sources:
-            for s in self.sources:
-                s.close()
-        self.adapter.close()
+        """Finish (if nobody did), shut the tree down, close the sources (when ours) and the world."""
+        try:
+            self.finish(None)
+        finally:
+            if self.tree is not None:
+                self.tree.shutdown()
+            if self._own_sources:
+                for s in self.sources:
+                    s.close()
+            self.world.close()
 
     # -- what viewers read -------------------------------------------------------------------------
     @property
     def root(self) -> py_trees.behaviour.Behaviour:
-        assert self.tree is not None, "call setup() first"
+        assert self.tree is not None, "no tree: call setup() first (or this runner perceives only)"
         return self.tree.root
 
     def snapshot(self) -> dict[str, Any]:
-        """The tree with statuses and feedback, plus the mission state (JSON-serialisable)."""
+        """The tree with statuses and feedback, the mission state and perception's last line (JSON)."""
+        last = self.perception.last if self.perception is not None else None
         return {
             "tick": self.ticks,
             "clock": bbk.get(self.bb, bbk.CLOCK, 0.0),
             "state": bbk.get(self.bb, bbk.STATE, ""),
-            "tree": snapshot(self.root),
+            "perception": last.summary if last is not None else "",
+            "tree": snapshot(self.root) if self.tree is not None else None,
         }
 
     def active_branch(self) -> list[str]:
-        return active_branch(self.root)
+        return active_branch(self.root) if self.tree is not None else []
 
     def get(self, key: bbk.Key, default: Any = None) -> Any:
         return bbk.get(self.bb, key, default)

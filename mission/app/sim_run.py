@@ -6,6 +6,7 @@ run are the same code path.
 
 from __future__ import annotations
 
+import signal
 import time
 from dataclasses import dataclass, field
 from importlib import resources
@@ -15,8 +16,8 @@ from typing import Any
 import py_trees
 
 from mission.app.metrics import DockErrors, MetricsRecorder
-from mission.app.observers import TickObserver
-from mission.app.runner import TreeRunner
+from mission.app.observers import RunObserver
+from mission.app.runner import Pacer, TreeRunner
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
@@ -47,6 +48,8 @@ class RunOutcome:
     metrics: dict[str, Any]
     perception_stats: dict[str, int] = field(default_factory=dict)
     faults: dict[str, Any] = field(default_factory=dict)  # scenario `faults:`: injected vs counted (sim/faults.py)
+    interrupted: bool = False  # SIGINT/SIGTERM ended the run early; what was measured so far is reported
+    stop_signal: str | None = None  # SIGINT | SIGTERM when interrupted
 
     def to_json(self) -> dict[str, Any]:
         return dict(self.__dict__)
@@ -122,61 +125,67 @@ def run_scenario(
     tree: str | None = None,
     seed: int = 0,
     max_duration: float | None = None,
-    observers: list[TickObserver] | None = None,
+    observers: list[RunObserver] | None = None,
+    pacer: Pacer | None = None,
 ) -> tuple[RunOutcome, MetricsRecorder, SimAdapter]:
-    """Run one scenario headless and measure it. Raises MissionError on config/tree problems."""
+    """Run one scenario headless and measure it. Raises MissionError on config/tree problems.
+
+    SIGINT/SIGTERM end the run early: the outcome covers what ran, with ``interrupted`` set."""
     scenario = load_scenario(scenario_name)
     config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
     config = load_config(config_path)
     scenario = apply_overrides(scenario, config.sim, file=str(config_path))
     adapter = SimAdapter(scenario, seed=seed)
-    runner = TreeRunner(config, adapter, choose_tree(tree, config, scenario), config_file=config_path)
-    observers = observers or []
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
     recorder = MetricsRecorder(dock_standoff_m=float(getattr(success_spec, "standoff_m", 0.30) or 0.30))
+    runner = TreeRunner(config, adapter, choose_tree(tree, config, scenario), config_file=config_path,
+                        observers=[recorder, *(observers or [])])  # fmt: skip
     duration = float(max_duration or scenario.duration_s)
-    dt = 1.0 / config.run.tick_hz
-    status = py_trees.common.Status.RUNNING
-    gt = None
     wall0 = time.perf_counter()
-    runner.setup()
-    wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
     try:
-        for o in observers:
-            o.on_start(runner, adapter)
-        t0 = None
-        while True:
-            status = runner.tick()
-            gt = adapter.ground_truth()
-            t0 = gt.stamp if t0 is None else t0
-            recorder.record(gt, runner.get(bbk.STATE, ""), runner.get(bbk.NAV_GOAL), runner.get(bbk.TRACKS))
-            for o in observers:
-                o.on_tick(runner, adapter, gt)
-            if status != py_trees.common.Status.RUNNING or gt.stamp - t0 >= duration:
-                break
-            adapter.advance(dt)
-        final_state = runner.get(bbk.STATE, "")
-        recorder.finish(gt, final_state)
-        sim_time = 0.0 if gt is None or t0 is None else gt.stamp - t0
-        summary = recorder.summary(sim_time)
-        ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time)
-        outcome = RunOutcome(
-            scenario=scenario.name,
-            seed=seed,
-            success=ok,
-            reason=reason,
-            tree_status=status.name,
-            final_state=final_state,
-            sim_time_s=round(sim_time, 3),
-            wall_time_s=round(time.perf_counter() - wall0, 3),
-            ticks=runner.ticks,
-            metrics=summary,
-            perception_stats=dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}),
-            faults=fault_summary(adapter.faults, dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}), runner.sources),
-        )
-        for o in observers:
-            o.on_end(runner, adapter, outcome)
+        runner.setup()
+        wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
+        status = runner.run(until=duration, pacer=pacer)
+        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0)
+        runner.finish(outcome)
         return outcome, recorder, adapter
     finally:
         runner.close()
+
+
+def _outcome(
+    runner: TreeRunner,
+    adapter: SimAdapter,
+    recorder: MetricsRecorder,
+    kind: str,
+    status: py_trees.common.Status,
+    scenario: str,
+    seed: int,
+    wall0: float,
+) -> RunOutcome:
+    final_state = runner.get(bbk.STATE, "")
+    sim_time = runner.elapsed()
+    recorder.finish(recorder.last_ground_truth, final_state)
+    summary = recorder.summary(sim_time)
+    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time)
+    stats = dict(runner.get(bbk.PERCEPTION_STATS, {}) or {})
+    signum = runner.stop_signal
+    if signum is not None:
+        ok, reason = False, f"interrupted by {signal.Signals(signum).name} after {sim_time:.1f} s ({reason})"
+    return RunOutcome(
+        scenario=scenario,
+        seed=seed,
+        success=ok,
+        reason=reason,
+        tree_status=status.name,
+        final_state=final_state,
+        sim_time_s=round(sim_time, 3),
+        wall_time_s=round(time.perf_counter() - wall0, 3),
+        ticks=runner.ticks,
+        metrics=summary,
+        perception_stats=stats,
+        faults=fault_summary(adapter.faults, stats, runner.sources),
+        interrupted=signum is not None,
+        stop_signal=signal.Signals(signum).name if signum is not None else None,
+    )

@@ -40,5 +40,8 @@ def main(args: argparse.Namespace) -> int:
         f"{dropped} messages dropped, {result.ticks} ticks, mission state {result.mission_state or '-'}, "
         f"commands {result.commands or '{}'}"
     )
+    if result.interrupted:
+        summary = f"interrupted: {summary}"
     print(summary, file=sys.stderr if args.json else sys.stdout)
-    return 0
+    # the shell's convention for a run a signal ended: 128 + the signal (130 SIGINT, 143 SIGTERM)
+    return 128 + result.stop_signal if result.stop_signal is not None else 0

@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
-from mission.app.observers import TickObserver
+from mission.app.observers import RunObserver
 from mission.app.report import plot_timeline, plot_trajectories, write_json
+from mission.app.runner import WallClockPacer
 from mission.app.sim_run import run_scenario
 
 DEFAULT_SCENARIO = "mission_full"
 
 
-def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
-    observers: list[TickObserver] = []
+def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
+    observers: list[RunObserver] = []
     if not args.quiet:
         from mission.app.live_status import LiveStatus
 
@@ -23,7 +25,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
     if getattr(args, "serve", False):
         from mission.viz.web import LiveView
 
-        observers.append(LiveView(args.port, realtime=True, hold=sys.stdin.isatty()))
+        observers.append(LiveView(args.port, hold=sys.stdin.isatty()))
     if getattr(args, "log", None):
         from mission.viz.tick_log import TickLog
 
@@ -46,6 +48,8 @@ def _observers(args: argparse.Namespace, label: str) -> list[TickObserver]:
 def main(args: argparse.Namespace) -> int:
     scenario = args.scenario or DEFAULT_SCENARIO
     label = f"{Path(scenario).stem} seed {args.seed}"
+    # --serve: simulated time at wall-clock speed, so the page can be watched
+    pacer = WallClockPacer(1.0) if getattr(args, "serve", False) else None
     outcome, recorder, adapter = run_scenario(
         scenario,
         config_file=args.config,
@@ -53,16 +57,17 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         max_duration=args.max_duration,
         observers=_observers(args, label),
+        pacer=pacer,
     )
+    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     if args.report:
         out = Path(args.report)
         write_json(out / "report.json", outcome.to_json())
         gt_dock = getattr(adapter, "dock_xy", None)
-        title = f"{outcome.scenario} seed {outcome.seed}: {'SUCCESS' if outcome.success else 'FAILURE'}"
+        title = f"{outcome.scenario} seed {outcome.seed}: {verdict}"
         plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title, gt_dock)
         plot_timeline(recorder, out / "timeline.png", title)
     m = outcome.metrics
-    verdict = "SUCCESS" if outcome.success else "FAILURE"
     print(
         f"{verdict}: {label}: {outcome.reason} "
         f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
@@ -70,4 +75,6 @@ def main(args: argparse.Namespace) -> int:
         + (f"; report in {args.report}/" if args.report else "")
     )
     sys.stdout.flush()
+    if outcome.interrupted:  # the shell's convention: 128 + the signal (130 SIGINT, 143 SIGTERM)
+        return 128 + int(signal.Signals[outcome.stop_signal or "SIGINT"])
     return 0 if outcome.success else 1

@@ -1,11 +1,15 @@
 """The world-adapter contract: the only code that knows where data comes from and where commands go.
 
-A runner drives every world the same way, once per tick::
+The runner (mission/app/runner.py) drives every world the same way, once per step::
 
     adapter.sense(bb)   # newest frame, robot state, scan, map, clock, navigator status → blackboard
+    (perception)        # the runner's perception stage on a new frame → detections, tracks
     tree.tick()         # behaviours read the blackboard and write intent (/goal/*)
     adapter.act(bb)     # intent → the simulated base / Nav2 goal_pose, cmd_vel, docking
     adapter.advance(dt) # simulated worlds step time; live worlds return at once
+
+Optional: ``ground_truth()`` (a simulated world: what really is, for metrics and pictures) and
+``exhausted`` (a world that can run out, such as a bag: True once it has, and the loop ends).
 
 Implementations: ``mission.sim.adapter.SimAdapter`` (pybullet), ``mission.ros.adapter`` (rclpy) and replay.
 """
@@ -30,6 +34,9 @@ class WorldAdapter(Protocol):
 
     def advance(self, dt: float) -> None:
         """Let `dt` seconds of world time pass (a no-op for live worlds that run on their own clock)."""
+
+    def now(self) -> float:
+        """The world's time now (sim time, ROS time, the bag's time), seconds."""
 
     def close(self) -> None:
         """Release the world (disconnect, stop threads)."""

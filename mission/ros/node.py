@@ -2,14 +2,15 @@
 
 ``install/mission/lib/mission/tree`` (colcon) and ``mission tree`` both run :func:`main`.
 
-Each tick (``tick_hz``): the ROS adapter writes the newest frame, odometry, scan and map to the
-blackboard, the tree ticks (its PerceiveTargets leaf runs the perception sources on the frame), the
-adapter publishes the tree's commands, and the node publishes what perception found in that frame:
-``/marker_detected`` (on transitions), ``/aruco/debug`` (observations), ``/detected_aruco_pose``,
-``/aruco_poses`` and ``/tf``. A 1 Hz timer publishes the heartbeat with the counters; ``/mission/tree``
-carries the tree snapshot when it changes (at most 2 Hz, latched for late viewers).
+The node is wiring around the one loop (mission/app/runner.py): each timer tick (``tick_hz``) is one
+``runner.step()`` — the ROS adapter writes the newest frame, odometry, scan and map to the blackboard,
+the perception stage turns a new frame into detections and tracks, the tree ticks, the adapter
+publishes the tree's commands. Observers publish the rest (mission/ros/outputs.py): what perception
+found in each frame (``/marker_detected`` on transitions, ``/aruco/debug``, ``/detected_aruco_pose``,
+``/aruco_poses``, ``/tf``) and ``/mission/tree`` when the tree changes (at most 2 Hz, latched). A 1 Hz
+timer publishes the heartbeat with the counters.
 
-``tree:=none`` runs perception only (mission/ros/perception_only.xml): the design notes' aruco_pose_streamer.
+``tree:=none`` runs perception only, with no tree: the design notes' aruco_pose_streamer.
 """
 
 from __future__ import annotations
@@ -20,21 +21,16 @@ import difflib
 import json
 import math
 import sys
-import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
 from mission.core.errors import ConfigError, MissionError
 from mission.core.perception import PerceptionSource
-from mission.core.types import Detection, Frame
 from mission.ros import dds
 
 NODE_NAME = "mission_tree"
-PERCEPTION_ONLY_TREE = Path(__file__).resolve().parent / "perception_only.xml"
-TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
 
 # name → (default, description): the node's ROS parameters (the README's table lists the same)
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -158,22 +154,17 @@ class MissionNode:
         self.log = self.node.get_logger()
         self.runner = None
         self.sources: list[PerceptionSource] = []
-        self._processed = 0
         self._ticks_failed = 0
-        self._last_tree_json = ""
-        self._last_tree_pub = -math.inf
-        self._tree_pending = False
         self._tick_errors: set[str] = set()
         self.live_view: Any = None
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
-        from rclpy.qos import QoSProfile
-
+        """Check the parameters, then wire the one loop: world, runner, observers, timers."""
         from mission.app.runner import TreeRunner
-        from mission.ros.adapter import LATCHED, RELIABLE, RosAdapter
-        from mission.ros.marker_outputs import VisibilityEdge
+        from mission.ros.adapter import RELIABLE, RosAdapter
         from mission.ros.messages import RclpyMessages
+        from mission.ros.outputs import PerceptionOutputs, TreePublisher
         from mission.ros.tf_support import load_tf_message
         from mission.ros.world_io import RosTopics
 
@@ -182,12 +173,6 @@ class MissionNode:
         config, config_file = build_config(p)
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
-        if self.perception_only:
-            tree = str(PERCEPTION_ONLY_TREE)
-        from mission.perception_plugins import registry
-
-        # a bad param is an error naming the config file and key; an unknown dictionary only warns
-        self.sources = registry.create_all(config.perception.sources, file=config_file)
         topics = RosTopics(
             image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
             odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
@@ -196,128 +181,58 @@ class MissionNode:
             camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]], goal_tolerance_m=float(p["goal_tolerance_m"]),
         )  # fmt: skip
         self.adapter = RosAdapter(n, topics)
-        self.runner = TreeRunner(config, self.adapter, tree or None, config_file=config_file, sources=self.sources)
-        self.runner.setup()
-        self.config = config
-
         self.msgs = RclpyMessages()
-        m = self.msgs
-        reliable, latched = RELIABLE, LATCHED
-        self.pub_marker = n.create_publisher(m.cls("std_msgs/msg/Bool"), "/marker_detected", reliable)
-        self.pub_debug = n.create_publisher(m.cls("std_msgs/msg/String"), "/aruco/debug", reliable)
-        self.pub_target = n.create_publisher(m.cls("geometry_msgs/msg/PoseStamped"), "/detected_aruco_pose", reliable)
-        self.pub_poses = n.create_publisher(m.cls("geometry_msgs/msg/PoseArray"), "/aruco_poses", reliable)
-        self.pub_tree = n.create_publisher(m.cls("std_msgs/msg/String"), "/mission/tree", latched)
-        self.pub_dock = None
-        if self.perception_only:
-            self.pub_dock = self.adapter.publishers["dock"]
-        self.sub_redetect = n.create_subscription(m.cls("std_msgs/msg/Empty"), "/mission/redetect",
-                                                  self._on_redetect, reliable)  # fmt: skip
-        self.pub_tf = None
         tf = load_tf_message()
-        if tf.message is not None:
-            try:
-                self.pub_tf = n.create_publisher(tf.message, "/tf", QoSProfile(depth=100))
-                self.tf_message = tf.message
-                self.log.info(f"/tf: publishing marker frames ({tf.detail})")
-            except Exception as err:  # a tf2_msgs whose type support does not load: run without TF
-                self.log.warning(f"/tf disabled: {tf.detail} does not work here: {err}")
-        else:
+        tf_message = tf.message
+        if tf_message is None:
             self.log.warning(f"/tf disabled: {tf.detail}")
-        self.edge = VisibilityEdge()
-
+        else:
+            self.log.info(f"/tf: publishing marker frames ({tf.detail})")
+        self.outputs = PerceptionOutputs(
+            n, self.msgs, camera_frame=topics.camera_frame, has_target="target" in config.perception.targets,
+            emit_dock=self.adapter.emit if self.perception_only else None, tf_message=tf_message,
+        )  # fmt: skip
+        observers: list[Any] = [self.outputs]
+        if not self.perception_only:
+            observers.append(TreePublisher(n, self.msgs))
         if int(p["serve_port"]) > 0:
-            from mission.viz.web import LiveView
+            if self.perception_only:
+                self.log.warning("serve_port: the live view shows a tree, and tree:=none runs none; not serving")
+            else:
+                from mission.viz.web import LiveView
 
-            self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
-            self.live_view.on_start(self.runner, self.adapter)
-            self.log.info(f"live view at {self.live_view.url}")
+                self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
+                observers.append(self.live_view)
+                self.log.info(f"live view at {self.live_view.url}")
+        # a bad param is an error naming the config file and key; an unknown dictionary only warns
+        self.runner = TreeRunner(config, self.adapter, None if self.perception_only else (tree or None),
+                                 config_file=config_file, observers=observers,
+                                 perception_only=self.perception_only)  # fmt: skip
+        self.runner.setup()
+        self.sources = self.runner.sources
+        self.config = config
+        self.sub_redetect = n.create_subscription(self.msgs.cls("std_msgs/msg/Empty"), "/mission/redetect",
+                                                  self._on_redetect, RELIABLE)  # fmt: skip
         tick_hz = float(p["tick_hz"]) or float(config.run.tick_hz)
         self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)
         self.heartbeat_timer = n.create_timer(1.0, self._on_heartbeat)
         names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
+        what = "perception only" if self.perception_only else f"tree {self.runner.tree_path}"
         self.log.info(
-            f"{NODE_NAME}: tree {self.runner.tree_path} at {tick_hz:g} Hz; sources: {names}; "
+            f"{NODE_NAME}: {what} at {tick_hz:g} Hz; sources: {names}; "
             f"image {topics.image_topic}, camera info {topics.camera_info_topic}, camera frame {topics.camera_frame}"
         )
 
     # -- callbacks ---------------------------------------------------------------------------------
     def _on_tick(self) -> None:
         try:
-            self.runner.tick()
-            self._publish_perception()
-            self._publish_tree()
-            if self.live_view is not None:
-                self.live_view.on_tick(self.runner, self.adapter, None)
+            self.runner.step()
         except Exception as err:  # a failing tick must not take the node down: count, log once per kind
             self._ticks_failed += 1
             kind = f"{type(err).__name__}: {err}"
             if kind not in self._tick_errors:
                 self._tick_errors.add(kind)
                 self.log.error(f"tick failed ({kind}); further identical errors are counted, not logged")
-
-    def _publish_perception(self) -> None:
-        stats = self.runner.get(bbk.PERCEPTION_STATS, {}) or {}
-        processed = int(stats.get("frames_processed", 0))
-        if processed == self._processed:
-            return
-        self._processed = processed
-        frame: Frame | None = self.runner.get(bbk.FRAME)
-        detections: list[Detection] = list(self.runner.get(bbk.DETECTIONS, []) or [])
-        if frame is None:
-            return
-        self.publish_frame_outputs(frame, detections)
-
-    def publish_frame_outputs(self, frame: Frame, detections: list[Detection]) -> None:
-        from mission.ros.conversions import matrix_to_pose, pose_stamped, transform_stamped
-        from mission.ros.marker_outputs import current_detection, detection_matrix, observation_json, tf_child_frames
-        from mission.ros.messages import header_msg
-
-        m = self.msgs
-        changed = self.edge.update(bool(detections))
-        if changed is not None:
-            self.pub_marker.publish(m.new("std_msgs/msg/Bool", data=changed))
-        if not detections:
-            return
-        frame_id, stamp = frame.frame_id or self.params["camera_frame"], float(frame.stamp)
-        self.pub_debug.publish(
-            m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
-        )
-        self.pub_poses.publish(m.new(
-            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
-            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
-        ))  # fmt: skip
-        tracks = self.runner.get(bbk.TRACKS, {}) or {}
-        if "target" in self.config.perception.targets:
-            target = current_detection(tracks, "target", stamp)
-        else:
-            target = min(detections, key=lambda d: d.distance)
-        if target is not None:
-            self.pub_target.publish(pose_stamped(m, detection_matrix(target), stamp, frame_id))
-        if self.pub_dock is not None:
-            dock = current_detection(tracks, "dock", stamp)
-            if dock is not None:
-                self.pub_dock.publish(pose_stamped(m, detection_matrix(dock), stamp, frame_id))
-        if self.pub_tf is not None:
-            transforms = [
-                transform_stamped(m, detection_matrix(d), stamp, frame_id, child)
-                for d in detections
-                for child in tf_child_frames(d)
-            ]
-            if transforms:
-                self.pub_tf.publish(self.tf_message(transforms=transforms))
-
-    def _publish_tree(self) -> None:
-        snap = self.runner.snapshot()
-        body = json.dumps({k: v for k, v in snap.items() if k not in ("tick", "clock")}, sort_keys=True)
-        if body != self._last_tree_json:
-            self._last_tree_json = body
-            self._tree_pending = True
-        now = time.monotonic()
-        if self._tree_pending and now - self._last_tree_pub >= TREE_PUBLISH_PERIOD_S:
-            self._tree_pending = False
-            self._last_tree_pub = now
-            self.pub_tree.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
 
     def counters(self) -> dict[str, Any]:
         stats = dict(self.runner.get(bbk.PERCEPTION_STATS, {}) or {}) if self.runner else {}
@@ -329,7 +244,7 @@ class MissionNode:
             "frames_received": cache.received.get("image", 0),
             "frames_processed": int(stats.get("frames_processed", 0)),
             "frames_dropped": cache.images_dropped,
-            "marker_visible": self.edge.visible,
+            "marker_visible": self.outputs.edge.visible,
             "ticks_failed": self._ticks_failed,
             **cache.to_json(),
             "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
@@ -338,7 +253,7 @@ class MissionNode:
     def _on_heartbeat(self) -> None:
         from mission.ros.marker_outputs import heartbeat_json
 
-        self.pub_debug.publish(
+        self.outputs.pub_debug.publish(
             self.msgs.new("std_msgs/msg/String", data=json.dumps(heartbeat_json(NODE_NAME, self.counters())))
         )
 
@@ -361,15 +276,13 @@ class MissionNode:
             self.rclpy.spin(self.node)
 
     def close(self) -> None:
-        if self.live_view is not None:
-            self.live_view.close()
         if self.runner is not None:
             try:
-                self.runner.close()
+                self.runner.close()  # observers end, sources close, the world lets go of its topics
             except Exception as err:  # closing must not hide the reason we stopped
                 self.log.warning(f"closing the runner: {err}")
-        for s in self.sources:
-            s.close()
+        if self.live_view is not None:
+            self.live_view.close()
         self.node.destroy_node()
 
 

@@ -1,11 +1,12 @@
 """Running the tree on a recorded rosbag2 (mcap or sqlite3), through the same code as the live node.
 
 The bag's messages go into the ROS adapter's :class:`~mission.ros.sensor_cache.SensorCache` (same
-conversions, same pairing by stamp, same drop counters) and the tree ticks once per camera image, so
-every recorded frame is processed exactly once, as fast as possible (``rate=0``) or paced to the
-recorded timing (``rate=1.0`` is real time). The world does not answer the tree's commands — a bag is
-open loop — so replay is for perception and decision logic, not for closing the loop. Needs only
-``rosbags`` (no ROS install).
+conversions, same pairing by stamp, same drop counters) and the runner's one loop steps once per camera
+image (the world's ``advance`` plays the bag up to the next image), so every recorded frame is
+perceived exactly once, as fast as possible (``rate=0``) or paced to the recorded timing (``rate=1.0``
+is real time). SIGINT/SIGTERM end the replay after the current frame with what was replayed so far.
+The world does not answer the tree's commands — a bag is open loop — so replay is for perception and
+decision logic, not for closing the loop. Needs only ``rosbags`` (no ROS install).
 """
 
 from __future__ import annotations
@@ -19,10 +20,12 @@ from typing import Any
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from mission.app.observers import RunObserver
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
-from mission.core.types import Detection, Frame
+from mission.core.types import Detection
+from mission.perception_plugins.pipeline import Perceived
 from mission.ros.messages import BagMessages
 from mission.ros.world_io import CachedWorld, RosTopics
 
@@ -51,6 +54,8 @@ class ReplayResult:
     stats: dict[str, Any] = field(default_factory=dict)
     wall_s: float = 0.0
     bag_s: float = 0.0
+    interrupted: bool = False  # SIGINT/SIGTERM ended the replay before the bag's end
+    stop_signal: int | None = None  # which one
 
 
 def _open_reader(path: Path) -> AnyReader:
@@ -75,6 +80,7 @@ class BagWorld(CachedWorld):
     """A WorldAdapter that plays a bag: ``step()`` feeds messages up to and including the next image."""
 
     def __init__(self, path: str | Path, topics: RosTopics | None = None, warn: Any = lambda message: None) -> None:
+        self.exhausted = False  # the bag has no image left: the loop ends
         super().__init__(topics or RosTopics(), BagMessages(get_typestore(Stores.ROS2_JAZZY)), warn=warn)
         self.path = Path(path)
         self.reader: AnyReader | None = None
@@ -103,6 +109,11 @@ class BagWorld(CachedWorld):
             topics = ", ".join(sorted({c.topic for c in self.reader.connections})) or "none"
             raise MissionError(f"{self.path}: no {t.image_topic} in this bag (topics: {topics})")
         self._messages = iter(self.reader.messages(connections=conns))
+        self.exhausted = not self.step()  # the first image and what came with it, for the first sense()
+
+    def advance(self, dt: float) -> None:
+        """Play the bag up to the next image (a bag's time moves by messages, not by `dt`)."""
+        self.exhausted = not self.step()
 
     def step(self) -> bool:
         """Feed messages up to the next image, plus the non-image messages logged up to ``LOOKAHEAD_S``
@@ -139,6 +150,22 @@ class BagWorld(CachedWorld):
             self.reader = None
 
 
+class _Frames(RunObserver):
+    """Collects what perception made of each replayed frame (and hands it to `on_frame` as it comes)."""
+
+    def __init__(self, on_frame: Callable[[FrameResult], None] | None) -> None:
+        self.frames: list[FrameResult] = []
+        self.on_frame = on_frame
+
+    def on_perception(self, run: Any, perceived: Perceived) -> None:
+        if not perceived.processed or perceived.frame is None:
+            return
+        fr = FrameResult(float(perceived.frame.stamp), perceived.frame.frame_id, list(perceived.detections))
+        self.frames.append(fr)
+        if self.on_frame is not None:
+            self.on_frame(fr)
+
+
 def replay(
     path: str | Path,
     config: MissionConfig,
@@ -149,36 +176,28 @@ def replay(
     on_frame: Callable[[FrameResult], None] | None = None,
     warn: Callable[[str], None] = lambda message: None,
 ) -> ReplayResult:
-    """Tick the tree once per recorded image; report each processed frame's detections."""
-    from mission.app.runner import TreeRunner
+    """Step the runner once per recorded image; report each processed frame's detections."""
+    from mission.app.runner import TreeRunner, WallClockPacer
 
     world = BagWorld(path, warn=warn)
-    runner = TreeRunner(config, world, tree, config_file=config_file)
+    frames = _Frames(on_frame)
+    runner = TreeRunner(config, world, tree, config_file=config_file, observers=[frames])
     result = ReplayResult()
     start = time.monotonic()
-    runner.setup()
-    processed = 0
     try:
-        while world.step():
-            if rate > 0 and world.first_stamp is not None:
-                ahead = (world.clock - world.first_stamp) / rate - (time.monotonic() - start)
-                if ahead > 0:
-                    time.sleep(ahead)  # pacing to the recorded rate, by request
-            status = runner.tick()
-            result.status = status.name
-            stats = runner.get(bbk.PERCEPTION_STATS, {}) or {}
-            if int(stats.get("frames_processed", 0)) != processed:
-                processed = int(stats.get("frames_processed", 0))
-                frame: Frame = runner.get(bbk.FRAME)
-                fr = FrameResult(float(frame.stamp), frame.frame_id, list(runner.get(bbk.DETECTIONS, []) or []))
-                result.frames.append(fr)
-                if on_frame is not None:
-                    on_frame(fr)
+        runner.setup()
+        if not world.exhausted:
+            pacer = WallClockPacer(rate, runner.stop_requested) if rate > 0 else None
+            result.status = runner.run(pacer=pacer).name
+        result.frames = frames.frames
         result.ticks = runner.ticks
         result.mission_state = str(runner.get(bbk.STATE, "") or "")
         result.stats = {**dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}), **world.cache.stats.to_json()}
         result.commands = dict(world.commands)
         result.bag_s = 0.0 if world.first_stamp is None else world.clock - world.first_stamp
+        result.interrupted = runner.stop_signal is not None
+        result.stop_signal = runner.stop_signal
+        runner.finish(result)
     finally:
         runner.close()
     result.wall_s = time.monotonic() - start

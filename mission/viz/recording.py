@@ -18,6 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.files import atomic_path
@@ -85,7 +86,7 @@ def compose(
     return body[: h - h % 2, : w - w % 2]  # H.264 wants even sizes
 
 
-class Recorder:
+class Recorder(RunObserver):
     """A TickObserver writing the run to a GIF or MP4 at `fps` frames per simulated second."""
 
     def __init__(self, path: str | Path, fps: float = 5.0, height: int = 300, max_frames: int = 600) -> None:
@@ -115,7 +116,8 @@ class Recorder:
     def is_gif(self) -> bool:
         return self.path.suffix.lower() == ".gif"
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
+        adapter = runner.world
         grid = getattr(adapter, "occupancy_grid", None) or runner.get(bbk.MAP)
         self._view = MapView(grid, size=self.height)
         if not self.is_gif:
@@ -129,7 +131,8 @@ class Recorder:
             except Exception as err:  # imageio-ffmpeg missing or broken
                 raise MissionError(f"--record {self.path}: cannot write MP4 ({err}); record a .gif instead") from err
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        ground_truth = tick.ground_truth
         t = float(getattr(ground_truth, "stamp", None) or runner.get(bbk.CLOCK, 0.0) or 0.0)
         robot, target = self._poses(runner, ground_truth)
         if robot is not None:
@@ -191,7 +194,7 @@ class Recorder:
             self.frames = self.frames[::2]
             self._stride *= 2
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         self.close()
 
     def close(self) -> None:

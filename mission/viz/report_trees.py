@@ -12,6 +12,7 @@ import html
 from pathlib import Path
 from typing import Any
 
+from mission.app.observers import RunObserver, Tick
 from mission.viz.files import write_output
 from mission.viz.model import apply_tick, from_snapshot
 from mission.viz.probe import probe_for, release
@@ -21,7 +22,7 @@ from mission.viz.svg import render_svg
 MAX_MOMENTS = 40  # a flapping state keeps the first ones and the final tick
 
 
-class TransitionTrees:
+class TransitionTrees(RunObserver):
     """A TickObserver that keeps the tree at each state transition and writes them at the end."""
 
     def __init__(self, out_dir: str | Path) -> None:
@@ -33,13 +34,14 @@ class TransitionTrees:
         self._tree: dict[str, Any] | None = None
         self.written: list[Path] = []
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
         self._probe = probe_for(runner)
         from mission.viz.model import to_dict
 
         self._tree = to_dict(self._probe.static)
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        ground_truth = tick.ground_truth
         if self._probe is None:
             return
         rec = self._probe.record(runner, ground_truth)
@@ -49,7 +51,7 @@ class TransitionTrees:
             self.moments.append({**rec, "from": previous})
         self._last_state = rec["state"]
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         if self._probe is not None:
             release(runner)
             self._probe = None

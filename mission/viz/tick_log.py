@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
@@ -74,7 +75,7 @@ def header(runner: Any, adapter: Any, probe: Any, **extra: Any) -> dict[str, Any
     }
 
 
-class TickLog:
+class TickLog(RunObserver):
     """A TickObserver writing a JSON-lines tick log to `path` (every `every`-th tick)."""
 
     def __init__(self, path: str | Path, every: int = 1) -> None:
@@ -89,15 +90,17 @@ class TickLog:
         except OSError as err:
             raise MissionError(f"--log {self.path}: cannot write ({err.strerror or err})") from err
 
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    def on_start(self, runner: Any) -> None:
+        adapter = runner.world
         self._probe = probe_for(runner)
         self._write(header(runner, adapter, self._probe))
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        ground_truth = tick.ground_truth
         if self._probe is not None and runner.ticks % self.every == 0:
             self._write(self._probe.record(runner, ground_truth))
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         if self._probe is not None:
             out = outcome.to_json() if hasattr(outcome, "to_json") else outcome
             self._write({"kind": "end", "outcome": out})

@@ -25,6 +25,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 from urllib.parse import parse_qs, urlparse
 
+from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.viz.html import render_page, tree_svg_for_page
@@ -43,10 +44,11 @@ def _dumps(obj: Any) -> str:
     return json.dumps(obj, separators=(",", ":"), ensure_ascii=False, default=str)
 
 
-class LiveView:
-    """A TickObserver that serves the live page.
+class LiveView(RunObserver):
+    """A run observer that serves the live page (pacing a simulation to be watchable is the runner's
+    WallClockPacer, not this page's job).
 
-    `realtime` paces a simulated run to `speed` × wall-clock time; `hold` keeps serving after the run until
+    `hold` keeps serving after the run until
     Ctrl-C (an interactive `mission run --serve`); `close_at_end` False leaves the server up for the caller
     to :meth:`close` (tests, screenshots, a ROS node that restarts trees).
     """
@@ -55,15 +57,11 @@ class LiveView:
         self,
         port: int = 8765,
         *,
-        realtime: bool = False,
-        speed: float = 1.0,
         hold: bool = False,
         close_at_end: bool = True,
         quiet: bool = False,
     ) -> None:
-        self.realtime = realtime
         self.close_at_end = close_at_end
-        self.speed = max(1e-3, float(speed))
         self.hold = hold
         self.quiet = quiet
         self._cv = threading.Condition()
@@ -76,15 +74,15 @@ class LiveView:
         self._ended = False
         self._closing = False
         self._probe: Any = None
-        self._pace0: tuple[float, float] | None = None
         self.server = _bind(port, self)
         self.port = int(self.server.server_address[1])
         self.url = f"http://{HOST}:{self.port}/"
         self._thread = threading.Thread(target=self.server.serve_forever, name="mission-live-view", daemon=True)
         self._thread.start()
 
-    # -- TickObserver -----------------------------------------------------------------------------
-    def on_start(self, runner: Any, adapter: Any) -> None:
+    # -- RunObserver ------------------------------------------------------------------------------
+    def on_start(self, runner: Any) -> None:
+        adapter = runner.world
         self._probe = probe_for(runner)
         tree = self._probe.static
         with self._cv:
@@ -97,7 +95,8 @@ class LiveView:
         if not self.quiet:
             print(f"mission: live view at {self.url}", file=sys.stderr, flush=True)
 
-    def on_tick(self, runner: Any, adapter: Any, ground_truth: Any) -> None:
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        ground_truth = tick.ground_truth
         if self._probe is None:
             return
         rec = self._probe.record(runner, ground_truth)
@@ -109,10 +108,8 @@ class LiveView:
             if frame is not None:
                 self._frame = (rec["tick"], frame, list(runner.get(bbk.DETECTIONS, []) or []))
             self._cv.notify_all()
-        if self.realtime:
-            self._pace(rec.get("t") or 0.0)
 
-    def on_end(self, runner: Any, adapter: Any, outcome: Any) -> None:
+    def on_end(self, runner: Any, outcome: Any) -> None:
         with self._cv:
             self._ended = True
             self._cv.notify_all()
@@ -129,17 +126,6 @@ class LiveView:
                 pass
         if self.close_at_end or self.hold:
             self.close()
-
-    def _pace(self, sim_t: float) -> None:
-        """Sleep so simulated time runs at `speed` × wall-clock time (a live view you can watch)."""
-        now = time.monotonic()
-        if self._pace0 is None:
-            self._pace0 = (now, sim_t)
-            return
-        wall0, sim0 = self._pace0
-        ahead = (sim_t - sim0) / self.speed - (now - wall0)
-        if ahead > 0:
-            time.sleep(min(ahead, 1.0))
 
     # -- data for handlers --------------------------------------------------------------------------
     def page(self) -> str:

@@ -1,0 +1,130 @@
+"""What the ROS node publishes about a run, as run observers (mission/app/observers.py).
+
+* :class:`PerceptionOutputs` — after every perceived frame: ``/marker_detected`` (on transitions),
+  ``/aruco/debug`` (observations), ``/aruco_poses``, ``/detected_aruco_pose`` (the ``target`` track's
+  detection in this frame, else the nearest detection), ``/tf`` (one frame per marker and label) and,
+  when the node perceives only, the dock's pose through the world (``detected_dock_pose``).
+* :class:`TreePublisher` — ``/mission/tree``: the tree snapshot when it changed, at most 2 Hz, latched.
+
+The payloads are plain data built in :mod:`mission.ros.marker_outputs` (tested without rclpy).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+from mission.app.observers import RunObserver, Tick
+from mission.core import blackboard as bbk
+from mission.perception_plugins.pipeline import Perceived
+from mission.ros.conversions import matrix_to_pose, pose_stamped, transform_stamped
+from mission.ros.marker_outputs import (
+    VisibilityEdge,
+    current_detection,
+    detection_matrix,
+    observation_json,
+    tf_child_frames,
+)
+from mission.ros.messages import RclpyMessages, header_msg
+
+TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
+
+
+class PerceptionOutputs(RunObserver):
+    """Publishes what perception found in each frame (see the module doc)."""
+
+    def __init__(
+        self,
+        node: Any,
+        msgs: RclpyMessages,
+        *,
+        camera_frame: str,
+        has_target: bool,
+        emit_dock: Callable[[str, Any], None] | None = None,
+        tf_message: type | None = None,
+    ) -> None:
+        from mission.ros.adapter import RELIABLE
+
+        self.msgs = msgs
+        self.camera_frame = camera_frame
+        self.has_target = has_target  # the config names a `target`: publish its track, not the nearest
+        self.emit_dock = emit_dock
+        self.tf_message = tf_message
+        cls = msgs.cls
+        self.pub_marker = node.create_publisher(cls("std_msgs/msg/Bool"), "/marker_detected", RELIABLE)
+        self.pub_debug = node.create_publisher(cls("std_msgs/msg/String"), "/aruco/debug", RELIABLE)
+        self.pub_target = node.create_publisher(cls("geometry_msgs/msg/PoseStamped"), "/detected_aruco_pose", RELIABLE)
+        self.pub_poses = node.create_publisher(cls("geometry_msgs/msg/PoseArray"), "/aruco_poses", RELIABLE)
+        self.pub_tf = None
+        if tf_message is not None:
+            from rclpy.qos import QoSProfile
+
+            self.pub_tf = node.create_publisher(tf_message, "/tf", QoSProfile(depth=100))
+        self.edge = VisibilityEdge()
+
+    def on_perception(self, run: Any, perceived: Perceived) -> None:
+        if not perceived.processed or perceived.frame is None:
+            return
+        m, detections = self.msgs, perceived.detections
+        changed = self.edge.update(bool(detections))
+        if changed is not None:
+            self.pub_marker.publish(m.new("std_msgs/msg/Bool", data=changed))
+        if not detections:
+            return
+        frame = perceived.frame
+        frame_id, stamp = frame.frame_id or self.camera_frame, float(frame.stamp)
+        self.pub_debug.publish(
+            m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
+        )
+        self.pub_poses.publish(m.new(
+            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
+            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
+        ))  # fmt: skip
+        tracks = run.get(bbk.TRACKS, {}) or {}
+        if self.has_target:
+            target = current_detection(tracks, "target", stamp)
+        else:
+            target = min(detections, key=lambda d: d.distance)
+        if target is not None:
+            self.pub_target.publish(pose_stamped(m, detection_matrix(target), stamp, frame_id))
+        if self.emit_dock is not None:
+            dock = current_detection(tracks, "dock", stamp)
+            if dock is not None:
+                self.emit_dock("dock", pose_stamped(m, detection_matrix(dock), stamp, frame_id))
+        if self.pub_tf is not None and self.tf_message is not None:
+            transforms = [
+                transform_stamped(m, detection_matrix(d), stamp, frame_id, child)
+                for d in detections
+                for child in tf_child_frames(d)
+            ]
+            if transforms:
+                self.pub_tf.publish(self.tf_message(transforms=transforms))
+
+
+class TreePublisher(RunObserver):
+    """``/mission/tree``: the snapshot when the tree's statuses or feedback changed, at most 2 Hz."""
+
+    def __init__(self, node: Any, msgs: RclpyMessages) -> None:
+        from mission.ros.adapter import LATCHED
+
+        self.msgs = msgs
+        self.pub = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/mission/tree", LATCHED)
+        self._last_body = ""
+        self._last_pub = -math.inf
+        self._pending = False
+
+    def on_tick(self, run: Any, tick: Tick) -> None:
+        snap = run.snapshot()
+        volatile = ("tick", "clock", "perception")  # change every frame; the tree itself may not
+        body = json.dumps({k: v for k, v in snap.items() if k not in volatile}, sort_keys=True)
+        if body != self._last_body:
+            self._last_body = body
+            self._pending = True
+        now = time.monotonic()
+        if self._pending and now - self._last_pub >= TREE_PUBLISH_PERIOD_S:
+            self._pending = False
+            self._last_pub = now
+            self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
