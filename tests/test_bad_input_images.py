@@ -32,7 +32,7 @@ from mission.core.types import CameraIntrinsics, Frame, Pose2D
 from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
-from mission.perception_plugins.vlm_stub import VlmStubSource
+from mission.perception_plugins.vlm.source import VlmStubSource
 from mission.trees.loader import load_tree
 
 S = py_trees.common.Status
@@ -250,7 +250,7 @@ def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_
 ):
     src, clock = vlm(tmp_path)
     try:
-        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm_stub"):
+        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm.source"):
             feed(src, clock, Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth,
                                    VLM_FRAME.T_anchor_camera))  # fmt: skip
         status = src.status()

@@ -20,7 +20,7 @@ from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
 from mission.perception_plugins import registry
-from mission.perception_plugins.vlm_stub import VlmStubSource
+from mission.perception_plugins.vlm.source import VlmStubSource
 
 RED = (30, 30, 200)
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), RED, yaw=0.2)
@@ -401,7 +401,7 @@ def test_the_registry_builds_the_source_and_names_the_config_key(tmp_path):
 
 
 def test_a_custom_client_class_can_replace_the_stub(tmp_path, clock):
-    src = make(tmp_path, clock, client="mission.perception_plugins.vlm_client:ColourShapeClient",
+    src = make(tmp_path, clock, client="mission.perception_plugins.vlm.stub:ColourShapeClient",
                client_params={"pixel_noise": 0.0})
     latch(src, clock)
     assert src.model_calls == 3

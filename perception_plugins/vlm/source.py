@@ -50,10 +50,10 @@ from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Detection, Frame
-from mission.perception_plugins.depth_pose import SurfacePose, depth_at, estimate_surface_pose
-from mission.perception_plugins.quota_store import QuotaStore, default_state_file
-from mission.perception_plugins.vlm_client import ColourShapeClient, VlmClient, known_colours, parse_label
-from mission.perception_plugins.vlm_latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
+from mission.perception_plugins.vlm.latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.quota import QuotaStore, default_state_file
+from mission.perception_plugins.vlm.stub import ColourShapeClient, VlmClient, known_colours, parse_label
 
 log = logging.getLogger(__name__)
 
