@@ -7,7 +7,8 @@ import pytest
 from vlm_scene import Ball, Box, Scene, box_front_face, camera_pose, render
 
 from mission.core import se3
-from mission.perception_plugins.vlm.stub import ColourShapeClient, ObjectQuery, VlmPoint, parse_label
+from mission.perception_plugins.vlm.client import VlmPoint
+from mission.perception_plugins.vlm.stub import ColourShapeClient, ObjectQuery, parse_label
 
 RED = (30, 30, 200)  # BGR
 BLUE = (200, 60, 30)
