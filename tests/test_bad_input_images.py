@@ -32,7 +32,7 @@ from mission.core.types import CameraIntrinsics, Frame, Pose2D
 from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
-from mission.perception_plugins.vlm.source import VlmStubSource
+from mission.perception_plugins.vlm.source import VlmSource
 from mission.trees.loader import load_tree
 
 S = py_trees.common.Status
@@ -196,14 +196,14 @@ class Clock:
         return self.t
 
 
-def vlm(tmp_path: Path) -> tuple[VlmStubSource, Clock]:
+def vlm(tmp_path: Path) -> tuple[VlmSource, Clock]:
     clock = Clock()
     params = {"state_file": str(tmp_path / "quota.json"), "latency_s": 0.0, "miss_rate": 0.0,
               "publish_rate_limit_hz": 1.0, "daily_quota": 100}  # fmt: skip
-    return VlmStubSource(params, name="vlm", clock=clock), clock
+    return VlmSource(params, name="vlm", clock=clock), clock
 
 
-def feed(src: VlmStubSource, clock: Clock, frame: Frame, n: int = 4) -> None:
+def feed(src: VlmSource, clock: Clock, frame: Frame, n: int = 4) -> None:
     for i in range(n):
         src.process(Frame(frame.image, i * 0.1, frame.frame_id, frame.intrinsics, frame.depth,
                           frame.T_anchor_camera, frame.anchor_frame))  # fmt: skip

@@ -1,5 +1,6 @@
-"""The `vlm_stub` source: off-tick model calls, consensus and latch in the map frame, republishing as the
-robot moves, the circuit breaker, and a rate limit and quota that survive restarts.
+"""The `vlm` source, with its default client (the stub): off-tick model calls, consensus and latch in the
+map frame, republishing as the robot moves, the circuit breaker, a rate limit and quota that survive
+restarts, and how the client is chosen.
 
 Scenes are ray-cast RGB-D frames (tests/vlm_scene.py) with exact ground truth; the rate-limit clock is
 a fake one advanced by the test, so nothing sleeps.
@@ -8,6 +9,7 @@ a fake one advanced by the test, so nothing sleeps.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
 import math
 
@@ -20,7 +22,8 @@ from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
 from mission.perception_plugins import registry
-from mission.perception_plugins.vlm.source import VlmStubSource
+from mission.perception_plugins.vlm.client import BUILTIN_CLIENTS
+from mission.perception_plugins.vlm.source import VlmSource
 
 RED = (30, 30, 200)
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), RED, yaw=0.2)
@@ -38,7 +41,7 @@ class FakeClock:
         return self.t
 
 
-def make(tmp_path, clock: FakeClock, **params) -> VlmStubSource:
+def make(tmp_path, clock: FakeClock, **params) -> VlmSource:
     base = {
         "state_file": str(tmp_path / "quota.json"),
         "latency_s": 0.0,
@@ -47,10 +50,10 @@ def make(tmp_path, clock: FakeClock, **params) -> VlmStubSource:
         "publish_rate_limit_hz": 1.0,
         "daily_quota": 100,
     }
-    return VlmStubSource({**base, **params}, name="vlm", clock=clock)
+    return VlmSource({**base, **params}, name="vlm", clock=clock)
 
 
-def step(src: VlmStubSource, frame: Frame, clock: FakeClock, dt: float = 1.0) -> list:
+def step(src: VlmSource, frame: Frame, clock: FakeClock, dt: float = 1.0) -> list:
     """One tick: process the frame, let the model call in flight finish, move the clock on."""
     out = src.process(frame)
     assert src.wait_idle(timeout=10.0)
@@ -72,7 +75,7 @@ def view(
     return dataclasses.replace(_RENDERS[key], stamp=stamp), cam
 
 
-def latch(src: VlmStubSource, clock: FakeClock, max_frames: int = 10) -> list:
+def latch(src: VlmSource, clock: FakeClock, max_frames: int = 10) -> list:
     """Feed views from the start pose until the source latches; the detections of the latching frame."""
     for i in range(max_frames):
         frame, _ = view(0.0, stamp=i * 0.1)
@@ -255,7 +258,7 @@ def test_a_restarted_source_keeps_the_quota_and_rate_limit(tmp_path, clock):
 
 
 def test_with_the_frame_clock_budget_and_latency_run_on_frame_stamps_and_nothing_is_persisted(tmp_path):
-    src = VlmStubSource({"state_file": str(tmp_path / "q.json"), "clock": "frame", "latency_s": 0.5,
+    src = VlmSource({"state_file": str(tmp_path / "q.json"), "clock": "frame", "latency_s": 0.5,
                          "publish_rate_limit_hz": 1.0, "miss_rate": 0.0, "pixel_noise": 0.0}, name="vlm")  # fmt: skip
     frame = view(0.0)[0]
     calls, answers = [], []
@@ -385,19 +388,32 @@ def test_without_latching_each_answer_is_emitted_once_for_a_moving_target(tmp_pa
 )
 def test_a_bad_param_is_a_config_error_naming_the_key(tmp_path, params, key):
     with pytest.raises(ConfigError) as err:
-        VlmStubSource({"state_file": str(tmp_path / "q.json"), **params})
+        VlmSource({"state_file": str(tmp_path / "q.json"), **params})
     assert err.value.key == key
 
 
 def test_the_registry_builds_the_source_and_names_the_config_key(tmp_path):
-    src = registry.create(SourceConfig(plugin="vlm_stub", params={"state_file": str(tmp_path / "q.json")}))
-    assert isinstance(src, VlmStubSource) and src.name == "vlm_stub"
+    src = registry.create(SourceConfig(plugin="vlm", params={"state_file": str(tmp_path / "q.json")}))
+    assert isinstance(src, VlmSource) and src.name == "vlm" and src.params.client == "stub"
     assert src.params.publish_rate_limit_hz == 0.025 and src.params.daily_quota == 20
     assert src.params.min_consecutive_detections == 3 and src.params.latch_position_tolerance_m == 0.10
     assert src.params.republish_rate_hz == 30.0 and src.params.max_failed_latch_attempts == 5
     src.close()
     with pytest.raises(ConfigError, match=r"perception\.sources\.params\.daily_quota"):
-        registry.create(SourceConfig(plugin="vlm_stub", params={"daily_quota": "lots"}))
+        registry.create(SourceConfig(plugin="vlm", params={"daily_quota": "lots"}))
+
+
+def test_configs_that_name_the_old_plugin_vlm_stub_get_the_same_source_with_the_stub_client(tmp_path):
+    assert registry.load_class("vlm_stub") is registry.load_class("vlm") is VlmSource
+    src = registry.create(SourceConfig(plugin="vlm_stub", params={"state_file": str(tmp_path / "q.json")}))
+    assert src.name == "vlm_stub" and src.params.client == "stub"
+    src.close()
+
+
+def test_every_built_in_client_name_resolves_to_a_factory():
+    for name, path in BUILTIN_CLIENTS.items():
+        module, attr = path.split(":")
+        assert callable(getattr(importlib.import_module(module), attr)), name
 
 
 def test_a_custom_client_class_can_replace_the_stub(tmp_path, clock):

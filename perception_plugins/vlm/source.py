@@ -18,7 +18,7 @@ the ``client`` param chooses one, the colour-and-shape stub in stub.py by defaul
 * the camera's anchor pose comes with each frame (``Frame.T_anchor_camera`` / ``Frame.anchor_frame``,
   filled by the world adapter); when it is missing at an attempt, the attempt fails, and after
   ``max_failed_latch_attempts`` consecutive failures the circuit breaker stops all model calls until
-  :meth:`VlmStubSource.reset_latch` (the /mission/redetect request).
+  :meth:`VlmSource.reset_latch` (the /mission/redetect request).
 
 A latched pose is only right while the target stays put. So, while latched, the source checks the depth
 image where the target should appear: nearer than expected means something is in front (occluded: not
@@ -58,10 +58,10 @@ log = logging.getLogger(__name__)
 
 
 class VlmParams(StrictModel):
-    """Params of the `vlm_stub` source (defaults follow the design notes' Gemini node)."""
+    """Params of the `vlm` source (defaults follow the design notes' Gemini node)."""
 
-    target_label: str = Field("red box", min_length=1)  # what to find: a colour word + optional shape word
-    client: str = "stub"  # "stub", or "package.module:Class" of a VlmClient built with client_params
+    target_label: str = Field("red box", min_length=1)  # what to find (client stub: a colour word + optional shape)
+    client: str = "stub"  # "stub" (built in), or "package.module:Class" of a VlmClient built with client_params
     client_params: dict[str, Any] = Field(default_factory=dict)  # keyword arguments for the client's constructor
     confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
@@ -70,7 +70,8 @@ class VlmParams(StrictModel):
     # "wall": budget and latency in wall-clock time, budget persisted (a real model); "frame": in frame
     # stamps, nothing persisted — a simulation's time base, so seeded sim runs repeat whatever the CPU speed
     clock: Literal["wall", "frame"] = "wall"  # wall: real time, quota on disk; frame: frame stamps (sim)
-    # the stub's imitation of a remote model
+    # client stub: its imitation of a remote model (other clients take client_params; latency_s also paces
+    # answers with clock: frame)
     latency_s: float = Field(1.0, ge=0.0)  # seconds from request to answer
     miss_rate: float = Field(0.05, ge=0.0, le=1.0)  # fraction of calls answered with nothing
     pixel_noise: float = Field(2.0, ge=0.0)  # px, standard deviation
@@ -124,19 +125,20 @@ def colour_image_problem(image: object) -> str | None:
     return None
 
 
-class VlmStubSource:
-    """A VLM-style source: a few rate-limited model calls, a consensus, then a latched pose re-emitted
-    as the robot moves."""
+class VlmSource:
+    """A VLM source: a few rate-limited model calls, a consensus, then a latched pose re-emitted as the
+    robot moves. Registered as `vlm`, and as `vlm_stub` (its name before it had more than the stub client)
+    so existing configs keep working."""
 
     description: ClassVar[str] = (
-        "VLM stand-in: finds '<colour> [shape]' (e.g. 'red box'), latches its pose in the map frame after "
-        "3 agreeing rate-limited model calls (coarse)"
+        "Vision-language model (client: stub finds '<colour> [shape]', e.g. 'red box'): latches the object's "
+        "pose in the map frame after 3 agreeing rate-limited model calls (coarse)"
     )
 
     def __init__(
         self,
         params: dict,
-        name: str = "vlm_stub",
+        name: str = "vlm",
         *,
         clock: Callable[[], float] | None = None,
         client: VlmClient | None = None,
