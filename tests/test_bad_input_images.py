@@ -7,7 +7,7 @@ could use, counts it, says why in its feedback, and the next good frame is proce
 Already covered elsewhere: a float32 / 4-channel / non-array image into aruco and a float32 image into
 apriltag (test_aruco_source.py, test_apriltag_source.py); a str / None / empty / 7-channel image into
 PerceiveTargets (test_behaviour_perceive.py); an unsupported ArUco dictionary and AprilTag family
-(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm_stub (test_vlm_stub.py).
+(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm (test_vlm_source.py).
 """
 
 from __future__ import annotations
@@ -183,7 +183,7 @@ def test_a_marker_at_the_border_or_partly_outside_is_found_accurately_or_not_at_
             assert np.linalg.norm(det.position - truth) < 0.02, (edge, inside)
 
 
-# -- vlm_stub: images and depth ----------------------------------------------------------------------------
+# -- vlm: images and depth ---------------------------------------------------------------------------------
 
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), (30, 30, 200), yaw=0.2)
 VLM_FRAME = render(VlmScene([BOX]), camera_pose(0.0, 0.0, yaw_towards(0.0, 0.0, 3.0, 0.3)))
@@ -221,7 +221,7 @@ def feed(src: VlmSource, clock: Clock, frame: Frame, n: int = 4) -> None:
         ("not an array", "frame.png", "got str"),
     ],
 )
-def test_vlm_stub_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp_path, kind, image, words):
+def test_vlm_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp_path, kind, image, words):
     src, _ = vlm(tmp_path)
     try:
         with pytest.raises(ValueError, match="expected an H×W×3 uint8 BGR image") as err:
@@ -245,7 +245,7 @@ def test_vlm_stub_rejects_an_image_it_cannot_look_at_before_spending_a_model_cal
         ("other size", np.ones((120, 160), np.float32), "does not match image (240, 320)"),
     ],
 )
-def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(
+def test_vlm_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(
     tmp_path, caplog, kind, depth, words
 ):
     src, clock = vlm(tmp_path)
@@ -263,7 +263,7 @@ def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_
         src.close()
 
 
-def test_vlm_stub_partly_missing_depth_still_latches(tmp_path):
+def test_vlm_partly_missing_depth_still_latches(tmp_path):
     """Half the rows without a return (a real depth camera's holes) is not bad depth."""
     depth = VLM_FRAME.depth.copy()
     depth[::2] = np.nan
