@@ -1,4 +1,5 @@
-"""The VLM client interface and the colour-and-shape stub that stands in for a remote model."""
+"""The colour-and-shape stub client (`client: stub`): reads a label as a colour and a shape, and answers like a
+remote VLM — points normalised to 0–1000, latency, misses and noise."""
 
 from __future__ import annotations
 
