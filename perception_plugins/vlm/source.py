@@ -127,8 +127,8 @@ def colour_image_problem(image: object) -> str | None:
 
 class VlmSource:
     """A VLM source: a few rate-limited model calls, a consensus, then a latched pose re-emitted as the
-    robot moves. Registered as `vlm`, and as `vlm_stub` (its name before it had more than the stub client)
-    so existing configs keep working."""
+    robot moves. Registered as `vlm`, and as `vlm_stub` (its first name, from when the stub was the only
+    built-in client) so existing configs keep working."""
 
     description: ClassVar[str] = (
         "Vision-language model (client: stub finds '<colour> [shape]', e.g. 'red box'): latches the object's "
