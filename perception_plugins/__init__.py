@@ -1,1 +1,1 @@
-"""Perception sources (aruco, apriltag, vlm_stub) and the registry that finds them by entry point."""
+"""Perception sources (aruco, apriltag, vlm/) and the registry that finds them by entry point."""

@@ -206,7 +206,7 @@ class GarbagePoint:
 
 
 class FaultyVlmClient:
-    """A VLM client (perception_plugins/vlm_client.py's VlmClient shape) that, on every k-th call, times
+    """A VLM client (perception_plugins/vlm/client.py's VlmClient shape) that, on every k-th call, times
     out (raises TimeoutError after ``delay_s``, as a real HTTP client with a request timeout does) or
     answers garbage (NaN / out-of-image points, a non-list); other calls go to the wrapped client."""
 

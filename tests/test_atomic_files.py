@@ -18,7 +18,7 @@ import pytest
 
 from mission.app.report import write_json
 from mission.core.files import atomic_path, atomic_write_bytes, atomic_write_text
-from mission.perception_plugins.quota_store import QuotaStore
+from mission.perception_plugins.vlm.quota import QuotaStore
 from mission.viz.tick_log import read_log
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,7 +84,7 @@ def test_a_process_killed_mid_write_leaves_the_previous_file_intact(tmp_path):
 QUOTA_LOOP = textwrap.dedent(
     """
     import sys
-    from mission.perception_plugins.quota_store import QuotaStore
+    from mission.perception_plugins.vlm.quota import QuotaStore
     store = QuotaStore(__import__("pathlib").Path(sys.argv[1]), daily_quota=10**9, min_interval_s=0.0)
     k = store.state.calls_today
     print("recording", flush=True)
@@ -109,7 +109,7 @@ def test_the_vlm_quota_survives_the_node_being_killed_while_recording_calls(tmp_
         finally:
             proc.send_signal(signal.SIGKILL)
             proc.wait(timeout=10)
-        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.quota_store"):
+        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm.quota"):
             restarted = QuotaStore(path, daily_quota=10**9, min_interval_s=0.0)
         assert caplog.records == [], "the state file was unreadable after a kill"
         count = restarted.calls_today(T0 + 1)

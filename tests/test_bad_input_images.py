@@ -7,7 +7,7 @@ could use, counts it, says why in its feedback, and the next good frame is proce
 Already covered elsewhere: a float32 / 4-channel / non-array image into aruco and a float32 image into
 apriltag (test_aruco_source.py, test_apriltag_source.py); a str / None / empty / 7-channel image into
 PerceiveTargets (test_behaviour_perceive.py); an unsupported ArUco dictionary and AprilTag family
-(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm_stub (test_vlm_stub.py).
+(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm (test_vlm_source.py).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.pipeline import PerceptionStage
-from mission.perception_plugins.vlm_stub import VlmStubSource
+from mission.perception_plugins.vlm.source import VlmSource
 from mission.trees.loader import load_tree
 
 S = py_trees.common.Status
@@ -182,7 +182,7 @@ def test_a_marker_at_the_border_or_partly_outside_is_found_accurately_or_not_at_
             assert np.linalg.norm(det.position - truth) < 0.02, (edge, inside)
 
 
-# -- vlm_stub: images and depth ----------------------------------------------------------------------------
+# -- vlm: images and depth ---------------------------------------------------------------------------------
 
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), (30, 30, 200), yaw=0.2)
 VLM_FRAME = render(VlmScene([BOX]), camera_pose(0.0, 0.0, yaw_towards(0.0, 0.0, 3.0, 0.3)))
@@ -195,14 +195,14 @@ class Clock:
         return self.t
 
 
-def vlm(tmp_path: Path) -> tuple[VlmStubSource, Clock]:
+def vlm(tmp_path: Path) -> tuple[VlmSource, Clock]:
     clock = Clock()
     params = {"state_file": str(tmp_path / "quota.json"), "latency_s": 0.0, "miss_rate": 0.0,
               "publish_rate_limit_hz": 1.0, "daily_quota": 100}  # fmt: skip
-    return VlmStubSource(params, name="vlm", clock=clock), clock
+    return VlmSource(params, name="vlm", clock=clock), clock
 
 
-def feed(src: VlmStubSource, clock: Clock, frame: Frame, n: int = 4) -> None:
+def feed(src: VlmSource, clock: Clock, frame: Frame, n: int = 4) -> None:
     for i in range(n):
         src.process(Frame(frame.image, i * 0.1, frame.frame_id, frame.intrinsics, frame.depth,
                           frame.T_anchor_camera, frame.anchor_frame))  # fmt: skip
@@ -220,7 +220,7 @@ def feed(src: VlmStubSource, clock: Clock, frame: Frame, n: int = 4) -> None:
         ("not an array", "frame.png", "got str"),
     ],
 )
-def test_vlm_stub_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp_path, kind, image, words):
+def test_vlm_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp_path, kind, image, words):
     src, _ = vlm(tmp_path)
     try:
         with pytest.raises(ValueError, match="expected an H×W×3 uint8 BGR image") as err:
@@ -244,12 +244,12 @@ def test_vlm_stub_rejects_an_image_it_cannot_look_at_before_spending_a_model_cal
         ("other size", np.ones((120, 160), np.float32), "does not match image (240, 320)"),
     ],
 )
-def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(
+def test_vlm_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(
     tmp_path, caplog, kind, depth, words
 ):
     src, clock = vlm(tmp_path)
     try:
-        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm_stub"):
+        with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm.source"):
             feed(src, clock, Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth,
                                    VLM_FRAME.T_anchor_camera))  # fmt: skip
         status = src.status()
@@ -262,7 +262,7 @@ def test_vlm_stub_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_
         src.close()
 
 
-def test_vlm_stub_partly_missing_depth_still_latches(tmp_path):
+def test_vlm_partly_missing_depth_still_latches(tmp_path):
     """Half the rows without a return (a real depth camera's holes) is not bad depth."""
     depth = VLM_FRAME.depth.copy()
     depth[::2] = np.nan

@@ -51,7 +51,7 @@ def test_an_unknown_plugin_in_a_config_names_the_file_the_key_and_the_known_ones
         registry.create_all(cfgs, file="robot.yaml")
     assert str(err.value) == (
         "robot.yaml: perception.sources[1].plugin: unknown perception plugin 'april_tag'; "
-        "known plugins: apriltag, aruco, vlm_stub"
+        "known plugins: apriltag, aruco, vlm, vlm_stub"
     )
 
 
@@ -99,7 +99,7 @@ def test_sources_made_before_a_failing_one_are_closed(extra_plugins, monkeypatch
 def test_mission_plugins_lists_the_broken_ones_with_why_and_every_other_one(extra_plugins, capsys):
     assert main(["plugins"]) == 0
     lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
-    assert {"aruco", "apriltag", "vlm_stub", "ghost", "exploding"} <= set(lines)
+    assert {"aruco", "apriltag", "vlm", "vlm_stub", "ghost", "exploding"} <= set(lines)
     assert "BROKEN: ModuleNotFoundError: No module named 'no_such_package'" in lines["ghost"]
     assert "BROKEN" not in lines["aruco"] and "BROKEN" not in lines["exploding"]  # importable: listed normally
 
@@ -117,7 +117,7 @@ def test_a_vlm_state_file_that_cannot_be_saved_is_a_start_up_error_naming_the_ke
     else:
         blocker.write_text("")
         state = blocker / "quota.json"
-    cfg = SourceConfig(plugin="vlm_stub", params={"state_file": str(state)})
+    cfg = SourceConfig(plugin="vlm", params={"state_file": str(state)})
     with pytest.raises(ConfigError) as err:
         registry.create_all([cfg], file="robot.yaml")
     assert str(err.value) == (
@@ -130,7 +130,7 @@ def test_a_vlm_state_file_that_cannot_be_saved_is_a_start_up_error_naming_the_ke
 def test_a_writable_vlm_state_file_is_left_as_it_was_by_the_start_up_check(tmp_path):
     state = tmp_path / "quota.json"
     state.write_text('{"day": "2023-11-14", "calls_today": 3, "last_call": 1.0}')
-    [src] = registry.create_all([SourceConfig(plugin="vlm_stub", params={"state_file": str(state)})])
+    [src] = registry.create_all([SourceConfig(plugin="vlm", params={"state_file": str(state)})])
     src.close()
     assert state.read_text() == '{"day": "2023-11-14", "calls_today": 3, "last_call": 1.0}'
     assert sorted(p.name for p in tmp_path.iterdir()) == ["quota.json"]

@@ -150,7 +150,7 @@ def test_a_vlm_that_times_out_or_answers_garbage_does_not_stop_the_mission(tmp_p
     injected = outcome.faults["injected"]
     assert injected[f"vlm_{'timeouts' if mode == 'timeout' else 'garbage'}"] >= 1
     counted = outcome.faults["counted"]
-    noticed = sum(counted.get(f"vlm_stub:{k}", 0) for k in ("client_errors", "misses", "answers_without_depth"))
+    noticed = sum(counted.get(f"vlm:{k}", 0) for k in ("client_errors", "misses", "answers_without_depth"))
     assert noticed >= 1, counted
 
 

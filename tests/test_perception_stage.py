@@ -120,7 +120,7 @@ def test_hybrid_policy_drops_coarse_detections_of_a_target_a_precise_source_sees
 
     def vlm(frame: Frame) -> list:
         far = marker_facing(2.2, 0.1, math.pi)
-        return [detection_of(far, scene.robot, stamp=frame.stamp, source="vlm_stub", extra=coarse)]
+        return [detection_of(far, scene.robot, stamp=frame.stamp, source="vlm", extra=coarse)]
 
     stage = make([ScriptedSource("vlm", vlm), scene.source("aruco")])
     step(scene, stage)
@@ -132,7 +132,7 @@ def test_hybrid_policy_drops_coarse_detections_of_a_target_a_precise_source_sees
     scene.hidden = True  # the fiducial is out of reach: the coarse source alone still finds the target
     step(scene, stage)
     tr = read(bbk.TRACKS)["target"]
-    assert tr.misses == 0 and tr.detection.source == "vlm_stub"
+    assert tr.misses == 0 and tr.detection.source == "vlm"
     assert abs(tr.pose_map[0, 3] - 2.2) < 1e-9
 
 

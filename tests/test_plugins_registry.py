@@ -11,7 +11,7 @@ from mission.perception_plugins import registry
 
 
 def test_shipped_plugins_are_registered():
-    assert {"aruco", "apriltag", "vlm_stub"} <= set(registry.known_names())
+    assert {"aruco", "apriltag", "vlm", "vlm_stub"} <= set(registry.known_names())
 
 
 def test_unknown_plugin_lists_known_ones():
@@ -23,7 +23,7 @@ def test_mission_plugins_prints_one_line_each(capsys):
     assert main(["plugins"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
     names = [line.split()[0] for line in lines]
-    assert {"aruco", "apriltag", "vlm_stub"} <= set(names)
+    assert {"aruco", "apriltag", "vlm", "vlm_stub"} <= set(names)
     assert not any("BROKEN" in line for line in lines)
 
 

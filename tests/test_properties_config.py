@@ -35,7 +35,7 @@ json_like = st.recursive(
 
 @st.composite
 def configs(draw: st.DrawFn) -> MissionConfig:
-    plugins = draw(st.lists(st.sampled_from(["aruco", "apriltag", "vlm_stub"]), min_size=1, max_size=3))
+    plugins = draw(st.lists(st.sampled_from(["aruco", "apriltag", "vlm", "vlm_stub"]), min_size=1, max_size=3))
     sources = [
         SourceConfig(plugin=p, name=f"{p}_{i}" if draw(st.booleans()) or plugins.count(p) > 1 else None,
                      params=draw(st.dictionaries(names, json_like, max_size=3)))

@@ -43,7 +43,7 @@ def test_swapping_aruco_for_apriltag_changes_only_the_source():
 def test_the_vlm_config_is_the_hybrid_of_a_coarse_vlm_and_a_precise_tag_source():
     cfg = load_config(shipped_config("sim_vlm.yaml"))
     assert cfg.perception.policy == "hybrid"
-    assert [s.plugin for s in cfg.perception.sources] == ["vlm_stub", "apriltag"]
+    assert [s.plugin for s in cfg.perception.sources] == ["vlm", "apriltag"]
     label = cfg.perception.sources[0].params["target_label"]
     assert cfg.perception.targets["target"].label == label  # one spec matches both sources…
     assert cfg.perception.sources[1].params["tags"][7]["name"] == label  # …because tag 7 is attributed to it
@@ -88,7 +88,7 @@ def test_hybrid_hands_the_target_from_the_vlm_to_the_tag_source(sim_views):
         per_frame = _run([vlm, tags], sim_views)
         assert vlm.latch.latched, vlm.status()
         both = per_frame[-1]
-        assert {d.source for d in both} == {"vlm_stub", "apriltag"}  # both see the red box
+        assert {d.source for d in both} == {"vlm", "apriltag"}  # both see the red box
         hybrid = assign(both, targets, "hybrid")
         assert hybrid.best["target"].source == "apriltag" and hybrid.coarse_dropped == 1
         everything = assign(both, targets, "all")
@@ -101,9 +101,9 @@ def test_hybrid_hands_the_target_from_the_vlm_to_the_tag_source(sim_views):
         hidden[lo[1] : hi[1], lo[0] : hi[0]] = last.image[hi[1] + 4, (lo[0] + hi[0]) // 2]
         frame = dataclasses.replace(last, image=hidden, stamp=last.stamp + 0.1)
         only_vlm = _run([vlm, tags], [frame])[0]
-        assert [d.source for d in only_vlm] == ["vlm_stub"]
+        assert [d.source for d in only_vlm] == ["vlm"]
         best = assign(only_vlm, targets, "hybrid").best["target"]
-        assert best.source == "vlm_stub" and best.det.extra["precision"] == "coarse"
+        assert best.source == "vlm" and best.det.extra["precision"] == "coarse"
         # and the coarse pose is where the tag said the box is (the face centre vs the tag centre)
         tag_det = next(d.det for d in both if d.source == "apriltag")
         assert np.linalg.norm(best.det.position - tag_det.position) < 0.15

@@ -10,7 +10,7 @@ from vlm_scene import Box, Scene, box_front_face, camera_pose, render
 
 from mission.core import se3
 from mission.core.types import CameraIntrinsics
-from mission.perception_plugins.depth_pose import (
+from mission.perception_plugins.vlm.depth_pose import (
     dominant_edge_angle,
     estimate_surface_pose,
     fit_plane_svd,

@@ -6,7 +6,7 @@ import json
 import logging
 import time
 
-from mission.perception_plugins.quota_store import QuotaStore, default_state_file
+from mission.perception_plugins.vlm.quota import QuotaStore, default_state_file
 
 DAY = 86400.0
 T0 = 1_700_000_000.0  # 2023-11-14 22:13:20 UTC

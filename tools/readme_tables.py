@@ -130,13 +130,19 @@ def config_block() -> str:
 
 
 def plugins_block() -> str:
+    """One section per plugin class: names registered for the same class (a source kept under its old
+    name for existing configs) share it, so its params table is not printed twice."""
     from mission.perception_plugins import registry
 
+    names_of: dict[str, list[str]] = {}  # "module:Class" → its entry-point names, sorted
+    for info in registry.describe():
+        names_of.setdefault(info.target, []).append(info.name)
     parts = []
-    for name in registry.known_names():
+    for name, *aliases in names_of.values():
         cls = registry.load_class(name)
         params = _params_model(cls)
-        parts.append(f"#### `{name}`\n\n{getattr(cls, 'description', '')}\n\n")
+        also = f" (also `{'`, `'.join(aliases)}`: the same source)" if aliases else ""
+        parts.append(f"#### `{name}`{also}\n\n{getattr(cls, 'description', '')}\n\n")
         parts.append(model_table(params) if params is not None else "(no params)\n")
         parts.append("\n")
     return "".join(parts).rstrip("\n") + "\n"

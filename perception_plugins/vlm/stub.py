@@ -1,14 +1,10 @@
-"""The model behind the VLM source: a small client interface, and the colour-and-shape stub that ships.
+"""`client: stub` — the colour-and-shape stand-in for a vision-language model, one VlmClient among others.
 
-A vision-language model such as Gemini Robotics-ER is asked "where is the <label>?" and answers with
-points ``[y, x]`` normalised to 0–1000 (the image's height and width), each with a confidence. That is
-the whole interface (:class:`VlmClient`), so a real remote client can replace the stub without touching
-the latch pipeline around it (perception_plugins/vlm_stub.py).
-
-The stub (:class:`ColourShapeClient`) answers the same question for labels that name a colour and,
-optionally, a shape ("red box", "blue ball", "green cube", "yellow bottle"): HSV colour segmentation,
-then a shape score per blob. It works on any BGR image — a sim render or a photo — and imitates a
-remote model's manners: latency, occasional misses and pixel noise, all seeded so runs repeat.
+It answers the VLM's question (client.py: "where is the <label>?", points ``[y, x]`` in 0–1000 with a
+confidence) for labels that name a colour and, optionally, a shape ("red box", "blue ball", "green
+cube", "yellow bottle"): HSV colour segmentation, then a shape score per blob. It works on any BGR
+image — a sim render or a photo — and imitates a remote model's manners: latency, occasional misses and
+pixel noise, all seeded so runs repeat. So the whole VLM pipeline runs, and is tested, without a network.
 """
 
 from __future__ import annotations
@@ -16,10 +12,16 @@ from __future__ import annotations
 import re
 import threading
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+
+from mission.core.errors import ConfigError
+from mission.perception_plugins.vlm.client import VlmPoint
+
+if TYPE_CHECKING:
+    from mission.perception_plugins.vlm.source import VlmParams
 
 # HSV ranges in OpenCV units (H 0–179, S and V 0–255): (h_lo, h_hi, s_lo, s_hi, v_lo, v_hi); several per colour.
 _SAT = 90  # "clearly coloured": below this saturation a pixel is white/grey/black
@@ -47,28 +49,6 @@ SHAPE_WORDS = {
 
 
 @dataclass(frozen=True)
-class VlmPoint:
-    """One answer of a VLM: a point [y, x] normalised to 0–1000, and the model's confidence in it."""
-
-    y: float
-    x: float
-    confidence: float
-
-    def to_pixel(self, width: int, height: int) -> tuple[float, float]:
-        """(u, v) in pixels of an image of that size."""
-        return self.x / 1000.0 * width, self.y / 1000.0 * height
-
-
-class VlmClient(Protocol):
-    """What the VLM source asks of a model. `locate` may block (a network call); the source runs it
-    on a worker thread, never on the tick."""
-
-    def locate(self, image: np.ndarray, label: str) -> list[VlmPoint]: ...
-
-    def close(self) -> None: ...
-
-
-@dataclass(frozen=True)
 class ObjectQuery:
     """What a label asks for, as the stub understands it."""
 
@@ -89,6 +69,7 @@ def parse_label(label: str) -> ObjectQuery:
 
 
 def known_colours() -> list[str]:
+    """Every colour word a label may use (synonyms included), for error messages."""
     return sorted(set(COLOUR_RANGES) | set(COLOUR_SYNONYMS))
 
 
@@ -207,3 +188,24 @@ class ColourShapeClient:
 
     def close(self) -> None:
         self._closed.set()
+
+
+def stub_client(params: VlmParams) -> ColourShapeClient:
+    """The stub built from the VLM source's params (the built-in ``client: stub``, client.py).
+
+    A label without a colour word is a config error now rather than a stub that never finds anything.
+    With ``clock: frame`` the stub answers at once: the source holds the answer for ``latency_s`` of frame
+    time instead, so a seeded simulation repeats whatever the machine's speed."""
+    if parse_label(params.target_label).colour is None:
+        raise ConfigError(
+            f"the stub client finds objects by colour: name one of {', '.join(known_colours())} "
+            f"in the label, got {params.target_label!r}",
+            key="target_label",
+        )
+    return ColourShapeClient(
+        latency_s=params.latency_s if params.clock == "wall" else 0.0,
+        miss_rate=params.miss_rate,
+        pixel_noise=params.pixel_noise,
+        seed=params.seed,
+        min_area_px=params.min_blob_area_px,
+    )

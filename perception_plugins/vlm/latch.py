@@ -7,7 +7,7 @@ design notes' node asks until `min_consecutive` answers agree within `tolerance_
 the camera is ``inv(T_anchor_camera_now) @ T_anchor_target`` — no model calls — which is only right for
 a static target; `reset()` (the /redetect request) starts over.
 
-Pure logic, no threads and no clock: vlm_stub.py drives it.
+Pure logic, no threads and no clock: source.py drives it.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
-"""`vlm_stub`: find an object by a text label, the way a rate-limited vision-language model would.
+"""The VLM source: find an object by a text label with a few rate-limited vision-language-model calls.
 
-The design notes' Gemini Robotics-ER node, with the model behind a small client interface
-(perception_plugins/vlm_client.py) and a colour-and-shape stub shipped in its place:
+The design notes' Gemini Robotics-ER node, with the model behind a small client interface (client.py;
+the ``client`` param chooses one, the colour-and-shape stub in stub.py by default):
 
 * a model call runs on a worker thread, never on the tick: ``process()`` submits a request when the
   budget allows and returns what is ready;
@@ -10,15 +10,15 @@ The design notes' Gemini Robotics-ER node, with the model behind a small client 
   ``clock: frame`` (simulation) budget and latency run on frame stamps instead and nothing is persisted,
   so a seeded sim run repeats whatever the machine's speed;
 * each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
-  Canny + PCA in-plane axis (x axis) — perception_plugins/depth_pose.py;
+  Canny + PCA in-plane axis (x axis) — depth_pose.py;
 * answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
   in the anchor frame (``map_frame``); the pose is then latched there and re-emitted at
   ``republish_rate_hz`` as ``inv(T_anchor_camera_now) @ T_anchor_target`` with no further calls
-  (perception_plugins/vlm_latch.py);
+  (latch.py);
 * the camera's anchor pose comes with each frame (``Frame.T_anchor_camera`` / ``Frame.anchor_frame``,
   filled by the world adapter); when it is missing at an attempt, the attempt fails, and after
   ``max_failed_latch_attempts`` consecutive failures the circuit breaker stops all model calls until
-  :meth:`VlmStubSource.reset_latch` (the /mission/redetect request).
+  :meth:`VlmSource.reset_latch` (the /mission/redetect request).
 
 A latched pose is only right while the target stays put. So, while latched, the source checks the depth
 image where the target should appear: nearer than expected means something is in front (occluded: not
@@ -30,7 +30,6 @@ the same target wins (long-range discovery by the VLM, close-range precision fro
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
 import threading
@@ -50,19 +49,19 @@ from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Detection, Frame
-from mission.perception_plugins.depth_pose import SurfacePose, depth_at, estimate_surface_pose
-from mission.perception_plugins.quota_store import QuotaStore, default_state_file
-from mission.perception_plugins.vlm_client import ColourShapeClient, VlmClient, known_colours, parse_label
-from mission.perception_plugins.vlm_latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.client import VlmClient, make_client
+from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
+from mission.perception_plugins.vlm.latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.quota import QuotaStore, default_state_file
 
 log = logging.getLogger(__name__)
 
 
-class VlmStubParams(StrictModel):
-    """Params of the `vlm_stub` source (defaults follow the design notes' Gemini node)."""
+class VlmParams(StrictModel):
+    """Params of the `vlm` source (defaults follow the design notes' Gemini node)."""
 
-    target_label: str = Field("red box", min_length=1)  # what to find: a colour word + optional shape word
-    client: str = "stub"  # "stub", or "package.module:Class" of a VlmClient built with client_params
+    target_label: str = Field("red box", min_length=1)  # what to find (client stub: a colour word + optional shape)
+    client: str = "stub"  # "stub" (built in), or "package.module:Class" of a VlmClient built with client_params
     client_params: dict[str, Any] = Field(default_factory=dict)  # keyword arguments for the client's constructor
     confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
@@ -71,7 +70,8 @@ class VlmStubParams(StrictModel):
     # "wall": budget and latency in wall-clock time, budget persisted (a real model); "frame": in frame
     # stamps, nothing persisted — a simulation's time base, so seeded sim runs repeat whatever the CPU speed
     clock: Literal["wall", "frame"] = "wall"  # wall: real time, quota on disk; frame: frame stamps (sim)
-    # the stub's imitation of a remote model
+    # client stub: its imitation of a remote model (other clients take client_params; latency_s also paces
+    # answers with clock: frame)
     latency_s: float = Field(1.0, ge=0.0)  # seconds from request to answer
     miss_rate: float = Field(0.05, ge=0.0, le=1.0)  # fraction of calls answered with nothing
     pixel_noise: float = Field(2.0, ge=0.0)  # px, standard deviation
@@ -114,32 +114,6 @@ class _Answer:
     pixel: tuple[float, float] | None = None
 
 
-def _make_client(p: VlmStubParams) -> VlmClient:
-    if p.client == "stub":
-        latency = p.latency_s if p.clock == "wall" else 0.0  # frame clock: the source holds answers instead
-        if parse_label(p.target_label).colour is None:
-            raise ConfigError(
-                f"the stub client finds objects by colour: name one of {', '.join(known_colours())} "
-                f"in the label, got {p.target_label!r}",
-                key="target_label",
-            )
-        return ColourShapeClient(
-            latency_s=latency,
-            miss_rate=p.miss_rate,
-            pixel_noise=p.pixel_noise,
-            seed=p.seed,
-            min_area_px=p.min_blob_area_px,
-        )
-    module, _, cls_name = p.client.partition(":")
-    if not module or not cls_name:
-        raise ConfigError(f"expected 'stub' or 'package.module:Class', got {p.client!r}", key="client")
-    try:
-        cls = getattr(importlib.import_module(module), cls_name)
-        return cls(**p.client_params)
-    except Exception as err:
-        raise ConfigError(f"cannot create VLM client {p.client!r}: {err}", key="client") from None
-
-
 def colour_image_problem(image: object) -> str | None:
     """Why `image` is not an H×W×3 uint8 BGR picture a VLM can look at (None when it is)."""
     if not isinstance(image, np.ndarray):
@@ -151,31 +125,32 @@ def colour_image_problem(image: object) -> str | None:
     return None
 
 
-class VlmStubSource:
-    """A VLM-style source: a few rate-limited model calls, a consensus, then a latched pose re-emitted
-    as the robot moves."""
+class VlmSource:
+    """A VLM source: a few rate-limited model calls, a consensus, then a latched pose re-emitted as the
+    robot moves. Registered as `vlm`, and as `vlm_stub` (its first name, from when the stub was the only
+    built-in client) so existing configs keep working."""
 
     description: ClassVar[str] = (
-        "VLM stand-in: finds '<colour> [shape]' (e.g. 'red box'), latches its pose in the map frame after "
-        "3 agreeing rate-limited model calls (coarse)"
+        "Vision-language model (client: stub finds '<colour> [shape]', e.g. 'red box'): latches the object's "
+        "pose in the map frame after 3 agreeing rate-limited model calls (coarse)"
     )
 
     def __init__(
         self,
         params: dict,
-        name: str = "vlm_stub",
+        name: str = "vlm",
         *,
         clock: Callable[[], float] | None = None,
         client: VlmClient | None = None,
     ) -> None:
         """`clock` is the wall clock of the rate limit and quota (time.time; tests pass a fake one);
         `client` replaces the configured client with an instance."""
-        self.params = validate_model(VlmStubParams, params)
+        self.params = validate_model(VlmParams, params)
         self.name = name
         p = self.params
         self._clock = clock or time.time
-        self._client: VlmClient = client if client is not None else _make_client(p)
-        client_kind = "stub" if p.client == "stub" else p.client.replace(":", ".")
+        self._client: VlmClient = client if client is not None else make_client(p)
+        client_kind = p.client.replace(":", ".")  # the budget is per client kind (one API key each)
         path = Path(p.state_file).expanduser() if p.state_file else default_state_file(client_kind)
         if p.clock == "frame":
             path = None  # frame stamps restart with every run: a budget in them is per run, not persisted
