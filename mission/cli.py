@@ -43,6 +43,7 @@ def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expect
 positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds (a finite number > 0)")
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
+port = _number(int, lambda v: 0 <= v <= 65535, "a TCP port, a whole number 0–65535 (0 = any free port)")
 
 
 def _add_run(p: argparse.ArgumentParser) -> None:
@@ -56,7 +57,7 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
     p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
-    p.add_argument("--port", type=non_negative_int, default=8765, help="port for --serve (127.0.0.1 only)")
+    p.add_argument("--port", type=port, default=8765, help="port for --serve (127.0.0.1 only)")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
