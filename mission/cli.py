@@ -1,13 +1,17 @@
 """The `mission` command line: one parser, one module per verb under mission/commands/.
 
-Exit codes: 0 success, 1 the mission / detection failed, 2 usage or config error.
+Exit codes: 0 success, 1 the mission / detection failed, 2 usage or config error, 141 (128 + SIGPIPE)
+when the reader of stdout went away (`… | head -1`), as for any Unix tool.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import math
+import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -113,6 +117,32 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one verb; its exit code."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # here, not in the interpreter's exit: a closed pipe is then ours to report
+        return code
+    except BrokenPipeError:
+        return _output_closed()
+
+
+def _output_closed() -> int:
+    """The reader of our output went away (`mission detect --json IMG... | head -1`): stop as `cat` does.
+
+    Nothing more is written and no traceback is printed. stdout is pointed at /dev/null first, so the
+    interpreter's final flush of what is still buffered cannot fail ("Exception ignored … BrokenPipeError").
+    The exit status is 141 = 128 + SIGPIPE, the status a shell reports for `cat` or `yes` in the same place
+    (they die of SIGPIPE; Python ignores that signal, and dying of it here would skip cleanup), so
+    `set -o pipefail` scripts see what they see for any Unix tool.
+    """
+    with contextlib.suppress(OSError, ValueError):  # ValueError: stdout is not a real file (captured, closed)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    return 128 + signal.SIGPIPE
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:
