@@ -160,7 +160,8 @@ def _main(argv: Sequence[str] | None) -> int:
     try:
         return int(module.main(args) or 0)
     except MissionError as err:
-        print(f"mission: error: {err}", file=sys.stderr)
+        for line in str(err).splitlines():  # several problems (a config file's): one line each, each prefixed
+            print(f"mission: error: {line}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

@@ -68,8 +68,7 @@ def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: s
     try:
         return cls(dict(cfg.params), name=name)
     except ConfigError as err:
-        key = f"{key_prefix}.params.{err.key}" if err.key else f"{key_prefix}.params"
-        raise ConfigError(err.detail, file=err.file or file, key=key) from None
+        raise err.within(f"{key_prefix}.params", file=file) from None
     except Exception as err:  # a third-party constructor failing its own way: still one line, not a traceback
         where = ": ".join(p for p in (file, f"{key_prefix}.plugin") if p)
         why = " ".join(str(err).split())
