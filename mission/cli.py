@@ -102,7 +102,8 @@ def _add_bench(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
     p.add_argument("--json", action="store_true", help="print machine-readable results")
     p.add_argument("--only", default=None, help="comma-separated benchmark names")
-    p.add_argument("-o", "--output", default="bench/results", metavar="DIR", help="where figures go")
+    p.add_argument("-o", "--output", default=None, metavar="DIR",
+                   help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)")
 
 
 def build_parser() -> argparse.ArgumentParser:
