@@ -18,6 +18,11 @@ def _entry_points() -> dict[str, EntryPoint]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def entry_point(name: str) -> EntryPoint | None:
+    """The installed entry point registered as `name` (its ``dist`` is the distribution providing it), or None."""
+    return _entry_points().get(name)
+
+
 def known_names() -> list[str]:
     """Names of every installed plugin, sorted."""
     return sorted(_entry_points())
