@@ -61,7 +61,8 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
     p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
-    p.add_argument("--port", type=port, default=8765, help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
+    p.add_argument("--port", type=port, default=8765,
+                   help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 

@@ -53,6 +53,8 @@ def command_line(args: argparse.Namespace) -> str:
 
 
 def _run_one(b: Benchmark, quick: bool, out: Path, machine: dict[str, Any], cmd: str) -> dict[str, Any]:
+    from bench.common import progress
+
     entry: dict[str, Any] = {
         "name": b.name,
         "description": b.description,
@@ -62,8 +64,6 @@ def _run_one(b: Benchmark, quick: bool, out: Path, machine: dict[str, Any], cmd:
         "machine": machine,
     }
     t0 = time.perf_counter()
-    from bench.common import progress
-
     progress(f"{b.name}: {b.description}")
     try:
         run = b.load()
