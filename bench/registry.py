@@ -1,4 +1,4 @@
-"""The benchmarks `mission bench` knows: name, what it measures, and which runs include it.
+"""The benchmarks `mission bench` knows: name, what it measures, which runs include it, and where figures go.
 
 Each entry points at a module ``bench/<module>.py`` with ``run(quick: bool, out: pathlib.Path) -> dict``.
 Modules are imported only when their benchmark runs, so a missing optional one (``soak``, written
@@ -14,6 +14,20 @@ from pathlib import Path
 from typing import Any
 
 from mission.core.errors import MissionError
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "bench" / "results"  # the committed figures of full runs; BENCHMARKS.md is made from these
+QUICK_RESULTS = ROOT / "out" / "bench-quick"  # quick runs (gitignored): never mixed into the committed figures
+
+
+def default_output(quick: bool) -> Path:
+    """Where a run's figures go unless told: quick runs never overwrite the committed full-run results."""
+    return QUICK_RESULTS if quick else RESULTS
+
+
+def is_committed_results(path: Path) -> bool:
+    """Is `path` the committed results directory (bench/results, however it is spelt)?"""
+    return path.resolve() == RESULTS.resolve()
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,9 @@
 """BENCHMARKS.md from the figures `mission bench` wrote: ``python -m bench.report [bench/results]``.
 
+BENCHMARKS.md (and the plots in docs/bench/) come from bench/results only, the committed figures of full
+runs. Given another results directory (``out/bench-quick`` from ``mission bench --quick``), the report is
+written inside it (``out/bench-quick/BENCHMARKS.md``) unless ``--out``/``--docs`` say otherwise.
+
 Reads every ``<results>/<name>.json`` (one per benchmark: what ``mission bench`` writes — the command, the
 machine, the date and the run's figures — or a bare ``run()`` result such as ``python -m bench.soak``
 writes), and writes one section per benchmark: the command, the date, the machine and its load, a table of
@@ -26,11 +30,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bench.registry import BENCHMARKS
+from bench.registry import BENCHMARKS, RESULTS, is_committed_results
 from mission.core.errors import MissionError
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_RESULTS = ROOT / "bench" / "results"
+DEFAULT_RESULTS = RESULTS  # the committed full-run figures; quick runs write out/bench-quick/ instead
 DEFAULT_OUT = ROOT / "BENCHMARKS.md"
 DEFAULT_DOCS = ROOT / "docs" / "bench"
 NOTES = "notes.md"
@@ -444,11 +448,18 @@ def _display(p: Path) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.report", description=__doc__.split("\n")[0])
-    ap.add_argument("results", nargs="?", type=Path, default=DEFAULT_RESULTS, help="results directory")
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help="markdown to write (default BENCHMARKS.md)")
-    ap.add_argument("--docs", type=Path, default=DEFAULT_DOCS,
-                    help="where plots are copied and notes.md is read (default docs/bench)")  # fmt: skip
+    ap.add_argument("results", nargs="?", type=Path, default=DEFAULT_RESULTS,
+                    help="results directory (default bench/results, the committed full-run figures)")  # fmt: skip
+    ap.add_argument("--out", type=Path, default=None,
+                    help="markdown to write (default BENCHMARKS.md; RESULTS/BENCHMARKS.md for another results dir)")
+    ap.add_argument("--docs", type=Path, default=None,
+                    help="where plots are copied and notes.md is read (default docs/bench; RESULTS/docs for another)")
     args = ap.parse_args(argv)
+    # BENCHMARKS.md and docs/bench/ are made from the committed results; any other results directory
+    # (out/bench-quick/ of `mission bench --quick`) gets its report beside its figures unless told otherwise.
+    committed = is_committed_results(args.results)
+    args.out = args.out or (DEFAULT_OUT if committed else args.results / "BENCHMARKS.md")
+    args.docs = args.docs or (DEFAULT_DOCS if committed else args.results / "docs")
     try:
         text, warnings = render(args.results, args.out, args.docs)
     except MissionError as err:

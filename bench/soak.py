@@ -11,7 +11,7 @@
 Flat means: RSS growth over the run small next to the RSS itself, and the last 5 minutes' tick p50/p99 within
 noise of the first 5. Quick mode: 2 simulated minutes and 30 s of ROS.
 
-    python -m bench.soak [--quick] [--part sim|ros|both] [--out bench/results]
+    python -m bench.soak [--quick] [--part sim|ros|both] [--out DIR]   # DIR: bench/results, --quick: out/bench-quick
 """
 
 from __future__ import annotations
@@ -27,11 +27,10 @@ from typing import Any
 import numpy as np
 
 from bench.common import Figure, load_average, pct
+from bench.registry import default_output
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
 from mission.app.observers import RunObserver, Tick
 from mission.core.files import atomic_write_text
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def slope_per_min(xs: list[float], ys: list[float]) -> float | None:
@@ -320,9 +319,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.soak", description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--part", choices=("sim", "ros", "both"), default="both")
-    ap.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
+    ap.add_argument("--out", type=Path, default=None, help="default bench/results; with --quick out/bench-quick")
     ap.add_argument("--merge", action="store_true", help="write soak.json from the parts' results in --out")
     args = ap.parse_args(argv)
+    args.out = args.out or default_output(args.quick)  # a quick soak never replaces the committed one
     if args.merge:
         _write(args.out, "soak.json", merge(args.out))
         return 0

@@ -1,13 +1,17 @@
 """The `mission` command line: one parser, one module per verb under mission/commands/.
 
-Exit codes: 0 success, 1 the mission / detection failed, 2 usage or config error.
+Exit codes: 0 success, 1 the mission / detection failed, 2 usage or config error, 141 (128 + SIGPIPE)
+when the reader of stdout went away (`… | head -1`), as for any Unix tool.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import math
+import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -43,6 +47,7 @@ def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expect
 positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds (a finite number > 0)")
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
+port = _number(int, lambda v: 0 <= v <= 65535, "a TCP port, a whole number 0–65535 (0 = any free port)")
 
 
 def _add_run(p: argparse.ArgumentParser) -> None:
@@ -56,7 +61,8 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
     p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
-    p.add_argument("--port", type=non_negative_int, default=8765, help="port for --serve (127.0.0.1 only)")
+    p.add_argument("--port", type=port, default=8765,
+                   help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
@@ -97,7 +103,8 @@ def _add_bench(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
     p.add_argument("--json", action="store_true", help="print machine-readable results")
     p.add_argument("--only", default=None, help="comma-separated benchmark names")
-    p.add_argument("-o", "--output", default="bench/results", metavar="DIR", help="where figures go")
+    p.add_argument("-o", "--output", default=None, metavar="DIR",
+                   help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -112,6 +119,32 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one verb; its exit code."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # here, not in the interpreter's exit: a closed pipe is then ours to report
+        return code
+    except BrokenPipeError:
+        return _output_closed()
+
+
+def _output_closed() -> int:
+    """The reader of our output went away (`mission detect --json IMG... | head -1`): stop as `cat` does.
+
+    Nothing more is written and no traceback is printed. stdout is pointed at /dev/null first, so the
+    interpreter's final flush of what is still buffered cannot fail ("Exception ignored … BrokenPipeError").
+    The exit status is 141 = 128 + SIGPIPE, the status a shell reports for `cat` or `yes` in the same place
+    (they die of SIGPIPE; Python ignores that signal, and dying of it here would skip cleanup), so
+    `set -o pipefail` scripts see what they see for any Unix tool.
+    """
+    with contextlib.suppress(OSError, ValueError):  # ValueError: stdout is not a real file (captured, closed)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    return 128 + signal.SIGPIPE
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:
@@ -129,7 +162,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(module.main(args) or 0)
     except MissionError as err:
-        print(f"mission: error: {err}", file=sys.stderr)
+        for line in str(err).splitlines():  # several problems (a config file's): one line each, each prefixed
+            print(f"mission: error: {line}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130

@@ -140,10 +140,14 @@ def _params(params: dict) -> AprilTagParams:
     try:
         return validate_model(AprilTagParams, params)
     except ConfigError as err:
-        if err.key == "(top level)":  # a model-level check: name the key it is about
-            key = "camera_mount" if "camera_mount" in err.detail else None
-            raise ConfigError(err.detail.removeprefix("value error, "), key=key) from None
-        raise
+        if all(key != "(top level)" for key, _ in err.problems):
+            raise
+        problems = [  # a model-level check: name the key it is about
+            (("camera_mount" if "camera_mount" in msg else None), msg.removeprefix("value error, "))
+            if key == "(top level)" else (key, msg)
+            for key, msg in err.problems
+        ]  # fmt: skip
+        raise ConfigError.several(problems, file=err.file) from None
 
 
 def decode_confidence(hamming: int, decision_margin: float) -> float:

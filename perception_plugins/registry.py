@@ -18,6 +18,11 @@ def _entry_points() -> dict[str, EntryPoint]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def entry_point(name: str) -> EntryPoint | None:
+    """The installed entry point registered as `name` (its ``dist`` is the distribution providing it), or None."""
+    return _entry_points().get(name)
+
+
 def known_names() -> list[str]:
     """Names of every installed plugin, sorted."""
     return sorted(_entry_points())
@@ -68,8 +73,7 @@ def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: s
     try:
         return cls(dict(cfg.params), name=name)
     except ConfigError as err:
-        key = f"{key_prefix}.params.{err.key}" if err.key else f"{key_prefix}.params"
-        raise ConfigError(err.detail, file=err.file or file, key=key) from None
+        raise err.within(f"{key_prefix}.params", file=file) from None
     except Exception as err:  # a third-party constructor failing its own way: still one line, not a traceback
         where = ": ".join(p for p in (file, f"{key_prefix}.plugin") if p)
         why = " ".join(str(err).split())

@@ -39,5 +39,5 @@ def apply_overrides(scenario: Scenario, overrides: dict[str, Any] | None, *, fil
     try:
         merged = scenario_from_dict(data, file=file)
     except ConfigError as err:
-        raise ConfigError(err.detail, file=file, key="sim" + ("." + err.key if err.key else "")) from None
+        raise err.within("sim", file=file) from None
     return merged

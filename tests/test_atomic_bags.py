@@ -79,4 +79,4 @@ def test_a_bag_path_that_cannot_be_created_is_one_line(tmp_path):
     blocker.write_text("not a directory")
     with pytest.raises(MissionError) as err:
         BagRecorder(blocker / "run").open()
-    assert str(err.value) == f"{blocker / 'run'}: cannot record a bag here (Not a directory)"
+    assert str(err.value) == f"{blocker / 'run'}: cannot create it: {blocker} is a file, not a directory"

@@ -50,7 +50,7 @@ CASES = {
     ),
     "unknown key in the second source": (
         "perception:\n  sources:\n    - plugin: aruco\n    - plugin: apriltag\n      param: {}\n",
-        "perception.sources[1].param: unknown key",
+        "perception.sources[1].param: unknown key (did you mean params?)",
     ),
     "target not a mapping": (
         "perception:\n  targets:\n    target: 7\n",
@@ -150,3 +150,71 @@ def test_mission_run_with_a_bad_config_exits_2_with_only_that_line(tmp_path, cap
 
 def test_defaults_are_still_a_valid_config():
     assert MissionConfig().run.tick_hz == 15.0 and Path(MissionConfig().tree).suffix == ".xml"
+
+
+SEVERAL = """\
+run:
+  tick_hzz: 10
+perception:
+  policy: best
+  targets:
+    target: {marker_idd: 7}
+"""
+
+
+def test_a_config_with_several_problems_lists_every_one_on_its_own_line(tmp_path, capsys):
+    path = tmp_path / "robot.yaml"
+    path.write_text(SEVERAL)
+    assert main(["run", "--config", str(path), "--quiet", "--max-duration", "1"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.splitlines() == [
+        f"mission: error: {path}: perception.policy: input should be 'all' or 'hybrid', got 'best'",
+        f"mission: error: {path}: perception.targets.target.marker_idd: unknown key (did you mean marker_id?)",
+        f"mission: error: {path}: run.tick_hzz: unknown key (did you mean tick_hz?)",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "tail"),
+    [
+        ("run: {tick_hzz: 10}\n", "run.tick_hzz: unknown key (did you mean tick_hz?)"),
+        ("perceptoin: {}\n", "perceptoin: unknown key (did you mean perception?)"),
+        ("perception:\n  sources:\n    - {plugin: aruco, nmae: front}\n",
+         "perception.sources[0].nmae: unknown key (did you mean name?)"),
+        ("perception:\n  targets:\n    dock: {lable: charger}\n",
+         "perception.targets.dock.lable: unknown key (did you mean label?)"),
+        ("run: {colour: red}\n", "run.colour: unknown key"),  # nothing near: no guess
+        ('run: {"tick\\nhz": 10}\n', "run.'tick\\nhz': unknown key (did you mean tick_hz?)"),  # still one line
+    ],
+)  # fmt: skip
+def test_an_unknown_key_suggests_the_nearest_key_accepted_at_that_place(tmp_path, text, tail):
+    path = tmp_path / "robot.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert str(err.value).splitlines() == [f"{path}: {tail}"]
+
+
+def test_a_misspelt_plugin_param_suggests_the_plugins_own_param(tmp_path, capsys):
+    path = tmp_path / "robot.yaml"
+    path.write_text("perception:\n  sources:\n    - plugin: aruco\n      params: {marker_sise_m: 0.1, dictionry: x}\n")
+    assert main(["run", "--config", str(path), "--quiet", "--max-duration", "1"]) == 2
+    params = f"mission: error: {path}: perception.sources[0].params"
+    assert capsys.readouterr().err.splitlines() == [
+        f"{params}.marker_sise_m: unknown key (did you mean marker_size_m?)",
+        f"{params}.dictionry: unknown key (did you mean dictionary?)",
+    ]
+
+
+def test_every_cross_key_problem_is_listed(tmp_path):
+    path = tmp_path / "robot.yaml"
+    path.write_text("perception:\n  targets:\n    target: {marker_id: 7, source: vlm}\n    person: {marker_id: 0}\n"
+                    "    dock: {marker_id: 0}\n")  # fmt: skip
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert str(err.value).splitlines() == [
+        f"{path}: perception.targets.target.source: no perception source named 'vlm'; configured sources: aruco",
+        f"{path}: perception.targets.dock: looks exactly like target 'person'; expected a marker_id, label or source "
+        "that tells them apart",
+    ]

@@ -97,3 +97,69 @@ def test_report_names_the_file_that_is_not_a_benchmark_result(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "tree.json" in proc.stderr and "not readable as JSON" in proc.stderr
     assert not (tmp_path / "B.md").exists()
+
+
+def _digests(directory: Path) -> dict[str, str]:
+    import hashlib
+
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(directory.glob("*")) if p.is_file()}
+
+
+def test_quick_figures_go_to_out_bench_quick_and_full_ones_to_the_committed_results():
+    import argparse
+
+    from bench.registry import QUICK_RESULTS, RESULTS
+    from mission.commands.bench import command_line, output_dir
+
+    def args(quick: bool) -> argparse.Namespace:
+        return argparse.Namespace(quick=quick, only=None, output=None)
+
+    assert output_dir(args(quick=True)) == QUICK_RESULTS == ROOT / "out" / "bench-quick"
+    ignored = subprocess.run(["git", "check-ignore", "-q", str(QUICK_RESULTS / "perception.json")], cwd=ROOT,
+                             check=False)  # fmt: skip
+    assert ignored.returncode == 0  # never committed by accident
+    assert output_dir(args(quick=False)) == RESULTS == ROOT / "bench" / "results"
+    assert command_line(args(quick=True)) == "mission bench --quick"  # the default directory is not spelt out
+
+
+@pytest.mark.parametrize("spelling", ["bench/results", "./bench/../bench/results/", str(ROOT / "bench" / "results")])
+def test_a_quick_run_is_refused_the_committed_results_directory(spelling):
+    before = _digests(ROOT / "bench" / "results")
+    proc = _mission("bench", "--quick", "--only", "apriltag_backends", "-o", spelling, timeout=60)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        f"mission: error: -o {spelling}: --quick figures never go into the committed full-run results; "
+        "expected another directory (the default is out/bench-quick)"
+    ]
+    assert _digests(ROOT / "bench" / "results") == before
+
+
+def test_mission_bench_runs_from_any_directory_of_the_checkout(tmp_path):
+    exe = Path(sys.executable).parent / "mission"  # the console script: bench/ is not on its sys.path
+    proc = subprocess.run([str(exe), "bench", "--only", "warp_drive"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=60, check=False)  # fmt: skip
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.startswith("mission: error: unknown benchmark 'warp_drive'; known: perception")
+
+
+def test_the_report_of_other_results_is_written_beside_them_never_over_benchmarks_md(quick_run):
+    results, _ = quick_run
+    committed = (ROOT / "BENCHMARKS.md").read_bytes(), _digests(ROOT / "docs" / "bench")
+    proc = subprocess.run([sys.executable, "-m", "bench.report", str(results)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120, check=False)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(f"wrote {results / 'BENCHMARKS.md'} (")
+    md = (results / "BENCHMARKS.md").read_text()
+    assert "## perception" in md and "*quick run*" in md
+    assert ((ROOT / "BENCHMARKS.md").read_bytes(), _digests(ROOT / "docs" / "bench")) == committed
+
+
+def test_the_report_reads_the_committed_full_run_results_by_default(tmp_path):
+    out = tmp_path / "BENCHMARKS.md"
+    proc = subprocess.run([sys.executable, "-m", "bench.report", "--out", str(out), "--docs", str(tmp_path / "docs")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120, check=False)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    md = out.read_text()
+    for name in ("perception", "pose", "missions"):
+        assert f"- Source: `bench/results/{name}.json`" in md
+    assert "*quick run*" not in md  # no quick figure among the committed ones

@@ -29,7 +29,7 @@ def test_unknown_key_names_file_and_dotted_key(tmp_path):
     with pytest.raises(ConfigError) as e:
         load_config(p)
     msg = str(e.value)
-    assert msg == f"{p}: perception.sources[0].parms: unknown key"
+    assert msg == f"{p}: perception.sources[0].parms: unknown key (did you mean params?)"
     assert "\n" not in msg
 
 

@@ -87,6 +87,7 @@ def test_unreadable_files_are_reported_one_line_each_and_the_others_still_proces
     (["--intrinsics", "0,600,320,240"], "--intrinsics: expected four numbers"),
     (["--set", "marker_size_m=-0.1"], "--set marker_size_m: input should be greater than 0"),
     (["--set", "colour=red"], "--set colour: unknown key"),
+    (["--set", "marker_sise_m=0.1"], "--set marker_sise_m: unknown key (did you mean marker_size_m?)"),
     (["--set", "oops"], "--set: expected KEY=VALUE"),
     (["--source", "nope"], "unknown perception plugin 'nope'; known plugins: "),
 ])  # fmt: skip

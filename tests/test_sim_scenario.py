@@ -66,7 +66,7 @@ def test_an_unknown_key_names_the_file_and_the_dotted_key(tmp_path: Path) -> Non
     path = write(tmp_path, {"name": "x", "camera": {"widht": 320}})
     with pytest.raises(ConfigError) as err:
         load_scenario(path)
-    assert str(err.value) == f"{path}: camera.widht: unknown key"
+    assert str(err.value) == f"{path}: camera.widht: unknown key (did you mean width?)"
 
 
 def test_a_wrong_value_names_the_key_and_what_was_expected(tmp_path: Path) -> None:
@@ -127,7 +127,7 @@ def test_a_config_sim_section_overrides_scenario_keys_and_names_its_own_bad_keys
     assert sc.target == base.target  # untouched sections stay as they were
     with pytest.raises(ConfigError) as err:
         apply_overrides(base, {"camera": {"widht": 320}}, file="run.yaml")
-    assert str(err.value) == "run.yaml: sim.camera.widht: unknown key"
+    assert str(err.value) == "run.yaml: sim.camera.widht: unknown key (did you mean width?)"
     with pytest.raises(ConfigError) as err:
         apply_overrides(base, {"robot": {"x": 50.0}}, file="run.yaml")
     assert str(err.value).startswith("run.yaml: sim.robot: (50, 2) is outside the room")

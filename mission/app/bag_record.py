@@ -24,6 +24,7 @@ from rosbags.typesys import Stores, get_typestore
 
 from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
+from mission.core.files import ensure_dir, unwritable
 from mission.core.types import Frame, LaserScan, RobotState
 from mission.ros.conversions import array_to_image, intrinsics_to_camera_info, scan_to_msg, state_to_odometry
 from mission.ros.messages import BagMessages
@@ -78,7 +79,9 @@ class BagRecorder:
         always complete: a killed run leaves ``<path>.partial`` without metadata.yaml, never a broken `path`."""
         return self.path.with_name(self.path.name + ".partial") / self.path.name
 
-    def open(self) -> BagRecorder:
+    def check(self) -> BagRecorder:
+        """A MissionError now, when recording would fail later: a bag or an interrupted recording in the way,
+        or a directory the bag cannot be made in (created here, as a report directory is)."""
         if self.path.exists():
             raise MissionError(f"{self.path}: exists already; a bag is never overwritten")
         if self.partial_path.parent.exists():
@@ -86,6 +89,14 @@ class BagRecorder:
                 f"{self.partial_path.parent}: an interrupted recording to {self.path} is in the way "
                 f"(`ros2 bag reindex {self.partial_path}` may recover it); move or delete it to record again"
             )
+        try:
+            ensure_dir(self.path.parent)
+        except OSError as err:
+            raise MissionError(f"{self.path}: {unwritable(err, self.path, directory=True)}") from None
+        return self
+
+    def open(self) -> BagRecorder:
+        self.check()
         try:
             self.partial_path.parent.mkdir(parents=True)
             self._writer = Writer(self.partial_path, version=9, storage_plugin=self.storage)
@@ -158,7 +169,7 @@ class BagObserver(RunObserver):
     """
 
     def __init__(self, path: str | Path, *, storage: str | None = None) -> None:
-        self.recorder = BagRecorder(path, storage=storage)
+        self.recorder = BagRecorder(path, storage=storage).check()  # before the simulation starts, not after
 
     def on_start(self, runner: Any) -> None:
         self.recorder.open()

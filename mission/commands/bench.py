@@ -2,25 +2,43 @@
 
 Each benchmark writes ``<output>/<name>.json`` (its figures, the machine, the command, the elapsed
 time) and its plots; ``<output>/results.json`` gathers the benchmarks of this invocation. A benchmark
-that fails is reported on one line and the others still run (exit 1). BENCHMARKS.md is generated from
-the output directory by ``python -m bench.report``.
+that fails is reported on one line and the others still run (exit 1). The output is bench/results (the
+committed figures BENCHMARKS.md is generated from by ``python -m bench.report``) for a full run, and
+out/bench-quick/ (gitignored) for ``--quick``, which never writes into bench/results.
+
+bench/ is never installed: it is imported from the source checkout this `mission` is installed from
+(editable), so `mission bench` works from any directory of that checkout.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import sys
 import time
 import traceback
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from bench.common import machine_info, progress
-from bench.registry import Benchmark, select
 from mission.core.errors import MissionError
-from mission.core.files import atomic_write_text
+from mission.core.files import atomic_write_text, ensure_dir, unwritable
+
+if TYPE_CHECKING:
+    from bench.registry import Benchmark
+
+CHECKOUT = Path(__file__).resolve().parents[2]  # mission/commands/bench.py → the source checkout
+
+
+def _import_bench() -> None:
+    """Make bench/ (never installed) importable from the checkout, or say why `mission bench` cannot run."""
+    if importlib.util.find_spec("bench") is not None:
+        return
+    if not (CHECKOUT / "bench" / "registry.py").is_file():
+        raise MissionError("`mission bench` runs the benchmarks of a source checkout (bench/ is not installed); "
+                           "install one editable (`pip install -e .` in a clone) and run it there")  # fmt: skip
+    sys.path.append(str(CHECKOUT))
 
 
 def command_line(args: argparse.Namespace) -> str:
@@ -29,12 +47,14 @@ def command_line(args: argparse.Namespace) -> str:
         parts.append("--quick")
     if args.only:
         parts += ["--only", args.only]
-    if str(args.output) != "bench/results":
+    if args.output is not None:
         parts += ["-o", str(args.output)]
     return " ".join(parts)
 
 
 def _run_one(b: Benchmark, quick: bool, out: Path, machine: dict[str, Any], cmd: str) -> dict[str, Any]:
+    from bench.common import progress
+
     entry: dict[str, Any] = {
         "name": b.name,
         "description": b.description,
@@ -84,10 +104,37 @@ def _print_summary(entries: list[dict[str, Any]]) -> None:
             print(line)
 
 
+def output_dir(args: argparse.Namespace) -> Path:
+    """-o DIR, else bench/results for a full run and out/bench-quick/ for --quick; created and checked
+    writable. A quick run is refused the committed results directory (it would replace full-run figures)."""
+    from bench.registry import default_output, is_committed_results
+
+    out = Path(args.output) if args.output is not None else default_output(args.quick)
+    if args.quick and is_committed_results(out):
+        raise MissionError(f"-o {args.output}: --quick figures never go into the committed full-run results; "
+                           f"expected another directory (the default is {_shown(default_output(True))})")  # fmt: skip
+    try:
+        ensure_dir(out)
+    except OSError as err:
+        raise MissionError(f"-o {out}: {unwritable(err, out, directory=True)}") from None
+    return out
+
+
+def _shown(path: Path) -> str:
+    """`path` relative to the working directory when it is inside it."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def main(args: argparse.Namespace) -> int:
+    _import_bench()
+    from bench.common import machine_info
+    from bench.registry import is_committed_results, select
+
     chosen = select(args.only, args.quick)
-    out = Path(args.output)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(args)
     cmd = command_line(args)
     machine = machine_info()
     t0 = time.perf_counter()
@@ -100,7 +147,9 @@ def main(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2, default=str))
     else:
         _print_summary(entries)
-        print(f"figures in {out}/ ({total:.0f} s); BENCHMARKS.md: python -m bench.report {out}")
+        shown = _shown(out)
+        report = "BENCHMARKS.md" if is_committed_results(out) else f"{shown}/BENCHMARKS.md"
+        print(f"figures in {shown}/ ({total:.0f} s); {report}: python -m bench.report {shown}")
     failed = [e for e in entries if "error" in e]
     if failed and len(failed) == len(entries) == 1:
         raise MissionError(failed[0]["error"])

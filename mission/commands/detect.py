@@ -106,7 +106,7 @@ def main(args: argparse.Namespace) -> int:
     try:
         source = cls(params, name=args.source)
     except ConfigError as err:
-        raise ConfigError(err.detail, key=f"--set {err.key}" if err.key else "--set") from None
+        raise err.within("--set", sep=" ") from None
     failures = 0
     try:
         for i, path in enumerate(args.images):

@@ -11,6 +11,8 @@ from mission.app.observers import RunObserver
 from mission.app.report import plot_timeline, plot_trajectories, write_json
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import run_scenario
+from mission.core.errors import MissionError
+from mission.core.files import ensure_dir, unwritable
 
 DEFAULT_SCENARIO = "mission_full"
 
@@ -41,11 +43,24 @@ def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
     if getattr(args, "record_bag", None):
         from mission.app.bag_record import BagObserver
 
-        observers.append(BagObserver(args.record_bag))
+        try:
+            observers.append(BagObserver(args.record_bag))
+        except MissionError as err:  # its messages start with the path: say which option gave it
+            raise MissionError(f"--record-bag {err}") from None
     return observers
 
 
+def _check_report_dir(args: argparse.Namespace) -> None:
+    """--report DIR is created and checked writable now: the report is written after the whole simulation."""
+    if args.report:
+        try:
+            ensure_dir(args.report)
+        except OSError as err:
+            raise MissionError(f"--report {args.report}: {unwritable(err, args.report, directory=True)}") from None
+
+
 def main(args: argparse.Namespace) -> int:
+    _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
     scenario = args.scenario or DEFAULT_SCENARIO
     label = f"{Path(scenario).stem} seed {args.seed}"
     # --serve: simulated time at wall-clock speed, so the page can be watched

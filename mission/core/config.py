@@ -1,4 +1,4 @@
-"""Config schema and loading: one validated object, or one line saying which file and key is wrong.
+"""Config schema and loading: one validated object, or a line per problem saying which file and key is wrong.
 
 Models are pydantic with ``extra="forbid"``, so a typo in a key is an error, not a silent default.
 Other floors reuse :func:`load_model` / :func:`validate_model` for their own files (scenarios, plugin params).
@@ -6,8 +6,11 @@ Other floors reuse :func:`load_model` / :func:`validate_model` for their own fil
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from difflib import get_close_matches
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from types import UnionType
+from typing import Annotated, Any, Literal, TypeVar, Union, get_args, get_origin
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -30,32 +33,84 @@ def _dotted(loc: tuple[Any, ...], prefix: str = "") -> str:
         if isinstance(part, int):
             out += f"[{part}]"
         else:
-            out += ("." if out else "") + str(part)
+            text = str(part)  # a key with a line break or a control character stays on its one line
+            out += ("." if out else "") + (text if text.isprintable() else repr(text))
     return out or "(top level)"
 
 
-def format_validation_error(err: ValidationError, *, file: str | None, prefix: str = "") -> ConfigError:
-    """The first problem of a pydantic error as a one-line ConfigError naming file and dotted key."""
-    first = err.errors()[0]
-    key = _dotted(tuple(first["loc"]), prefix)
-    kind = first["type"]
+def _expand(annotation: Any) -> list[Any]:
+    """`annotation` without its Annotated / Optional / Union wrapping: the types a value may have."""
+    if get_origin(annotation) is Annotated:
+        return _expand(get_args(annotation)[0])
+    if get_origin(annotation) in (Union, UnionType):
+        return [t for arg in get_args(annotation) for t in _expand(arg)]
+    return [annotation]
+
+
+def _is_model(annotation: Any) -> bool:
+    return isinstance(annotation, type) and issubclass(annotation, BaseModel)
+
+
+def _step(annotation: Any, part: Any) -> list[Any]:
+    """The types found one `loc` step below a value of type `annotation` (a field, an item, a union member)."""
+    out: list[Any] = []
+    for t in _expand(annotation):
+        origin = get_origin(t)
+        if _is_model(t) and isinstance(part, str):
+            field = t.model_fields.get(part) or next(
+                (f for f in t.model_fields.values() if f.alias == part), None
+            )
+            if field is not None:
+                out.append(field.annotation)
+            elif part == t.__name__:  # pydantic names the union member it tried
+                out.append(t)
+        elif origin in (list, tuple, set, frozenset, Sequence) and isinstance(part, int):
+            args = [a for a in get_args(t) if a is not Ellipsis]
+            out.extend(args[part : part + 1] if origin is tuple and len(args) > 1 else args[:1])
+        elif origin in (dict, Mapping) and len(get_args(t)) == 2:
+            out.append(get_args(t)[1])
+    return out
+
+
+def known_keys(model: type[BaseModel], loc: Sequence[Any]) -> list[str]:
+    """The keys `model` accepts in the mapping at `loc` (``("run",)`` → RunConfig's), walking fields, list
+    items, dict values and union members; empty when `loc` leads to no model."""
+    types: list[Any] = [model]
+    for part in loc:
+        types = [t for annotation in types for t in _step(annotation, part)]
+    names: list[str] = []
+    for t in (t for annotation in types for t in _expand(annotation)):
+        if _is_model(t):
+            names += [f.alias or name for name, f in t.model_fields.items() if (f.alias or name) not in names]
+    return names
+
+
+def _problem(error: Any, model: type[BaseModel] | None) -> str:
+    """One pydantic error as the words after the key: what is wrong and what was expected."""
+    kind = error["type"]
     if kind == "extra_forbidden":
-        msg = "unknown key"
-    elif kind == "missing":
-        msg = "required key is missing"
-    else:
-        got = first.get("input")
-        text = first["msg"].removeprefix("Value error, ")  # a validator's own sentence, not pydantic's prefix
-        text = text[:1].lower() + text[1:]  # keep names as written (TargetSpec, DICT_4X4_50)
-        msg = f"{text}, got {got!r}" if not isinstance(got, dict) else text
-    more = len(err.errors()) - 1
-    if more:
-        msg += f" (and {more} more problem{'s' if more > 1 else ''})"
-    return ConfigError(msg, file=file, key=key)
+        loc = tuple(error["loc"])
+        near = get_close_matches(str(loc[-1]), known_keys(model, loc[:-1]), n=1) if model and loc else []
+        return f"unknown key (did you mean {near[0]}?)" if near else "unknown key"
+    if kind == "missing":
+        return "required key is missing"
+    got = error.get("input")
+    text = error["msg"].removeprefix("Value error, ")  # a validator's own sentence, not pydantic's prefix
+    text = text[:1].lower() + text[1:]  # keep names as written (TargetSpec, DICT_4X4_50)
+    return f"{text}, got {got!r}" if not isinstance(got, dict) else text
+
+
+def format_validation_error(
+    err: ValidationError, *, file: str | None, prefix: str = "", model: type[BaseModel] | None = None
+) -> ConfigError:
+    """Every problem of a pydantic error, one line each naming file and dotted key; an unknown key suggests
+    the nearest key `model` accepts there (``run.tick_hzz: unknown key (did you mean tick_hz?)``)."""
+    problems = [(_dotted(tuple(e["loc"]), prefix), _problem(e, model)) for e in err.errors()]
+    return ConfigError.several(problems, file=file)
 
 
 def validate_model(model: type[M], data: Any, *, file: str | None = None, prefix: str = "") -> M:
-    """Validate a mapping into `model`, raising a one-line ConfigError on the first problem."""
+    """Validate a mapping into `model`, raising a ConfigError listing every problem, one line each."""
     if data is None:
         data = {}
     if not isinstance(data, dict):
@@ -63,7 +118,7 @@ def validate_model(model: type[M], data: Any, *, file: str | None = None, prefix
     try:
         return model.model_validate(data)
     except ValidationError as err:
-        raise format_validation_error(err, file=file, prefix=prefix) from None
+        raise format_validation_error(err, file=file, prefix=prefix, model=model) from None
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):
@@ -161,26 +216,27 @@ class MissionConfig(StrictModel):
 
 
 def check_config(cfg: MissionConfig, file: str | None = None) -> None:
-    """Cross-key checks the schema cannot express. Each would otherwise load and fail silently at run time:
-    two targets that look alike (one detection is both), or a target naming a source that is not configured
-    (no detection can ever match it)."""
+    """Cross-key checks the schema cannot express, every problem a line. Each would otherwise load and fail
+    silently at run time: two targets that look alike (one detection is both), or a target naming a source
+    that is not configured (no detection can ever match it)."""
     names = [s.name or s.plugin for s in cfg.perception.sources]
     plugins = {s.plugin for s in cfg.perception.sources}  # matching accepts a plugin name too
     targets = list(cfg.perception.targets.items())
+    problems: list[tuple[str | None, str]] = []
     for i, (target, spec) in enumerate(targets):
         twin = next((name for name, other in targets[:i] if other == spec), None)
         if twin is not None:  # one detection would be both targets: the tree could not tell them apart
-            raise ConfigError(
+            problems.append((
+                f"perception.targets.{target}",
                 f"looks exactly like target {twin!r}; expected a marker_id, label or source that tells them apart",
-                file=file,
-                key=f"perception.targets.{target}",
-            )
+            ))  # fmt: skip
         if spec.source is not None and spec.source not in names and spec.source not in plugins:
-            raise ConfigError(
+            problems.append((
+                f"perception.targets.{target}.source",
                 f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
-                file=file,
-                key=f"perception.targets.{target}.source",
-            )
+            ))  # fmt: skip
+    if problems:
+        raise ConfigError.several(problems, file=file)
 
 
 def load_config(path: str | Path | None) -> MissionConfig:

@@ -7,6 +7,9 @@ fsync'ed, gets the mode a plainly created file would have (or the existing file'
 over the target with ``os.replace``; the directory is fsync'ed so the rename itself survives a power cut.
 Any failure — an exception while writing, a full disk — removes the temp file and leaves the target as
 it was. Append-only logs (JSON lines) are not written this way: their readers skip a torn last line.
+
+Outputs a long run writes at its end are checked at its start: :func:`ensure_dir` / :func:`ensure_parent`
+create where they go, and :func:`unwritable` says in words why a path cannot be written.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_parent"]
+__all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_dir", "ensure_parent", "unwritable"]
 
 
 def _umask() -> int:
@@ -42,14 +45,52 @@ def _fsync_dir(directory: Path) -> None:
             os.close(fd)
 
 
+def _no_file_in_the_way(directory: Path) -> None:
+    """NotADirectoryError naming `directory` or its first ancestor that is a file (mkdir would say
+    "File exists", which misleads)."""
+    for p in (directory, *directory.parents):
+        if p.exists() and not p.is_dir():
+            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(p))
+
+
 def ensure_parent(path: str | Path) -> Path:
     """Create `path`'s directory (and its parents); OSError says which parent is a file, if one is."""
     parent = Path(path).parent
-    for p in (parent, *parent.parents):
-        if p.exists() and not p.is_dir():  # mkdir would say "File exists", which misleads
-            raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(p))
+    _no_file_in_the_way(parent)
     parent.mkdir(parents=True, exist_ok=True)
     return parent
+
+
+def ensure_dir(path: str | Path) -> Path:
+    """Create directory `path` (and its parents) and check that files can be created in it, before anything
+    slow starts (a probe file is made and removed: permissions, a read-only file system). OSError otherwise;
+    a NotADirectoryError's filename is `path` or the ancestor that is a file."""
+    path = Path(path)
+    _no_file_in_the_way(path)
+    path.mkdir(parents=True, exist_ok=True)
+    try:
+        with tempfile.TemporaryFile(dir=path, prefix=".write-probe."):
+            pass
+    except OSError as err:  # name the directory, not the probe
+        raise type(err)(err.errno, err.strerror, str(path)) from None
+    return path
+
+
+def unwritable(err: OSError, path: str | Path, *, directory: bool = False) -> str:
+    """Why `path` (a directory when `directory`, else a file) cannot be written, from the OSError that
+    :func:`ensure_dir`, :func:`ensure_parent` or opening it raised, in words naming the culprit:
+    ``expected a directory, but it is a file`` / ``cannot create it: out is a file, not a directory`` /
+    ``expected a file, but it is a directory`` / ``cannot write (Permission denied)``."""
+    path = Path(path)
+    culprit = Path(err.filename) if isinstance(err.filename, str) else None
+    if isinstance(err, NotADirectoryError) and culprit is not None and culprit.is_file():
+        if culprit == path:
+            return "expected a directory, but it is a file"
+        return f"cannot create it: {culprit} is a file, not a directory"
+    if isinstance(err, IsADirectoryError) or (not directory and path.is_dir()):
+        return "expected a file, but it is a directory"
+    where = "" if culprit in (None, path) else f": {culprit}"
+    return f"cannot write ({err.strerror or err}{where})"
 
 
 @contextlib.contextmanager

@@ -21,7 +21,7 @@ import numpy as np
 from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
-from mission.core.files import atomic_path
+from mission.core.files import atomic_path, ensure_parent, unwritable
 from mission.viz.overlay import draw_detections
 from mission.viz.style import STATE_COLOURS
 from mission.viz.topdown import MapView, annotate_scale
@@ -93,12 +93,12 @@ class Recorder(RunObserver):
         self.path = Path(path)
         if self.path.suffix.lower() not in FORMATS:
             raise MissionError(f"--record {self.path}: expected a .gif or .mp4 file name")
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:  # fail before the (slow) simulation starts when the file cannot be written
+            ensure_parent(self.path)
             with open(self.path, "ab"):
                 pass
         except OSError as err:
-            raise MissionError(f"--record {self.path}: cannot write ({err.strerror or err})") from err
+            raise MissionError(f"--record {self.path}: {unwritable(err, self.path)}") from None
         self.fps = float(fps)
         self.height = int(height)
         self.max_frames = int(max_frames)

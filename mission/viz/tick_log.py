@@ -26,6 +26,7 @@ from typing import IO, Any
 from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
+from mission.core.files import ensure_parent, unwritable
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
 from mission.viz.probe import probe_for, release
 
@@ -85,10 +86,10 @@ class TickLog(RunObserver):
         self._probe: Any = None
         self.lines = 0
         try:  # fail before the (slow) simulation starts when the file cannot be written
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            ensure_parent(self.path)
             self._fh = self.path.open("w", encoding="utf-8")
         except OSError as err:
-            raise MissionError(f"--log {self.path}: cannot write ({err.strerror or err})") from err
+            raise MissionError(f"--log {self.path}: {unwritable(err, self.path)}") from None
 
     def on_start(self, runner: Any) -> None:
         adapter = runner.world
