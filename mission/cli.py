@@ -87,6 +87,7 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
 
 def _add_tree(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="mission config YAML")
+    p.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
     p.epilog = "ROS arguments follow --ros-args, e.g. `mission tree --ros-args -p image_topic:=/cam/image`"
     # `--ros-args -p name:=value …` is collected by main() (argparse cannot take options it does not know).
     p.set_defaults(ros_args=[])

@@ -11,5 +11,7 @@ def main(args: argparse.Namespace) -> int:
     argv = ["mission-tree"]
     if args.config:
         argv += ["--config", args.config]
+    if args.tree:
+        argv += ["--tree", args.tree]
     argv += [a for a in (args.ros_args or []) if a != "--"]
     return node_main(argv)
