@@ -22,8 +22,7 @@ import numpy as np
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Dependencies, Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import Dependencies
 from mission.behaviours.target_matching import SourcedDetection, assign, detection_problem
 from mission.core import blackboard as bbk
 from mission.core import se3
@@ -63,7 +62,6 @@ def target_pose_map(robot: RobotState, T_base_optical: np.ndarray, det: Detectio
     return se3.compose(se3.planar(p.x, p.y, p.yaw), T_base_optical, se3.from_pos_quat(det.position, det.orientation))
 
 
-@register
 class PerceiveTargets(MissionLeaf):
     """Run the injected perception sources on the newest frame and keep per-target tracks.
 
@@ -73,7 +71,6 @@ class PerceiveTargets(MissionLeaf):
     """
 
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {}
     # Frames older than this on CLOCK are stale (s); 0 = off: ROS camera stamps need not share CLOCK's time
     # base. Set on the instance (``node.max_frame_age_s = 0.5``); not a port, so the catalogue is unchanged.
     MAX_FRAME_AGE_S: ClassVar[float] = 0.0

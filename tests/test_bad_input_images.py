@@ -33,6 +33,7 @@ from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.vlm_stub import VlmStubSource
+from mission.trees.factory import shipped_factory
 from mission.trees.loader import load_tree
 
 S = py_trees.common.Status
@@ -314,7 +315,7 @@ def test_the_shipped_follow_tree_keeps_following_through_a_burst_of_bad_frames()
     FOLLOW carries on (a dropped frame is not a miss, so it does not push the tree into LOST or SEARCH)."""
     scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), marker=marker_facing(2.0, 0.0, math.pi))
     deps = Dependencies(sources=[scene.source()], targets={"target": TargetSpec(marker_id=7)})
-    tree = py_trees.trees.BehaviourTree(load_tree("follow.xml", deps))
+    tree = py_trees.trees.BehaviourTree(load_tree("follow.xml", shipped_factory(deps)))
     tree.setup(timeout=5.0)
     w = bbk.writer("adapter")
 

@@ -26,6 +26,7 @@ from mission.core.perception import PerceptionSource
 from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
+from mission.trees.factory import shipped_factory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 
@@ -78,7 +79,7 @@ class TreeRunner:
         deps = Dependencies(
             sources=self.sources, targets=dict(self.config.perception.targets), policy=self.config.perception.policy
         )
-        root = load_tree(self.tree_path, deps)
+        root = load_tree(self.tree_path, shipped_factory(deps))
         self._seed_blackboard()
         self.tree = py_trees.trees.BehaviourTree(root)
         self.tree.setup(timeout=30.0)
