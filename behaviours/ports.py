@@ -98,7 +98,8 @@ def declared_ports(params: type, owner: str) -> Mapping[str, Port]:
         doc, direction = f.metadata[_METADATA_KEY]
         kind = hints[f.name]
         if kind not in PORT_TYPES:
-            raise TypeError(f"{where}.{f.name}: type {kind!r} is not a port type; expected str, int, float or bool")
+            named = getattr(kind, "__name__", repr(kind))
+            raise TypeError(f"{where}.{f.name}: type {named} is not a port type; expected str, int, float or bool")
         default = REQUIRED if f.default is dataclasses.MISSING else f.default
         if default is not REQUIRED and type(default) is not kind:
             raise TypeError(f"{where}.{f.name}: default {default!r} is not {kind.__name__}")

@@ -62,12 +62,11 @@ class BehaviourFactory:
         if tag in self._manifests:
             taken = "a BT.CPP built-in" if tag in BUILTINS else "already registered"
             raise ValueError(f"tag {tag!r} is {taken}; each tag names one node type")
-        clash = sorted(set(args) & (set(cls.PORTS) | STRUCTURAL_ARGUMENTS))
-        if clash:
-            raise ValueError(
-                f"{tag}: {', '.join(clash)} cannot be registration arguments "
-                "(ports come from the tree file; name and children from the loader)"
-            )
+        for arg in args:
+            if arg in cls.PORTS:
+                raise ValueError(f"{tag}: {arg} cannot be a registration argument: it is a port, set in tree files")
+            if arg in STRUCTURAL_ARGUMENTS:
+                raise ValueError(f"{tag}: {arg} cannot be a registration argument: the loader passes it")
         manifest = NodeManifest(
             tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls)
         )
