@@ -50,8 +50,9 @@ class BehaviourFactory:
     def register(self, cls: type[PortsDeclared], tag: str | None = None, /, **args: Any) -> NodeManifest:
         """Make `cls` available in tree files as ``<tag>`` (default: the class name).
 
-        `args` are passed to the constructor of every instance, after the ports written in the tree file.
-        A tag already taken (by a built-in or an earlier registration) or reserved by the file format is a
+        `args` are passed to the constructor of every instance, with the ports written in the tree file
+        (an argument the constructor refuses is a TreeError at the node when the tree is loaded). A tag
+        already taken (by a built-in or an earlier registration) or reserved by the file format is a
         ValueError, as is an argument that is one of the class's ports (those come from the tree file).
         """
         if not (isinstance(cls, type) and issubclass(cls, PortsDeclared) and issubclass(cls, Behaviour)):
