@@ -15,15 +15,15 @@ design notes' tolerances (3 cm lateral, 2.5 cm distance, 10° skew at a 0.30 m s
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from mission.behaviours.dock_control import ServoGains, approach_command, backoff_command
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
@@ -85,50 +85,32 @@ class FloorTagFilter:
         return se3.transform(se3.rot_z(self.heading) @ se3.rot_y(math.pi / 2), (self.xy[0], self.xy[1], self.z))
 
 
-@register
 class VisualServoDock(MissionLeaf):
     """DOCK (final approach): TWIST commands from the live tag pose to the stand-off, within tolerance."""
 
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("dock", "name of the dock target (a key of perception.targets)")
+        standoff_m: float = port(0.30, "final distance from the camera optical centre to the tag plane")
+        lateral_tol_m: float = port(0.03, "success tolerance on the lateral offset")
+        distance_tol_m: float = port(0.025, "success tolerance on |distance − standoff|")
+        skew_tol_deg: float = port(10.0, "success tolerance on the skew")
+        max_v: float = port(0.25, "forward speed limit (m/s)")
+        max_w: float = port(0.75, "yaw rate limit (rad/s)")
+        detection_timeout_s: float = port(1.0, "fail when the tag is unseen this long")
+        timeout_s: float = port(30.0, "give up after this long")
+
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "dock", "name of the dock target (a key of perception.targets)"),
-        "standoff_m": Port(float, 0.30, "final distance from the camera optical centre to the tag plane"),
-        "lateral_tol_m": Port(float, 0.03, "success tolerance on the lateral offset"),
-        "distance_tol_m": Port(float, 0.025, "success tolerance on |distance − standoff|"),
-        "skew_tol_deg": Port(float, 10.0, "success tolerance on the skew"),
-        "max_v": Port(float, 0.25, "forward speed limit (m/s)"),
-        "max_w": Port(float, 0.75, "yaw rate limit (rad/s)"),
-        "detection_timeout_s": Port(float, 1.0, "fail when the tag is unseen this long"),
-        "timeout_s": Port(float, 30.0, "give up after this long"),
-    }
     READS = (bbk.TRACKS,)
     WRITES = (bbk.DOCK_SETPOINT,)
     COMMANDS = True
+    params: Params
 
-    def __init__(
-        self,
-        name: str = "VisualServoDock",
-        *,
-        target: str = "dock",
-        standoff_m: float = 0.30,
-        lateral_tol_m: float = 0.03,
-        distance_tol_m: float = 0.025,
-        skew_tol_deg: float = 10.0,
-        max_v: float = 0.25,
-        max_w: float = 0.75,
-        detection_timeout_s: float = 1.0,
-        timeout_s: float = 30.0,
-    ) -> None:
-        super().__init__(name)
-        self.target = target
-        self.standoff_m = float(standoff_m)
-        self.lateral_tol_m = float(lateral_tol_m)
-        self.distance_tol_m = float(distance_tol_m)
-        self.skew_tol_rad = math.radians(float(skew_tol_deg))
-        self.max_v = abs(float(max_v))
-        self.max_w = abs(float(max_w))
-        self.detection_timeout_s = float(detection_timeout_s)
-        self.timeout_s = float(timeout_s)
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.skew_tol_rad = math.radians(self.params.skew_tol_deg)
+        self.speed_limit = abs(self.params.max_v)  # limits: the sign of what was written does not matter
+        self.turn_limit = abs(self.params.max_w)
         self.gains = ServoGains()
         self._reset()
 
@@ -145,45 +127,46 @@ class VisualServoDock(MissionLeaf):
     def initialise(self) -> None:
         self._reset()
         self._t0 = self.now()
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is not None and tr.pose_map is not None:
             self.filter.update(tr.pose_map)  # start from what staging saw; live detections take over
             self._used_seen = tr.last_seen
-        self.feedback_message = f"DOCK: servoing on {self.target}"
+        self.feedback_message = f"DOCK: servoing on {self.params.target}"
 
     def _describe(self, off: DockOffsets) -> str:
         return (
-            f"stand-off {off.standoff_m:.3f} m (→{self.standoff_m:.2f}), lateral {100 * off.lateral_m:+.1f} cm, "
+            f"stand-off {off.standoff_m:.3f} m (→{self.params.standoff_m:.2f}), lateral {100 * off.lateral_m:+.1f} cm, "
             f"skew {off.skew_deg:+.1f}°"
         )
 
     def _within(self, off: DockOffsets) -> bool:
         return (
-            abs(off.standoff_m - self.standoff_m) <= self.distance_tol_m
-            and abs(off.lateral_m) <= self.lateral_tol_m
+            abs(off.standoff_m - self.params.standoff_m) <= self.params.distance_tol_m
+            and abs(off.lateral_m) <= self.params.lateral_tol_m
             and abs(off.skew_rad) <= self.skew_tol_rad
         )
 
     def _tight(self, off: DockOffsets) -> bool:
         return (
-            abs(off.standoff_m - self.standoff_m) <= TIGHT_DISTANCE * self.distance_tol_m
-            and abs(off.lateral_m) <= TIGHT_LATERAL * self.lateral_tol_m
+            abs(off.standoff_m - self.params.standoff_m) <= TIGHT_DISTANCE * self.params.distance_tol_m
+            and abs(off.lateral_m) <= TIGHT_LATERAL * self.params.lateral_tol_m
             and abs(off.skew_rad) <= TIGHT_SKEW * self.skew_tol_rad
         )
 
     def update(self) -> py_trees.common.Status:
         self.set_state(MissionState.DOCK)
         now = self.now()
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is None or tr.last_seen is None:
-            return self.fail(f"DOCK: {self.target} was never seen, nothing to servo on")
+            return self.fail(f"DOCK: {self.params.target} was never seen, nothing to servo on")
         where = f" at {self._describe(self.offsets)}" if self.offsets is not None else ""
-        if now - self._t0 > self.timeout_s:
-            return self.fail(f"DOCK: not docked within {self.timeout_s:g} s{where}")
+        if now - self._t0 > self.params.timeout_s:
+            return self.fail(f"DOCK: not docked within {self.params.timeout_s:g} s{where}")
         unseen = now - max(tr.last_seen, self._t0)
-        if unseen > self.detection_timeout_s:
+        if unseen > self.params.detection_timeout_s:
             return self.fail(
-                f"DOCK: {self.target} tag unseen for {unseen:.1f} s (> {self.detection_timeout_s:.1f} s){where}"
+                f"DOCK: {self.params.target} tag unseen for {unseen:.1f} s "
+                f"(> {self.params.detection_timeout_s:.1f} s){where}"
             )
         state = self.robot()
         if state is None:
@@ -200,7 +183,7 @@ class VisualServoDock(MissionLeaf):
                 self.write(bbk.DOCK_SETPOINT, DockSetpoint(pose_camera=pose_camera, stamp=float(tr.last_seen)))
         if self.filter.xy is None:
             self.halt()
-            self.feedback_message = f"DOCK: waiting for a map pose of {self.target}"
+            self.feedback_message = f"DOCK: waiting for a map pose of {self.params.target}"
             return py_trees.common.Status.RUNNING
         T_map_optical = se3.planar(state.pose.x, state.pose.y, state.pose.yaw) @ self.extrinsics()
         off = dock_offsets(T_map_optical, self.filter.pose(), state.pose.yaw)
@@ -216,7 +199,8 @@ class VisualServoDock(MissionLeaf):
                 self.halt()
                 msg = (
                     f"DOCK: docked: lateral {100 * abs(off.lateral_m):.1f} cm, "
-                    f"distance {100 * abs(off.standoff_m - self.standoff_m):.1f} cm, skew {abs(off.skew_deg):.1f}°"
+                    f"distance {100 * abs(off.standoff_m - self.params.standoff_m):.1f} cm, "
+                    f"skew {abs(off.skew_deg):.1f}°"
                 )
                 self.write(bbk.REASON, msg)
                 self.feedback_message = msg
@@ -225,21 +209,26 @@ class VisualServoDock(MissionLeaf):
             self._settled = 0
             self._within_since = None
 
-        remaining = off.standoff_m - self.standoff_m
+        remaining = off.standoff_m - self.params.standoff_m
         # Arriving with a lateral offset the servo cannot remove in place: back off and come in again. Aim for
         # the tight band the first times, then settle for the tolerance (no endless re-approaches).
-        lateral_limit = (TIGHT_LATERAL if self.backoffs < TIGHT_BACKOFFS else 1.0) * self.lateral_tol_m
-        if self.phase == "approach" and remaining < self.distance_tol_m and abs(off.lateral_m) > lateral_limit:
+        lateral_limit = (TIGHT_LATERAL if self.backoffs < TIGHT_BACKOFFS else 1.0) * self.params.lateral_tol_m
+        if self.phase == "approach" and remaining < self.params.distance_tol_m and abs(off.lateral_m) > lateral_limit:
             self.phase = "backoff"
             self.backoffs += 1
         elif self.phase == "backoff" and remaining >= self.gains.backoff_m:
             self.phase = "approach"
         if self.phase == "backoff":
-            cmd = backoff_command(off, self.max_v, self.max_w, self.gains)
-            doing = f"backing off to re-approach (lateral off by more than {100 * self.lateral_tol_m:.0f} cm)"
+            cmd = backoff_command(off, self.speed_limit, self.turn_limit, self.gains)
+            doing = f"backing off to re-approach (lateral off by more than {100 * self.params.lateral_tol_m:.0f} cm)"
         else:
             cmd = approach_command(
-                off, self.standoff_m, self.max_v, self.max_w, self.gains, deadband_m=DEADBAND * self.distance_tol_m
+                off,
+                self.params.standoff_m,
+                self.speed_limit,
+                self.turn_limit,
+                self.gains,
+                deadband_m=DEADBAND * self.params.distance_tol_m,
             )
             doing = "approaching"
         self.drive(cmd.v, cmd.w)

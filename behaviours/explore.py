@@ -9,13 +9,13 @@ rotating in place. SUCCESS (and stop) the moment the target is visible; FAILURE 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any
 
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
@@ -43,41 +43,35 @@ def parse_waypoints(text: str) -> list[tuple[float, float]]:
     return out
 
 
-@register
 class Explore(MissionLeaf):
     """EXPLORE: waypoints with a full turn at each, or an in-place sweep, until `target` is visible."""
 
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("dock", "stop exploring when this target is visible")
+        waypoints: str = port("", "'x,y;x,y;…' in the map frame; empty = rotate in place")
+        angular_speed: float = port(0.5, "rotation rate of the sweeps (rad/s)")
+        timeout_s: float = port(120.0, "give up after this long")
+
+        def __post_init__(self) -> None:
+            parse_waypoints(self.waypoints)  # raises ValueError naming the bad item
+
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "dock", "stop exploring when this target is visible"),
-        "waypoints": Port(str, "", "'x,y;x,y;…' in the map frame; empty = rotate in place"),
-        "angular_speed": Port(float, 0.5, "rotation rate of the sweeps (rad/s)"),
-        "timeout_s": Port(float, 120.0, "give up after this long"),
-    }
     READS = (bbk.TRACKS,)
     COMMANDS = True
+    params: Params
 
-    def __init__(
-        self,
-        name: str = "Explore",
-        *,
-        target: str = "dock",
-        waypoints: str = "",
-        angular_speed: float = 0.5,
-        timeout_s: float = 120.0,
-    ) -> None:
-        super().__init__(name)
-        self.target = target
-        self.waypoints = parse_waypoints(waypoints)
-        self.angular_speed = abs(float(angular_speed))
-        self.timeout_s = float(timeout_s)
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.route = parse_waypoints(self.params.waypoints)  # [(x, y), …] in the map frame
+        self.turn_rate = abs(self.params.angular_speed)
         self._reset()
 
     def _reset(self) -> None:
         self._t0 = 0.0
         self.index = 0
         self.unreachable = 0
-        self.phase = "navigate" if self.waypoints else "sweep"
+        self.phase = "navigate" if self.route else "sweep"
         self._goal: NavGoal | None = None
         self.turned = 0.0
         self._yaw_prev: float | None = None
@@ -86,14 +80,14 @@ class Explore(MissionLeaf):
     def initialise(self) -> None:
         self._reset()
         self._t0 = self._t_prev = self.now()
-        self.feedback_message = f"exploring for {self.target}"
+        self.feedback_message = f"exploring for {self.params.target}"
 
     def _turn_progress(self, now: float) -> None:
         state = self.robot()
         if state is not None and self._yaw_prev is not None:
             self.turned += abs(se3.wrap_angle(state.pose.yaw - self._yaw_prev))
         elif state is None:
-            self.turned += self.angular_speed * max(now - self._t_prev, 0.0)
+            self.turned += self.turn_rate * max(now - self._t_prev, 0.0)
         self._yaw_prev = state.pose.yaw if state is not None else None
         self._t_prev = now
 
@@ -108,46 +102,46 @@ class Explore(MissionLeaf):
         self.set_state(MissionState.EXPLORE)
         now = self.now()
         elapsed = now - self._t0
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is not None and tr.last_seen is not None and tr.misses == 0:
             self.halt()
-            msg = f"EXPLORE: {self.target} found after {elapsed:.1f} s"
+            msg = f"EXPLORE: {self.params.target} found after {elapsed:.1f} s"
             if tr.detection is not None:
                 msg += f", {tr.detection.distance:.2f} m away"
             self.write(bbk.REASON, msg)
             self.feedback_message = msg
             return py_trees.common.Status.SUCCESS
-        if elapsed > self.timeout_s:
-            return self.fail(f"EXPLORE: {self.target} not found within {self.timeout_s:g} s")
+        if elapsed > self.params.timeout_s:
+            return self.fail(f"EXPLORE: {self.params.target} not found within {self.params.timeout_s:g} s")
         if self.phase == "sweep":
             self._turn_progress(now)
-            self.drive(0.0, self.angular_speed)
+            self.drive(0.0, self.turn_rate)
             self.feedback_message = (
-                f"EXPLORE: sweeping for {self.target}, turned {math.degrees(self.turned):.0f}°, "
-                f"{elapsed:.0f} s of {self.timeout_s:g} s"
+                f"EXPLORE: sweeping for {self.params.target}, turned {math.degrees(self.turned):.0f}°, "
+                f"{elapsed:.0f} s of {self.params.timeout_s:g} s"
             )
             return py_trees.common.Status.RUNNING
         if self.phase == "turn":
             self._turn_progress(now)
             if self.turned < 2 * math.pi:
-                self.drive(0.0, self.angular_speed)
+                self.drive(0.0, self.turn_rate)
                 self.feedback_message = (
-                    f"EXPLORE: looking around at waypoint {self.index + 1}/{len(self.waypoints)}, "
+                    f"EXPLORE: looking around at waypoint {self.index + 1}/{len(self.route)}, "
                     f"{math.degrees(self.turned):.0f}° of 360°"
                 )
                 return py_trees.common.Status.RUNNING
             self.index += 1
             self.phase = "navigate"
             self._goal = None
-        if self.index >= len(self.waypoints):
+        if self.index >= len(self.route):
             return self.fail(
-                f"EXPLORE: visited {len(self.waypoints)} waypoint(s) ({self.unreachable} unreachable) "
-                f"without seeing {self.target}"
+                f"EXPLORE: visited {len(self.route)} waypoint(s) ({self.unreachable} unreachable) "
+                f"without seeing {self.params.target}"
             )
         return self._navigate(now)
 
     def _navigate(self, now: float) -> py_trees.common.Status:
-        wx, wy = self.waypoints[self.index]
+        wx, wy = self.route[self.index]
         state = self.robot()
         if self._goal is None:
             yaw = math.atan2(wy - state.pose.y, wx - state.pose.x) if state is not None else 0.0
@@ -157,18 +151,18 @@ class Explore(MissionLeaf):
         outcome = self.nav_outcome(self._goal)
         if outcome == NavStatus.SUCCEEDED:
             self._start_turn(now)
-            self.drive(0.0, self.angular_speed)
-            self.feedback_message = f"EXPLORE: reached waypoint {self.index + 1}/{len(self.waypoints)}, looking around"
+            self.drive(0.0, self.turn_rate)
+            self.feedback_message = f"EXPLORE: reached waypoint {self.index + 1}/{len(self.route)}, looking around"
             return py_trees.common.Status.RUNNING
         if outcome == NavStatus.FAILED:
             self.unreachable += 1
             self.index += 1
             self._goal = None
             self.halt()
-            self.feedback_message = f"EXPLORE: waypoint {self.index}/{len(self.waypoints)} unreachable, skipping it"
+            self.feedback_message = f"EXPLORE: waypoint {self.index}/{len(self.route)} unreachable, skipping it"
             return py_trees.common.Status.RUNNING
         dist = math.hypot(wx - state.pose.x, wy - state.pose.y) if state is not None else float("nan")
         self.feedback_message = (
-            f"EXPLORE: going to waypoint {self.index + 1}/{len(self.waypoints)} ({wx:.1f}, {wy:.1f}), {dist:.1f} m away"
+            f"EXPLORE: going to waypoint {self.index + 1}/{len(self.route)} ({wx:.1f}, {wy:.1f}), {dist:.1f} m away"
         )
         return py_trees.common.Status.RUNNING

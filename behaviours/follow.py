@@ -8,66 +8,59 @@ at most `rate_hz` times a second (each with a new seq, as Nav2's /goal_pose repu
 
 from __future__ import annotations
 
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from mission.behaviours.approach import approach_goal
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.types import NavGoal
 
 
-@register
 class FollowTarget(MissionLeaf):
     """FOLLOW: keep sending a smoothed approach goal behind the target; always RUNNING."""
 
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        offset_m: float = port(0.5, "stop this far before the target, on the robot's side")
+        window: int = port(5, "moving average over the last N detections (map frame)")
+        rate_hz: float = port(10.0, "maximum goal rate")
+
+        def __post_init__(self) -> None:
+            if self.window < 1 or self.rate_hz <= 0 or self.offset_m < 0:
+                raise ValueError(
+                    "expected window ≥ 1, rate_hz > 0, offset_m ≥ 0 "
+                    f"(got {self.window}, {self.rate_hz}, {self.offset_m})"
+                )
+
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "target", "name of the target (a key of perception.targets)"),
-        "offset_m": Port(float, 0.5, "stop this far before the target, on the robot's side"),
-        "window": Port(int, 5, "moving average over the last N detections (map frame)"),
-        "rate_hz": Port(float, 10.0, "maximum goal rate"),
-    }
     READS = (bbk.TRACKS,)
     COMMANDS = True
+    params: Params
 
-    def __init__(
-        self,
-        name: str = "FollowTarget",
-        *,
-        target: str = "target",
-        offset_m: float = 0.5,
-        window: int = 5,
-        rate_hz: float = 10.0,
-    ) -> None:
-        super().__init__(name)
-        if window < 1 or rate_hz <= 0 or offset_m < 0:
-            raise ValueError(
-                f"{name}: expected window ≥ 1, rate_hz > 0, offset_m ≥ 0 (got {window}, {rate_hz}, {offset_m})"
-            )
-        self.target = target
-        self.offset_m = float(offset_m)
-        self.window = int(window)
-        self.period = 1.0 / float(rate_hz)
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.period = 1.0 / self.params.rate_hz
         self._goal: NavGoal | None = None
         self._sent_at: float | None = None
 
     def initialise(self) -> None:
         self._goal = None
         self._sent_at = None
-        self.feedback_message = f"following {self.target}"
+        self.feedback_message = f"following {self.params.target}"
 
     def smoothed_target(self) -> tuple[float, float] | None:
         """Mean map position over the last `window` detections of the target (None before any)."""
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is None or not tr.history:
             return None
-        pts = np.array([(x, y) for _, x, y in tr.history[-self.window :]])
+        pts = np.array([(x, y) for _, x, y in tr.history[-self.params.window :]])
         mean = pts.mean(axis=0)
         return float(mean[0]), float(mean[1])
 
@@ -82,15 +75,17 @@ class FollowTarget(MissionLeaf):
         if target_xy is None or state is None:
             self.halt()
             self.feedback_message = (
-                f"waiting for {self.target}'s map position" if state is not None else "waiting for the robot pose"
+                f"waiting for {self.params.target}'s map position"
+                if state is not None
+                else "waiting for the robot pose"
             )
             return py_trees.common.Status.RUNNING
         robot_xy = (state.pose.x, state.pose.y)
-        goal = approach_goal(robot_xy, target_xy, self.offset_m)
+        goal = approach_goal(robot_xy, target_xy, self.params.offset_m)
         self._goal = self.navigate(goal)
         self._sent_at = now
         dist = float(np.hypot(target_xy[0] - robot_xy[0], target_xy[1] - robot_xy[1]))
         self.feedback_message = (
-            f"following {self.target} {dist:.1f} m away, goal ({goal.x:.2f}, {goal.y:.2f}) seq {self._goal.seq}"
+            f"following {self.params.target} {dist:.1f} m away, goal ({goal.x:.2f}, {goal.y:.2f}) seq {self._goal.seq}"
         )
         return py_trees.common.Status.RUNNING

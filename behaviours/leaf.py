@@ -47,15 +47,21 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
     """A py_trees leaf that talks to the world only through declared blackboard keys.
 
     Subclasses list the keys they read and write in ``READS`` / ``WRITES``; the constructor registers
-    exactly those (cheap, no world attached), so a leaf cannot touch an undeclared key.
+    exactly those (cheap, no world attached), so a leaf cannot touch an undeclared key. Subclasses declare
+    their XML ports in a nested ``Params`` (behaviours/ports.py); the constructor takes them as keywords
+    and keeps the checked values as ``self.params``.
     """
 
     READS: ClassVar[tuple[Key, ...]] = ()
     WRITES: ClassVar[tuple[Key, ...]] = ()
     COMMANDS: ClassVar[bool] = False  # True for leaves that write NAV_GOAL / TWIST
+    params: Any  # an instance of the subclass's Params
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        params = self.bind_params(ports)  # before anything is attached: a bad port leaves nothing behind
+        name = type(self).__name__ if name is None else name
         super().__init__(name=name)
+        self.params = params
         self.bb = self.attach_blackboard_client(name=name)
         reads = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, *self.READS)
         writes = tuple(self.WRITES)

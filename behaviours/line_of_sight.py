@@ -26,14 +26,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack
@@ -158,24 +157,23 @@ class Verdict:
     why: str
 
 
-@register
 class IsLineOfSightBlocked(MissionLeaf):
     """SUCCESS when the target has been missed ≥ min_misses frames AND the map or the scan blocks the view.
 
     Decided once per loss (at the min_misses-th miss) and held until the next sighting.
     """
 
-    NODE_TYPE = "Condition"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "target", "name of the target (a key of perception.targets)"),
-        "min_misses": Port(int, 5, "consecutive missed frames before an occlusion is considered"),
-    }
-    READS = (bbk.TRACKS, bbk.MAP, bbk.SCAN)
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        min_misses: int = port(5, "consecutive missed frames before an occlusion is considered")
 
-    def __init__(self, name: str = "IsLineOfSightBlocked", *, target: str = "target", min_misses: int = 5) -> None:
-        super().__init__(name)
-        self.target = target
-        self.min_misses = int(min_misses)
+    NODE_TYPE = "Condition"
+    READS = (bbk.TRACKS, bbk.MAP, bbk.SCAN)
+    params: Params
+
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
         self.reach_m = REACH_M
         self.verdict: Verdict | None = None
 
@@ -220,8 +218,8 @@ class IsLineOfSightBlocked(MissionLeaf):
             b = self._blockage(cam, robot, where)
             if b is not None:
                 return True, (
-                    f"line of sight to {label} {self.target} position ({where[0]:.2f}, {where[1]:.2f}) blocked by "
-                    f"{b.what} {b.at_m:.2f} m away"
+                    f"line of sight to {label} {self.params.target} position ({where[0]:.2f}, {where[1]:.2f}) "
+                    f"blocked by {b.what} {b.at_m:.2f} m away"
                 )
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         places = reachable_hypotheses(grid, last, self.reach_m) if grid is not None else []
@@ -229,26 +227,28 @@ class IsLineOfSightBlocked(MissionLeaf):
             b = self._map_blockage(grid, cam, where)  # type: ignore[arg-type]
             if b is not None:
                 return True, (
-                    f"{self.target} may be hidden at ({where[0]:.2f}, {where[1]:.2f}), {self.reach_m:g} m or less "
-                    f"from its last position ({last[0]:.2f}, {last[1]:.2f}): line of sight blocked by {b.what} "
-                    f"{b.at_m:.2f} m away"
+                    f"{self.params.target} may be hidden at ({where[0]:.2f}, {where[1]:.2f}), "
+                    f"{self.reach_m:g} m or less from its last position ({last[0]:.2f}, {last[1]:.2f}): "
+                    f"line of sight blocked by {b.what} {b.at_m:.2f} m away"
                 )
         said = " and ".join(f"{label} ({p[0]:.2f}, {p[1]:.2f})" for label, p in candidates)
         return False, (
             f"line of sight clear to {said} and to {len(places)} place(s) within {self.reach_m:g} m: "
-            f"{self.target} left the view"
+            f"{self.params.target} left the view"
         )
 
     def update(self) -> py_trees.common.Status:
         fail = py_trees.common.Status.FAILURE
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is None or tr.last_seen is None or tr.pose_map is None:
             self.verdict = None
-            self.feedback_message = f"{self.target} never placed in the map: nothing to raytrace to"
+            self.feedback_message = f"{self.params.target} never placed in the map: nothing to raytrace to"
             return fail
-        if tr.misses < self.min_misses:
+        if tr.misses < self.params.min_misses:
             self.verdict = None
-            self.feedback_message = f"{self.target}: {tr.misses} miss(es) < {self.min_misses}, not an occlusion yet"
+            self.feedback_message = (
+                f"{self.params.target}: {tr.misses} miss(es) < {self.params.min_misses}, not an occlusion yet"
+            )
             return fail
         if self.verdict is None or self.verdict.last_seen != tr.last_seen:
             state = self.robot()

@@ -2,36 +2,34 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from dataclasses import dataclass
 
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import REQUIRED, Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 
 STATES = tuple(v for k, v in vars(MissionState).items() if not k.startswith("_"))
 
 
-@register
 class SetMissionState(MissionLeaf):
     """Write `state` to /mission/state and succeed."""
 
-    NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "state": Port(str, REQUIRED, "one of " + ", ".join(STATES)),
-    }
-    WRITES = (bbk.STATE,)
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        state: str = port(doc="one of " + ", ".join(STATES))
 
-    def __init__(self, name: str = "SetMissionState", *, state: str) -> None:
-        super().__init__(name)
-        if state not in STATES:
-            raise ValueError(f"state: expected one of {', '.join(STATES)}, got {state!r}")
-        self.state = state
+        def __post_init__(self) -> None:
+            if self.state not in STATES:
+                raise ValueError(f"state: expected one of {', '.join(STATES)}, got {self.state!r}")
+
+    NODE_TYPE = "Action"
+    WRITES = (bbk.STATE,)
+    params: Params
 
     def update(self) -> py_trees.common.Status:
-        self.set_state(self.state)
-        self.feedback_message = f"mission state ← {self.state}"
+        self.set_state(self.params.state)
+        self.feedback_message = f"mission state ← {self.params.state}"
         return py_trees.common.Status.SUCCESS

@@ -9,28 +9,20 @@ its feedback, and logs one warning when the tree is set up. Remove it from your 
 from __future__ import annotations
 
 import logging
-from typing import ClassVar
 
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
 
 log = logging.getLogger(__name__)
 
 NOTE = "perception runs as a stage before every tick; this leaf does nothing (remove it from the tree)"
 
 
-@register
 class PerceiveTargets(MissionLeaf):
     """Deprecated no-op: perception runs as a stage before every tick. SUCCESS at once."""
 
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {}
-
-    def __init__(self, name: str = "PerceiveTargets") -> None:
-        super().__init__(name)
 
     def setup(self, **kwargs: object) -> None:
         log.warning("%s: %s", self.name, NOTE)

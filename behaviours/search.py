@@ -16,40 +16,37 @@ estimated from the commanded rate.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any
 
 import py_trees
 
 from mission.behaviours.approach import bearing_to
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import PREDICT_HORIZON_S, predicted_position
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
 
 
-@register
 class SearchSweep(MissionLeaf):
     """SEARCH: rotate in place (TWIST) toward the last-seen bearing, then a full circle; FAILURE after duration_s."""
 
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        duration_s: float = port(20.0, "give up after sweeping this long")
+        angular_speed: float = port(0.6, "rotation rate (rad/s)")
+
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "target", "name of the target (a key of perception.targets)"),
-        "duration_s": Port(float, 20.0, "give up after sweeping this long"),
-        "angular_speed": Port(float, 0.6, "rotation rate (rad/s)"),
-    }
     READS = (bbk.TRACKS,)
     COMMANDS = True
+    params: Params
 
-    def __init__(
-        self, name: str = "SearchSweep", *, target: str = "target", duration_s: float = 20.0, angular_speed: float = 0.6
-    ) -> None:
-        super().__init__(name)
-        self.target = target
-        self.duration_s = float(duration_s)
-        self.angular_speed = abs(float(angular_speed))
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.turn_rate = abs(self.params.angular_speed)  # the sign of a turn is chosen per search
         self.direction = 1.0
         self.first_turn = 0.0  # rad to turn toward the last-seen bearing before the full circle
         self._t0 = 0.0
@@ -61,7 +58,7 @@ class SearchSweep(MissionLeaf):
     def initialise(self) -> None:
         now = self.now()
         state = self.robot()
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         self._t_prev = now
         self._yaw_prev = state.pose.yaw if state is not None else None
         episode = None if tr is None else tr.last_seen
@@ -88,7 +85,7 @@ class SearchSweep(MissionLeaf):
         if state is not None and self._yaw_prev is not None:
             self.turned += self.direction * se3.wrap_angle(state.pose.yaw - self._yaw_prev)
         else:
-            self.turned += self.angular_speed * max(now - self._t_prev, 0.0)
+            self.turned += self.turn_rate * max(now - self._t_prev, 0.0)
         self._yaw_prev = state.pose.yaw if state is not None else None
         self._t_prev = now
 
@@ -108,10 +105,11 @@ class SearchSweep(MissionLeaf):
         now = self.now()
         self._integrate(now)
         elapsed = now - self._t0
-        if elapsed > self.duration_s:
+        if elapsed > self.params.duration_s:
             return self.fail(
-                f"SEARCH: {self.target} not found after {elapsed:.1f} s of sweeping (limit {self.duration_s:g} s)"
+                f"SEARCH: {self.params.target} not found after {elapsed:.1f} s of sweeping "
+                f"(limit {self.params.duration_s:g} s)"
             )
-        self.drive(0.0, self.direction * self.angular_speed)
-        self.feedback_message = f"{self._describe()}, {elapsed:.1f} s of {self.duration_s:g} s"
+        self.drive(0.0, self.direction * self.turn_rate)
+        self.feedback_message = f"{self._describe()}, {elapsed:.1f} s of {self.params.duration_s:g} s"
         return py_trees.common.Status.RUNNING

@@ -10,13 +10,13 @@ refinements are what the feedback counts.
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from dataclasses import dataclass
+from typing import Any
 
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
@@ -28,26 +28,22 @@ REFINE_MOVE_M = 0.10
 REFINE_TURN_RAD = math.radians(10.0)
 
 
-@register
 class GoToStaging(MissionLeaf):
     """DOCK (approach): SUCCESS when the navigator reports the staging pose reached; FAILURE with a reason otherwise."""
 
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("dock", "name of the dock target (a key of perception.targets)")
+        offset_m: float = port(0.7, "staging distance in front of the tag, along its normal (base pose)")
+        timeout_s: float = port(40.0, "give up after this long")
+
     NODE_TYPE = "Action"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "dock", "name of the dock target (a key of perception.targets)"),
-        "offset_m": Port(float, 0.7, "staging distance in front of the tag, along its normal (base pose)"),
-        "timeout_s": Port(float, 40.0, "give up after this long"),
-    }
     READS = (bbk.TRACKS,)
     COMMANDS = True
+    params: Params
 
-    def __init__(
-        self, name: str = "GoToStaging", *, target: str = "dock", offset_m: float = 0.7, timeout_s: float = 40.0
-    ) -> None:
-        super().__init__(name)
-        self.target = target
-        self.offset_m = float(offset_m)
-        self.timeout_s = float(timeout_s)
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
         self._goal: NavGoal | None = None
         self._from_distance = math.inf  # range of the detection the current goal came from
         self._t0 = 0.0
@@ -58,7 +54,7 @@ class GoToStaging(MissionLeaf):
         self._from_distance = math.inf
         self._t0 = self.now()
         self.refinements = 0
-        self.feedback_message = f"DOCK: going to the staging pose of {self.target}"
+        self.feedback_message = f"DOCK: going to the staging pose of {self.params.target}"
 
     def _wanted(self, pose: Pose2D, distance: float) -> bool:
         if self._goal is None:
@@ -71,15 +67,15 @@ class GoToStaging(MissionLeaf):
     def update(self) -> py_trees.common.Status:
         self.set_state(MissionState.DOCK)
         now = self.now()
-        tr = self.track(self.target)
+        tr = self.track(self.params.target)
         if tr is None or tr.pose_map is None:
-            return self.fail(f"DOCK: {self.target} was never seen, no staging pose")
-        if now - self._t0 > self.timeout_s:
-            return self.fail(f"DOCK: staging pose not reached within {self.timeout_s:g} s")
+            return self.fail(f"DOCK: {self.params.target} was never seen, no staging pose")
+        if now - self._t0 > self.params.timeout_s:
+            return self.fail(f"DOCK: staging pose not reached within {self.params.timeout_s:g} s")
         try:
-            pose = staging_pose(tr.pose_map, self.offset_m)
+            pose = staging_pose(tr.pose_map, self.params.offset_m)
         except ValueError as err:
-            return self.fail(f"DOCK: {self.target}: {err}")
+            return self.fail(f"DOCK: {self.params.target}: {err}")
         distance = tr.detection.distance if tr.detection is not None else math.inf
         if self._wanted(pose, distance):
             if self._goal is not None:
@@ -100,7 +96,8 @@ class GoToStaging(MissionLeaf):
             return self.fail(f"DOCK: navigation to the staging pose {where} failed")
         state = self.robot()
         togo = f", {math.hypot(g.x - state.pose.x, g.y - state.pose.y):.2f} m to go" if state is not None else ""
-        self.feedback_message = f"DOCK: to staging {where} {self.offset_m:.2f} m in front of {self.target}{togo}" + (
-            f" ({self.refinements} refinement(s))" if self.refinements else ""
+        self.feedback_message = (
+            f"DOCK: to staging {where} {self.params.offset_m:.2f} m in front of {self.params.target}{togo}"
+            + (f" ({self.refinements} refinement(s))" if self.refinements else "")
         )
         return py_trees.common.Status.RUNNING

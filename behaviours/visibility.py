@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from dataclasses import dataclass
 
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.ports import Port
-from mission.behaviours.registry import register
+from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 
 
-@register
 class IsTargetVisible(MissionLeaf):
     """SUCCESS when the track has been seen and its consecutive misses ≤ max_misses.
 
@@ -20,30 +18,24 @@ class IsTargetVisible(MissionLeaf):
     tolerance of 1–2 frame intermittent occlusions) instead of flickering into LOST/SEARCH.
     """
 
-    NODE_TYPE = "Condition"
-    PORTS: ClassVar[dict[str, Port]] = {
-        "target": Port(str, "target", "name of the target (a key of perception.targets)"),
-        "max_misses": Port(int, 0, "consecutive missed frames still counted as visible"),
-    }
-    READS = (bbk.TRACKS,)
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        max_misses: int = port(0, "consecutive missed frames still counted as visible")
 
-    def __init__(self, name: str = "IsTargetVisible", *, target: str = "target", max_misses: int = 0) -> None:
-        super().__init__(name)
-        self.target = target
-        self.max_misses = int(max_misses)
+    NODE_TYPE = "Condition"
+    READS = (bbk.TRACKS,)
+    params: Params
 
     def update(self) -> py_trees.common.Status:
-        tr = self.track(self.target)
+        target, max_misses = self.params.target, self.params.max_misses
+        tr = self.track(target)
         if tr is None or tr.last_seen is None:
-            self.feedback_message = f"{self.target} never seen"
+            self.feedback_message = f"{target} never seen"
             return py_trees.common.Status.FAILURE
         age = self.now() - tr.last_seen
-        if tr.misses <= self.max_misses:
-            self.feedback_message = (
-                f"{self.target} visible (seen {age:.1f} s ago, {tr.misses} miss(es) ≤ {self.max_misses})"
-            )
+        if tr.misses <= max_misses:
+            self.feedback_message = f"{target} visible (seen {age:.1f} s ago, {tr.misses} miss(es) ≤ {max_misses})"
             return py_trees.common.Status.SUCCESS
-        self.feedback_message = (
-            f"{self.target} not visible: {tr.misses} misses > {self.max_misses}, last seen {age:.1f} s ago"
-        )
+        self.feedback_message = f"{target} not visible: {tr.misses} misses > {max_misses}, last seen {age:.1f} s ago"
         return py_trees.common.Status.FAILURE

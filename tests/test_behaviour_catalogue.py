@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import inspect
-
 import py_trees
 
 from mission.behaviours.ports import REQUIRED
-from mission.behaviours.registry import all_behaviours
+from mission.trees.factory import shipped_factory
 
-# tag → (node type, {port: (type, default)}) — the table in the README / catalogue.md
+# tag → (node type, {port: (type, default)}) — what tree files rely on (the README's table shows the same)
 CATALOGUE = {
     "PerceiveTargets": ("Action", {}),
     "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0)}),
@@ -46,31 +44,20 @@ CATALOGUE = {
 }
 
 
-def test_every_catalogue_tag_is_registered_with_its_ports_and_defaults():
-    registry = all_behaviours()
-    assert set(CATALOGUE) <= set(registry)
+def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_defaults():
+    behaviours = {node.tag: node for node in shipped_factory().behaviours()}
+    assert set(behaviours) == set(CATALOGUE)
     for tag, (node_type, ports) in CATALOGUE.items():
-        cls = registry[tag]
-        assert node_type == cls.NODE_TYPE, tag
-        assert {k: (p.type, p.default) for k, p in cls.PORTS.items()} == ports, tag
-        assert all(p.doc for p in cls.PORTS.values()), f"{tag}: every port says what it means"
-
-
-def test_constructors_take_exactly_the_ports_as_keywords_with_the_same_defaults():
-    for tag, cls in all_behaviours().items():
-        params = inspect.signature(cls.__init__).parameters
-        keywords = {n: p for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY}
-        assert set(keywords) - {"deps"} == set(cls.PORTS), tag
-        for name, port in cls.PORTS.items():
-            default = keywords[name].default
-            assert (default is inspect.Parameter.empty) == port.required, (tag, name)
-            if not port.required:
-                assert default == port.default, (tag, name)
+        node = behaviours[tag]
+        assert node.kind == node_type, tag
+        assert {k: (p.type, p.default) for k, p in node.ports.items()} == ports, tag
+        assert all(p.doc for p in node.ports.values()), f"{tag}: every port says what it means"
+        assert node.doc, f"{tag}: says what it does"
 
 
 def test_constructing_every_leaf_is_light_and_touches_no_blackboard_value():
-    for tag, cls in all_behaviours().items():
-        required = {n: "DONE" for n, p in cls.PORTS.items() if p.required}
-        node = cls(f"my {tag}", **required)
-        assert isinstance(node, py_trees.behaviour.Behaviour) and node.name == f"my {tag}"
+    for node in shipped_factory().behaviours():
+        required = {n: "DONE" for n, p in node.ports.items() if p.required}
+        built = node.build(f"my {node.tag}", [], required)
+        assert isinstance(built, py_trees.behaviour.Behaviour) and built.name == f"my {node.tag}"
     assert py_trees.blackboard.Blackboard.storage == {}

@@ -11,8 +11,8 @@ import py_trees
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mission.behaviours.ports import Dependencies
 from mission.core.errors import TreeError
+from mission.trees.factory import shipped_factory
 from mission.trees.loader import describe_tree, load_tree, validate_tree
 
 SETTINGS = settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -132,5 +132,5 @@ def test_a_generated_valid_tree_validates_describes_and_builds_node_for_node(tmp
     validate_tree(path)
     desc = describe_tree(path)
     assert sum(1 for _ in desc.walk()) == n + 1  # + the BehaviorTree itself
-    root = load_tree(path, Dependencies())
+    root = load_tree(path, shipped_factory())
     assert isinstance(root, py_trees.behaviour.Behaviour) and count(root) == n

@@ -1,4 +1,4 @@
-"""The shipped tree files: they match the behaviour catalogue, load with the real behaviours, tick on an
+"""The shipped tree files: they match the behaviour catalogue, load with the shipped factory, tick on an
 empty blackboard without crashing, carry an up-to-date Groot2 TreeNodesModel, and a user can compose
 new trees from the shipped behaviours without writing Python."""
 
@@ -11,10 +11,9 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from mission.behaviours.ports import Dependencies
-from mission.behaviours.registry import all_behaviours
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
+from mission.trees.factory import shipped_factory
 from mission.trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
 from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
@@ -75,7 +74,7 @@ def test_the_follow_subtree_of_the_mission_is_the_target_coordinator_from_the_ca
 @pytest.mark.parametrize("name", SHIPPED)
 def test_a_shipped_tree_loads_and_keeps_ticking_on_an_empty_blackboard(name):
     validate_tree(name)
-    root = load_tree(name, Dependencies())
+    root = load_tree(name, shipped_factory())
     tree = py_trees.trees.BehaviourTree(root)
     tree.setup(timeout=5.0)
     for _ in range(5):
@@ -105,10 +104,10 @@ def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_p
 
 
 @pytest.mark.parametrize("name", SHIPPED)
-def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_registered_behaviours(name):
+def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_shipped_behaviours(name):
     text = (TREES_DIR / name).read_text()
     assert nodes_model_section(text) is not None
-    assert with_nodes_model(text, all_behaviours()) == text, "stale: run `python -m mission.trees.nodes_model`"
+    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
 
 
 def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_path):

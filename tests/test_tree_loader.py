@@ -1,25 +1,27 @@
 """The tree loader: BehaviorTree.CPP v4 XML → py_trees, with every mistake caught before the first tick.
 
-These tests use small test-only leaves (real py_trees behaviours declaring PORTS) in a local
-registry, so they specify the loader independently of the shipped behaviours
-(tests/test_tree_files.py loads the shipped trees with the real registry).
+These tests use small test-only leaves (real py_trees behaviours declaring their ports) registered in a
+local factory, so they specify the loader independently of the shipped behaviours
+(tests/test_tree_files.py loads the shipped trees with the shipped factory).
 """
 
 from __future__ import annotations
 
 import textwrap
+from dataclasses import dataclass
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 from xml.etree import ElementTree
 
 import py_trees
 import pytest
 from py_trees.common import Status
 
-from mission.behaviours.ports import REQUIRED, Dependencies, Port, PortsDeclared
+from mission.behaviours.ports import PortsDeclared, port
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
 from mission.trees.controls import BtParallel, ClockTimeout, RetryUntilSuccessful
+from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
 from mission.trees.nodes_model import nodes_model_xml
 
@@ -30,33 +32,36 @@ BUILT: list[str] = []  # names of every test leaf constructed (to prove nothing 
 class Probe(py_trees.behaviour.Behaviour, PortsDeclared):
     """A leaf with one port of every supported type; returns RUNNING."""
 
-    PORTS: ClassVar[dict[str, Port]] = {
-        "label": Port(str, "probe", "free text"),
-        "gain": Port(float, 1.0, "a number"),
-        "count": Port(int, 3, "a whole number"),
-        "enabled": Port(bool, True, "a flag"),
-    }
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        label: str = port("probe", "free text")
+        gain: float = port(1.0, "a number")
+        count: int = port(3, "a whole number")
+        enabled: bool = port(True, "a flag")
 
-    def __init__(self, name: str, *, label: str = "probe", gain: float = 1.0, count: int = 3, enabled: bool = True):
+    def __init__(self, name: str, **ports: Any) -> None:
         super().__init__(name)
         BUILT.append(name)
-        self.label, self.gain, self.count, self.enabled = label, gain, count, enabled
+        self.params = self.bind_params(ports)
 
     def update(self) -> Status:
-        self.feedback_message = f"{self.label} x{self.gain}"
+        self.feedback_message = f"{self.params.label} x{self.params.gain}"
         return Status.RUNNING
 
 
 class Scripted(py_trees.behaviour.Behaviour, PortsDeclared):
     """Returns the statuses spelled in `script` (S/F/R), one per update, repeating the last one."""
 
-    PORTS: ClassVar[dict[str, Port]] = {"script": Port(str, "S", "statuses to return: S, F or R per update")}
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        script: str = port("S", "statuses to return: S, F or R per update")
+
     CODES: ClassVar[dict[str, Status]] = {"S": Status.SUCCESS, "F": Status.FAILURE, "R": Status.RUNNING}
 
-    def __init__(self, name: str, *, script: str = "S") -> None:
+    def __init__(self, name: str, **ports: Any) -> None:
         super().__init__(name)
         BUILT.append(name)
-        self.script = script
+        self.script = self.bind_params(ports).script
         self.updates = 0
         self.halted = 0
 
@@ -88,22 +93,31 @@ class Ready(py_trees.behaviour.Behaviour, PortsDeclared):
 class NeedsMode(py_trees.behaviour.Behaviour, PortsDeclared):
     """A leaf with a required port."""
 
-    PORTS: ClassVar[dict[str, Port]] = {"mode": Port(str, REQUIRED, "which mode")}
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        mode: str = port(doc="which mode")
 
-    def __init__(self, name: str, *, mode: str) -> None:
+    def __init__(self, name: str, **ports: Any) -> None:
         super().__init__(name)
         BUILT.append(name)
-        self.mode = mode
+        self.mode = self.bind_params(ports).mode
 
     def update(self) -> Status:
         self.feedback_message = self.mode
         return Status.SUCCESS
 
 
-class WithDeps(py_trees.behaviour.Behaviour, PortsDeclared):
-    """A leaf that asks for injected dependencies."""
+@dataclass
+class Wiring:
+    """Something the application hands a behaviour (a client, a map service): a registration argument."""
 
-    def __init__(self, name: str, *, deps: Dependencies | None = None) -> None:
+    policy: str = "hybrid"
+
+
+class WithDeps(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A leaf that takes a dependency: an extra constructor argument given when it is registered."""
+
+    def __init__(self, name: str, *, deps: Wiring | None = None) -> None:
         super().__init__(name)
         BUILT.append(name)
         self.deps = deps
@@ -114,14 +128,20 @@ class WithDeps(py_trees.behaviour.Behaviour, PortsDeclared):
 
 
 class Rejects(py_trees.behaviour.Behaviour, PortsDeclared):
-    """A leaf whose constructor checks a value's meaning (beyond its type)."""
+    """A leaf whose declaration checks a value's meaning (beyond its type)."""
 
-    PORTS: ClassVar[dict[str, Port]] = {"waypoints": Port(str, "", "x,y;x,y")}
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        waypoints: str = port("", "x,y;x,y")
 
-    def __init__(self, name: str, *, waypoints: str = "") -> None:
+        def __post_init__(self) -> None:
+            if self.waypoints and "," not in self.waypoints:
+                raise ValueError(f"waypoints expects 'x,y;x,y', got {self.waypoints!r}")
+
+    def __init__(self, name: str, **ports: Any) -> None:
         super().__init__(name)
-        if waypoints and "," not in waypoints:
-            raise ValueError(f"waypoints expects 'x,y;x,y', got {waypoints!r}")
+        BUILT.append(name)
+        self.params = self.bind_params(ports)
 
     def update(self) -> Status:
         return Status.SUCCESS
@@ -130,19 +150,22 @@ class Rejects(py_trees.behaviour.Behaviour, PortsDeclared):
 class Gate(py_trees.decorators.Decorator, PortsDeclared):
     """A registered decorator: passes its child's status through unless closed."""
 
-    NODE_TYPE = "Decorator"
-    PORTS: ClassVar[dict[str, Port]] = {"open": Port(bool, True, "pass the child's status through")}
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        open: bool = port(True, "pass the child's status through")
 
-    def __init__(self, name: str, *, child: py_trees.behaviour.Behaviour, open: bool = True) -> None:
+    NODE_TYPE = "Decorator"
+
+    def __init__(self, name: str, *, child: py_trees.behaviour.Behaviour, **ports: Any) -> None:
         super().__init__(name=name, child=child)
-        self.open = open
+        self.open = self.bind_params(ports).open
 
     def update(self) -> Status:
         self.feedback_message = "open" if self.open else "closed"
         return self.decorated.status if self.open else Status.FAILURE
 
 
-REGISTRY: dict[str, type] = {
+TEST_LEAVES: dict[str, type[PortsDeclared]] = {
     "TestProbe": Probe,
     "TestScripted": Scripted,
     "TestReady": Ready,
@@ -151,6 +174,20 @@ REGISTRY: dict[str, type] = {
     "TestRejects": Rejects,
     "TestGate": Gate,
 }
+
+
+def leaf_factory(deps: Wiring | None = None) -> BehaviourFactory:
+    """The test leaves under their Test* tags; `deps` is TestWithDeps's registration argument, when given."""
+    factory = BehaviourFactory()
+    for tag, cls in TEST_LEAVES.items():
+        if cls is WithDeps and deps is not None:
+            factory.register(cls, tag, deps=deps)
+        else:
+            factory.register(cls, tag)
+    return factory
+
+
+FACTORY = leaf_factory()
 
 
 @pytest.fixture(autouse=True)
@@ -176,8 +213,8 @@ def line_of(path: Path, needle: str) -> int:
     raise AssertionError(f"{needle!r} not in {path}")
 
 
-def load(path: Path, deps: Dependencies | None = None) -> py_trees.behaviour.Behaviour:
-    return load_tree(path, deps, registry=REGISTRY)
+def load(path: Path, factory: BehaviourFactory = FACTORY) -> py_trees.behaviour.Behaviour:
+    return load_tree(path, factory)
 
 
 def tick(root: py_trees.behaviour.Behaviour, times: int = 1) -> Status:
@@ -205,9 +242,11 @@ def test_a_tree_file_becomes_py_trees_with_typed_port_values_and_names(tmp_path)
     first, second = root.children
     assert isinstance(root, py_trees.composites.Sequence)
     assert root.name == "Main"  # a tree's root is named after its ID so viewers show it
-    assert (first.name, first.label, first.gain, first.count, first.enabled) == ("first", "hello", 2.5, 7, False)
-    assert (second.name, second.label, second.gain, second.count) == ("TestProbe", "probe", 1.0, 3)
-    assert second.enabled is True
+    assert first.name == "first"
+    assert first.params == Probe.Params(label="hello", gain=2.5, count=7, enabled=False)
+    assert second.name == "TestProbe"
+    assert second.params == Probe.Params()  # every port at its declared default
+    assert second.params.enabled is True
     assert tick(root) == Status.RUNNING
     assert first.feedback_message == "hello x2.5"
 
@@ -339,19 +378,18 @@ def test_explicit_groot_spelling_action_id_is_the_same_node(tmp_path):
     )
     root = load(path)
     assert isinstance(root, py_trees.composites.Sequence)
-    assert root.children[0].gain == 4.0
+    assert root.children[0].params.gain == 4.0
     assert isinstance(root.children[1], Ready)
 
 
-def test_dependencies_are_injected_only_into_classes_that_take_them(tmp_path):
+def test_dependencies_are_the_arguments_a_behaviour_was_registered_with_and_nothing_else(tmp_path):
     path = write(
-        tmp_path, "t.xml", '<BehaviorTree ID="T"><Sequence><TestWithDeps/><TestProbe/></Sequence></BehaviorTree>'
+        tmp_path, "t.xml", '<BehaviorTree ID="T"><Sequence><TestWithDeps/><TestWithDeps/></Sequence></BehaviorTree>'
     )
-    deps = Dependencies(policy="first")
-    with_deps, _probe = load(path, deps).children
-    assert with_deps.deps is deps
-    empty = load(path).children[0].deps
-    assert isinstance(empty, Dependencies) and empty.sources == []
+    deps = Wiring(policy="first")
+    first, second = load(path, leaf_factory(deps)).children
+    assert first.deps is deps and second.deps is deps  # every instance, the same object
+    assert load(path, leaf_factory()).children[0].deps is None  # registered without: nothing is injected
 
 
 def test_a_registered_decorator_class_gets_its_child_and_ports(tmp_path):
@@ -623,7 +661,7 @@ def test_a_bad_tree_fails_before_anything_is_built_naming_file_line_element_and_
     expected = f"{bad.resolve()}:{line_of(bad, needle)}: {tail.format(dir=directory)}"
 
     with pytest.raises(TreeError) as validated:
-        validate_tree(tmp_path / "main.xml", registry=REGISTRY)
+        validate_tree(tmp_path / "main.xml", FACTORY)
     with pytest.raises(TreeError) as loaded:
         load(tmp_path / "main.xml")
 
@@ -668,7 +706,7 @@ def test_every_problem_in_a_file_is_collected_and_the_first_is_the_message(tmp_p
         """,
     )
     with pytest.raises(TreeError) as err:
-        validate_tree(path, registry=REGISTRY)
+        validate_tree(path, FACTORY)
     problems = err.value.problems
     assert [p.split(": ")[1] for p in problems] == ["<TestProbe>", "<Nope>", "<TestNeedsMode>"]
     assert str(err.value) == problems[0]
@@ -696,14 +734,27 @@ def test_an_unused_tree_in_the_file_is_checked_too(tmp_path):
         """,
     )
     with pytest.raises(TreeError, match="port gain expects float, got 'x'"):
-        validate_tree(path, registry=REGISTRY)
+        validate_tree(path, FACTORY)
 
 
-def test_a_constructor_that_rejects_a_value_is_reported_where_the_value_was_written(tmp_path):
+def test_a_value_the_declaration_rejects_is_reported_where_it_was_written_before_anything_is_built(tmp_path):
     path = write(tmp_path, "t.xml", '<BehaviorTree ID="T">\n  <TestRejects waypoints="3"/>\n</BehaviorTree>')
-    with pytest.raises(TreeError) as err:
+    with pytest.raises(TreeError) as validated:
+        validate_tree(path, FACTORY)
+    with pytest.raises(TreeError) as loaded:
         load(path)
-    assert str(err.value) == f"{path.resolve()}:3: <TestRejects>: waypoints expects 'x,y;x,y', got '3'"
+    assert str(validated.value) == str(loaded.value)
+    assert str(loaded.value) == f"{path.resolve()}:3: <TestRejects>: waypoints expects 'x,y;x,y', got '3'"
+    assert BUILT == []
+
+
+def test_a_constructor_that_refuses_its_registration_arguments_is_reported_at_the_node(tmp_path):
+    factory = BehaviourFactory()
+    factory.register(Ready, "TestReady", mode="fast")  # Ready's constructor takes no such argument
+    path = write(tmp_path, "t.xml", '<BehaviorTree ID="T">\n  <TestReady/>\n</BehaviorTree>')
+    validate_tree(path, factory)  # the file itself is fine
+    with pytest.raises(TreeError, match=rf"^{path.resolve()}:3: <TestReady>: .*unexpected keyword argument 'mode'"):
+        load(path, factory)
 
 
 # ------------------------------------------------------------------------------ finding trees
@@ -740,7 +791,7 @@ def test_describe_tree_gives_kinds_ports_and_lines_without_building_anything(tmp
         </root>
         """,
     )
-    desc = describe_tree(path, registry=REGISTRY)
+    desc = describe_tree(path, FACTORY)
     assert BUILT == []
     rows = [(d.tag, d.name, d.kind, d.line) for d in desc.walk()]
     assert rows == [
@@ -760,7 +811,7 @@ def test_describe_tree_gives_kinds_ports_and_lines_without_building_anything(tmp
 
 # ------------------------------------------------------------------------------ Groot2 model
 def test_nodes_model_describes_every_leaf_with_port_types_and_defaults_for_groot2():
-    model = ElementTree.fromstring(nodes_model_xml(REGISTRY))
+    model = ElementTree.fromstring(nodes_model_xml(FACTORY))
     assert model.tag == "TreeNodesModel"
     assert [(n.tag, n.get("ID")) for n in model] == sorted(
         [("Action", "TestNeedsMode"), ("Action", "TestProbe"), ("Action", "TestRejects"), ("Action", "TestScripted"),
@@ -780,9 +831,11 @@ def test_nodes_model_describes_every_leaf_with_port_types_and_defaults_for_groot
 
 
 def test_a_tree_nodes_model_section_in_a_user_file_is_ignored_by_the_loader(tmp_path):
+    other = BehaviourFactory()
+    other.register(Probe, "Other")
     path = write(
         tmp_path,
         "t.xml",
-        '<BehaviorTree ID="T"><TestReady/></BehaviorTree>\n' + nodes_model_xml({"Other": Probe}),
+        '<BehaviorTree ID="T"><TestReady/></BehaviorTree>\n' + nodes_model_xml(other),
     )
     assert isinstance(load(path), Ready)

@@ -1,7 +1,7 @@
 """The README's reference tables, generated from the code that defines them.
 
 Config keys, plugin params, scenario keys, ROS parameters, behaviours and CLI flags are declared once
-(pydantic models, the ROS parameter table, the behaviour registry, the argparse parser); this module
+(pydantic models, the ROS parameter table, each behaviour's ``Params``, the argparse parser); this module
 renders them as markdown between ``<!-- reference:NAME -->`` … ``<!-- /reference:NAME -->`` markers so
 the README cannot drift from the code. ``python -m tools.readme_tables`` rewrites README.md;
 ``--check`` only reports (a test runs it).
@@ -174,20 +174,17 @@ def ros_block() -> str:
 
 
 def behaviours_block() -> str:
-    from mission.behaviours.ports import REQUIRED
-    from mission.behaviours.registry import all_behaviours
+    from mission.trees.factory import shipped_factory
 
     rows = []
-    for tag, cls in sorted(all_behaviours().items()):
-        ports = getattr(cls, "PORTS", {})
+    for node in shipped_factory().behaviours():
         cells = [
             f"`{n}`: {p.type.__name__} = "
-            + ("*required*" if p.default is REQUIRED else f"`{p.default!r}`")
+            + ("*required*" if p.required else f"`{p.default!r}`")
             + (f" — {p.doc}" if p.doc else "")
-            for n, p in ports.items()
+            for n, p in node.ports.items()
         ]
-        doc = (cls.__doc__ or "").strip().split("\n\n")[0].replace("\n", " ")
-        rows.append((f"`{tag}`", getattr(cls, "NODE_TYPE", "Action"), "<br>".join(cells) or "—", doc))
+        rows.append((f"`{node.tag}`", node.kind, "<br>".join(cells) or "—", node.doc))
     return _table(("tag", "type", "ports (type = default — meaning)", "what it does"), rows)
 
 

@@ -1,8 +1,9 @@
 """BehaviorTree.CPP v4 built-in nodes, mapped to py_trees.
 
-Each built-in is a :class:`BuiltinNode`: its XML tag, Groot2 kind, ports (declared with the same
-:class:`mission.behaviours.ports.Port` as leaves, so the loader checks them the same way) and a ``build``
-function. Mapping (and where it differs from BT.CPP):
+Each built-in is a :class:`~mission.trees.manifest.NodeManifest`: its XML tag, Groot2 kind, ports (the
+same :class:`mission.behaviours.ports.Port` as leaves, so the loader checks them the same way) and a
+``build`` function; every :class:`~mission.trees.factory.BehaviourFactory` starts with them, as
+BT.CPP's factory does. Mapping (and where it differs from BT.CPP):
 
 =======================  ==========================================================================
 XML                      py_trees
@@ -30,9 +31,7 @@ AlwaysSuccess / Failure  ``behaviours.Success`` / ``behaviours.Failure``
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import py_trees
 from py_trees.behaviour import Behaviour
@@ -40,8 +39,7 @@ from py_trees.common import Status
 
 from mission.behaviours.ports import REQUIRED, Port
 from mission.core import blackboard as bbk
-
-NodeKind = Literal["Action", "Condition", "Control", "Decorator", "SubTree"]
+from mission.trees.manifest import Check, NodeManifest
 
 
 class BtParallel(py_trees.composites.Parallel):
@@ -138,22 +136,6 @@ class ClockTimeout(py_trees.decorators.Decorator):
         return self.decorated.status
 
 
-Builder = Callable[[str, list[Behaviour], dict[str, Any]], Behaviour]
-Check = Callable[[dict[str, Any], int], "str | None"]
-
-
-@dataclass(frozen=True)
-class BuiltinNode:
-    """A BT.CPP built-in node: tag, Groot2 kind, ports, how to build it and extra value checks."""
-
-    tag: str
-    kind: NodeKind
-    doc: str
-    build: Builder
-    ports: dict[str, Port] = field(default_factory=dict)
-    check: Check | None = None  # (converted port values, number of children) → problem or None
-
-
 def _at_least_one_or_forever(port: str) -> Check:
     def check(values: dict[str, Any], _n: int) -> str | None:
         value = values[port]
@@ -196,26 +178,26 @@ def _build_parallel(name: str, children: list[Behaviour], ports: dict[str, Any])
     return BtParallel(name, children, success, failure)
 
 
-BUILTINS: dict[str, BuiltinNode] = {
+BUILTINS: dict[str, NodeManifest] = {
     node.tag: node
     for node in (
-        BuiltinNode(
+        NodeManifest(
             "Sequence", "Control", "children in order until one fails; a RUNNING child is resumed",
             lambda name, ch, _p: py_trees.composites.Sequence(name, memory=True, children=ch),
         ),
-        BuiltinNode(
+        NodeManifest(
             "ReactiveSequence", "Control", "children in order every tick (conditions re-checked)",
             lambda name, ch, _p: py_trees.composites.Sequence(name, memory=False, children=ch),
         ),
-        BuiltinNode(
+        NodeManifest(
             "Fallback", "Control", "children in order until one succeeds; a RUNNING child is resumed",
             lambda name, ch, _p: py_trees.composites.Selector(name, memory=True, children=ch),
         ),
-        BuiltinNode(
+        NodeManifest(
             "ReactiveFallback", "Control", "children in priority order every tick (higher ones preempt)",
             lambda name, ch, _p: py_trees.composites.Selector(name, memory=False, children=ch),
         ),
-        BuiltinNode(
+        NodeManifest(
             "Parallel", "Control", "ticks all children; thresholds decide success and failure",
             _build_parallel,
             {
@@ -224,41 +206,41 @@ BUILTINS: dict[str, BuiltinNode] = {
             },
             _check_parallel,
         ),
-        BuiltinNode(
+        NodeManifest(
             "Inverter", "Decorator", "SUCCESS ↔ FAILURE",
             lambda name, ch, _p: py_trees.decorators.Inverter(name, child=ch[0]),
         ),
-        BuiltinNode(
+        NodeManifest(
             "ForceSuccess", "Decorator", "FAILURE → SUCCESS (RUNNING stays RUNNING)",
             lambda name, ch, _p: py_trees.decorators.FailureIsSuccess(name, child=ch[0]),
         ),
-        BuiltinNode(
+        NodeManifest(
             "ForceFailure", "Decorator", "SUCCESS → FAILURE (RUNNING stays RUNNING)",
             lambda name, ch, _p: py_trees.decorators.SuccessIsFailure(name, child=ch[0]),
         ),
-        BuiltinNode(
+        NodeManifest(
             "RetryUntilSuccessful", "Decorator", "retries a failing child (num_attempts in all, -1 = forever)",
             lambda name, ch, p: RetryUntilSuccessful(name, child=ch[0], num_failures=p["num_attempts"]),
             {"num_attempts": Port(int, REQUIRED, "attempts in all (-1 = no limit)")},
             _at_least_one_or_forever("num_attempts"),
         ),
-        BuiltinNode(
+        NodeManifest(
             "Repeat", "Decorator", "repeats a succeeding child num_cycles times (-1 = forever)",
             lambda name, ch, p: py_trees.decorators.Repeat(name, child=ch[0], num_success=p["num_cycles"]),
             {"num_cycles": Port(int, REQUIRED, "successful cycles before SUCCESS (-1 = forever)")},
             _at_least_one_or_forever("num_cycles"),
         ),
-        BuiltinNode(
+        NodeManifest(
             "Timeout", "Decorator", "FAILURE if the child still runs after msec (blackboard CLOCK)",
             lambda name, ch, p: ClockTimeout(name, child=ch[0], duration_s=p["msec"] / 1000.0),
             {"msec": Port(int, REQUIRED, "time limit in milliseconds")},
             _positive("msec"),
         ),
-        BuiltinNode(
+        NodeManifest(
             "AlwaysSuccess", "Action", "returns SUCCESS",
             lambda name, _ch, _p: py_trees.behaviours.Success(name),
         ),
-        BuiltinNode(
+        NodeManifest(
             "AlwaysFailure", "Action", "returns FAILURE",
             lambda name, _ch, _p: py_trees.behaviours.Failure(name),
         ),
@@ -275,5 +257,5 @@ UNSUPPORTED_BUILTINS = frozenset(
     }
 )
 
-#: tags with a meaning in the file format itself (not nodes a registry may define)
+#: tags with a meaning in the file format itself (not nodes a factory may register)
 RESERVED_TAGS = frozenset({"SubTree", "BehaviorTree", "root", "include", "TreeNodesModel"})

@@ -8,33 +8,38 @@ ticked. The loader works in three steps:
    (trees/xml_source.py); ``<root BTCPP_format="4">``, include paths relative to the including file,
    include cycles, duplicate tree IDs, the main tree.
 2. **compile** (:func:`describe_tree`): every ``<BehaviorTree>`` into a :class:`TreeDescription`:
-   node types looked up in the registry (leaves) or among the BT.CPP built-ins (trees/controls.py),
-   ports checked and converted from strings, child counts, SubTree references and recursion.
+   node types looked up in the factory (trees/factory.py: the BT.CPP built-ins and the registered
+   behaviours), ports checked and converted from strings, then checked as each node type's
+   declaration checks them (ranges, formats), child counts, SubTree references and recursion.
    Problems are collected; the first one is raised as :class:`~mission.core.errors.TreeError`
    (``err.problems`` holds them all).
-3. **build** (:func:`load_tree`): py_trees behaviours from the description. Port values are
-   constants passed to constructors (no blackboard remapping, so no UUID keys); classes whose
-   ``__init__`` takes ``deps`` get the injected :class:`~behaviours.ports.Dependencies`.
+3. **build** (:func:`load_tree`): py_trees behaviours from the description, by the factory's
+   builders. Port values are constants passed to constructors (no blackboard remapping, so no UUID
+   keys), with the arguments each behaviour was registered with (its dependencies).
    A ``<SubTree ID="X">`` is flattened: the subtree's root is built in place and named ``X`` (or the
    SubTree's ``name``), so viewers show which subtree is running.
+
+Every function takes the factory to look node types up in; without one, :func:`shipped_factory` (the
+shipped behaviours, no perception sources) — enough to describe, validate or draw a tree.
 """
 
 from __future__ import annotations
 
 import difflib
-import inspect
 import math
 import re
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from py_trees.behaviour import Behaviour
 
-from mission.behaviours.ports import Dependencies, Port
+from mission.behaviours.ports import Port, missing_port, unknown_port, wrong_type
 from mission.core.errors import TreeError
-from mission.trees.controls import BUILTINS, RESERVED_TAGS, UNSUPPORTED_BUILTINS, BuiltinNode, NodeKind
+from mission.trees.controls import UNSUPPORTED_BUILTINS
+from mission.trees.factory import BehaviourFactory, shipped_factory
+from mission.trees.manifest import NodeKind, NodeManifest
 from mission.trees.xml_source import SourceElement, display_path, parse_file
 
 TREES_DIR = Path(__file__).resolve().parent
@@ -88,7 +93,7 @@ class TreeDescription:
     effective_ports: dict[str, Any] = field(default_factory=dict)  # with declared defaults
     children: list[TreeDescription] = field(default_factory=list)
     subtree: str | None = None  # the tree ID for SubTree / BehaviorTree nodes
-    factory: Any = field(default=None, repr=False, compare=False)  # leaf class or BuiltinNode
+    manifest: NodeManifest | None = field(default=None, repr=False, compare=False)  # None for SubTrees
 
     def walk(self) -> Iterator[TreeDescription]:
         """This node and every node below it, depth first."""
@@ -218,9 +223,9 @@ def convert_port(text: str, port: Port) -> Any:
 class _Compiler:
     """Checks every tree (each SubTree use expanded in place), collecting problems deduplicated, in order."""
 
-    def __init__(self, doc: TreeDocument, registry: dict[str, type]) -> None:
+    def __init__(self, doc: TreeDocument, factory: BehaviourFactory) -> None:
         self.doc = doc
-        self.registry = registry
+        self.factory = factory
         self.problems: list[str] = []
         self.reached: set[str] = set()
 
@@ -257,20 +262,13 @@ class _Compiler:
         if node_type == "SubTree":
             return self.subtree(el, attrs, stack)
 
-        factory: Any
-        kind: NodeKind
-        if node_type in BUILTINS:
-            factory = BUILTINS[node_type]
-            kind, ports = factory.kind, factory.ports
-        elif node_type in self.registry and node_type not in RESERVED_TAGS:
-            factory = self.registry[node_type]
-            kind = getattr(factory, "NODE_TYPE", "Action")
-            ports = getattr(factory, "PORTS", {})
-        else:
+        manifest = self.factory.manifest(node_type)
+        if manifest is None:
             self.problem(el.error(self._unknown_node(node_type)))
             for child in el.children:
                 self.node(child, stack)
             return None
+        kind, ports = manifest.kind, manifest.ports
         if explicit_kind is not None and explicit_kind != kind:
             self.problem(el.error(f"{node_type} is {_a(kind)}, not {_a(explicit_kind)}; write <{kind} ID=...>"))
 
@@ -280,20 +278,21 @@ class _Compiler:
         effective.update(written)
         missing = [k for k, p in ports.items() if p.required and k not in attrs]
         for port_name in missing:
-            port = ports[port_name]
-            self.problem(el.error(f"missing required port {port_name} ({port.type.__name__}); {port.doc}".rstrip("; ")))
+            self.problem(el.error(missing_port(port_name, ports[port_name])))
 
         children = [c for c in (self.node(child, stack) for child in el.children) if c is not None]
         self.child_count(el, kind, len(el.children))
-        if isinstance(factory, BuiltinNode) and factory.check and not missing and set(ports) <= set(effective):
-            message = factory.check(effective, len(el.children))
+        if manifest.check and not missing and set(ports) <= set(effective):
+            message = manifest.check(effective, len(el.children))
             if message:
                 self.problem(el.error(message))
         return TreeDescription(
-            node_type, name, kind, display_path(el.file), el.line, written, effective, children, factory=factory
+            node_type, name, kind, display_path(el.file), el.line, written, effective, children, manifest=manifest
         )
 
-    def ports(self, el: SourceElement, node_type: str, attrs: dict[str, str], ports: dict[str, Port]) -> dict[str, Any]:
+    def ports(
+        self, el: SourceElement, node_type: str, attrs: dict[str, str], ports: Mapping[str, Port]
+    ) -> dict[str, Any]:
         values: dict[str, Any] = {}
         for attr, text in attrs.items():
             if attr in IGNORED_ATTRIBUTES:
@@ -302,14 +301,7 @@ class _Compiler:
                 self.problem(el.error(f"{attr} (BT.CPP scripting pre/post conditions) is not supported"))
                 continue
             if attr not in ports:
-                hint = difflib.get_close_matches(attr, ports, n=1)
-                known = ", ".join(ports) or "none"
-                self.problem(
-                    el.error(
-                        f"unknown port {attr!r}{f' (did you mean {hint[0]}?)' if hint else ''}; "
-                        f"{node_type} ports: {known}"
-                    )
-                )
+                self.problem(el.error(unknown_port(attr, node_type, ports)))
                 continue
             if _REMAP.match(text):
                 self.problem(
@@ -322,7 +314,7 @@ class _Compiler:
             try:
                 values[attr] = convert_port(text, ports[attr])
             except ValueError as exc:
-                self.problem(el.error(f"port {attr} expects {exc}, got {text!r}"))
+                self.problem(el.error(wrong_type(attr, str(exc), text)))
         return values
 
     def child_count(self, el: SourceElement, kind: NodeKind, n: int) -> None:
@@ -369,33 +361,24 @@ class _Compiler:
         )
 
     def _unknown_node(self, node_type: str) -> str:
+        builtins = [m.tag for m in self.factory.builtins()]
         if node_type in UNSUPPORTED_BUILTINS:
             return (
                 f"the BT.CPP built-in {node_type} is not supported by this loader; "
-                f"supported built-ins: {', '.join(BUILTINS)}, SubTree"
+                f"supported built-ins: {', '.join(builtins)}, SubTree"
             )
-        leaves = sorted(t for t in self.registry if t not in BUILTINS)
-        hint = difflib.get_close_matches(node_type, [*leaves, *BUILTINS, "SubTree"], n=1)
+        leaves = [m.tag for m in self.factory.behaviours()]
+        hint = difflib.get_close_matches(node_type, [*leaves, *builtins, "SubTree"], n=1)
         return (
             f"unknown node {node_type!r}{f' (did you mean {hint[0]}?)' if hint else ''}; "
             f"expected a registered behaviour ({', '.join(leaves) or 'none'}) "
-            f"or a built-in ({', '.join(BUILTINS)}, SubTree)"
+            f"or a built-in ({', '.join(builtins)}, SubTree)"
         )
 
 
-def _default_registry() -> dict[str, type]:
-    from mission.behaviours.registry import all_behaviours
-
-    return all_behaviours()
-
-
-def _compile(path: str | Path, registry: dict[str, type] | None) -> TreeDescription:
+def _compile(path: str | Path, factory: BehaviourFactory | None) -> TreeDescription:
     doc = read_document(path)
-    reg = _default_registry() if registry is None else registry
-    shadowing = sorted(set(reg) & (set(BUILTINS) | RESERVED_TAGS))
-    if shadowing:
-        raise TreeError(f"{display_path(doc.path)}: behaviours {', '.join(shadowing)} shadow built-in node types")
-    compiler = _Compiler(doc, reg)
+    compiler = _Compiler(doc, shipped_factory() if factory is None else factory)
     try:
         main = compiler.tree(doc.main_id, ())
         for tree_id in doc.trees:  # trees nothing uses are still the user's file: check them too
@@ -414,23 +397,23 @@ def _compile(path: str | Path, registry: dict[str, type] | None) -> TreeDescript
 
 
 # ------------------------------------------------------------------------------------ public API
-def describe_tree(path: str | Path, registry: dict[str, type] | None = None) -> TreeDescription:
+def describe_tree(path: str | Path, factory: BehaviourFactory | None = None) -> TreeDescription:
     """The main tree as checked data (nothing built): for drawing and for checks before a run."""
-    return _compile(path, registry)
+    return _compile(path, factory)
 
 
-def validate_tree(path: str | Path, registry: dict[str, type] | None = None) -> None:
+def validate_tree(path: str | Path, factory: BehaviourFactory | None = None) -> None:
     """Every check :func:`load_tree` makes, without building behaviours; raises TreeError."""
-    _compile(path, registry)
+    _compile(path, factory)
 
 
-def check_targets(path: str | Path, targets: Collection[str], registry: dict[str, type] | None = None) -> None:
+def check_targets(path: str | Path, targets: Collection[str], factory: BehaviourFactory | None = None) -> None:
     """Every ``target`` port (written or defaulted) names one of `targets` (the config's perception.targets).
 
     A misspelt target is a valid string to the schema, and the node would wait forever for a track that
     cannot exist ("targte never seen"); this makes it a start-up error at the node's line instead."""
     known = set(targets)
-    for node in describe_tree(path, registry).walk():
+    for node in describe_tree(path, factory).walk():
         value = node.effective_ports.get("target")
         if isinstance(value, str) and value not in known:
             how = "" if "target" in node.ports else " (the port's default)"
@@ -440,38 +423,25 @@ def check_targets(path: str | Path, targets: Collection[str], registry: dict[str
             )
 
 
-def load_tree(
-    path: str | Path, deps: Dependencies | None = None, registry: dict[str, type] | None = None
-) -> Behaviour:
+def load_tree(path: str | Path, factory: BehaviourFactory | None = None) -> Behaviour:
     """Validate the tree file (and its includes) completely, then build it; returns the root behaviour.
 
-    `registry` maps XML tags to leaf classes (default: every registered behaviour); the BT.CPP
-    built-in controls are always available. `deps` is passed to every class whose ``__init__``
-    accepts ``deps`` (an empty :class:`Dependencies` when not given).
+    Node types are looked up in `factory` and built as it was told: each registered behaviour with its
+    registration arguments (for the running mission, ``shipped_factory(deps)`` with the perception
+    dependencies).
     """
-    desc = _compile(path, registry)
-    return build(desc, deps if deps is not None else Dependencies())
+    return build(_compile(path, factory))
 
 
-def build(desc: TreeDescription, deps: Dependencies) -> Behaviour:
+def build(desc: TreeDescription) -> Behaviour:
     """py_trees behaviours for a checked description (SubTrees flattened, roots named after their ID)."""
     if desc.kind == "SubTree":
-        root = build(desc.children[0], deps)
+        root = build(desc.children[0])
         root.name = desc.name
         return root
-    children = [build(c, deps) for c in desc.children]
-    factory = desc.factory
-    if isinstance(factory, BuiltinNode):
-        return factory.build(desc.name, children, desc.effective_ports)
-    kwargs: dict[str, Any] = dict(desc.effective_ports)
-    params = inspect.signature(factory).parameters
-    if "deps" in params:
-        kwargs["deps"] = deps
-    if desc.kind == "Decorator":
-        kwargs["child"] = children[0]
-    elif desc.kind == "Control":
-        kwargs["children"] = children
+    children = [build(c) for c in desc.children]
+    assert desc.manifest is not None, f"{desc.tag} was described without its node type"
     try:
-        return factory(name=desc.name, **kwargs)  # type: ignore[no-any-return]
-    except Exception as exc:  # a constructor rejecting a value: report it where it was written
+        return desc.manifest.build(desc.name, children, dict(desc.effective_ports))
+    except Exception as exc:  # a constructor refusing what it was given: report it where the node was written
         raise TreeError(f"{desc.file}:{desc.line}: <{desc.tag}>: {exc}") from exc

@@ -1,9 +1,10 @@
 """Groot2's ``<TreeNodesModel>``: the leaves a tree may use, with their ports, types and defaults.
 
 Groot2 shows a node's ports (and offers them in its palette) only when the file describes the node
-type. The shipped tree files carry this section, generated from the registry; a test regenerates it
-and compares, and ``python -m mission.trees.nodes_model`` rewrites the shipped files after a behaviour's
-ports change (``--check`` only reports).
+type. The shipped tree files carry this section, generated from the behaviours registered in a factory
+(each one's ports as its ``Params`` declare them); a test regenerates it and compares, and
+``python -m mission.trees.nodes_model`` rewrites the shipped files after a behaviour's ports change
+(``--check`` only reports).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 from mission.behaviours.ports import Port
 from mission.core.files import atomic_write_text
+from mission.trees.factory import BehaviourFactory, shipped_factory
 
 #: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows)
 GROOT_TYPES: dict[type, str] = {str: "std::string", int: "int", float: "double", bool: "bool"}
@@ -38,19 +40,17 @@ def _port_xml(name: str, port: Port) -> str:
     return f"<{tag} {attrs}>{escape(port.doc)}</{tag}>" if port.doc else f"<{tag} {attrs}/>"
 
 
-def nodes_model_xml(registry: dict[str, type], indent: str = "") -> str:
-    """``<TreeNodesModel>`` for every leaf in `registry` (sorted by tag), each line prefixed by `indent`."""
+def nodes_model_xml(factory: BehaviourFactory, indent: str = "") -> str:
+    """``<TreeNodesModel>`` for every behaviour registered in `factory` (sorted by tag), each line
+    prefixed by `indent`. The built-ins are left out: Groot2 knows them."""
     lines = ["<TreeNodesModel>"]
-    for tag in sorted(registry):
-        cls = registry[tag]
-        kind = getattr(cls, "NODE_TYPE", "Action")
-        ports: dict[str, Port] = getattr(cls, "PORTS", {})
-        if not ports:
-            lines.append(f"  <{kind} ID={quoteattr(tag)}/>")
+    for node in factory.behaviours():
+        if not node.ports:
+            lines.append(f"  <{node.kind} ID={quoteattr(node.tag)}/>")
             continue
-        lines.append(f"  <{kind} ID={quoteattr(tag)}>")
-        lines.extend(f"    {_port_xml(name, port)}" for name, port in ports.items())
-        lines.append(f"  </{kind}>")
+        lines.append(f"  <{node.kind} ID={quoteattr(node.tag)}>")
+        lines.extend(f"    {_port_xml(name, port)}" for name, port in node.ports.items())
+        lines.append(f"  </{node.kind}>")
     lines.append("</TreeNodesModel>")
     return "".join(f"{indent}{line}\n" for line in lines)
 
@@ -61,25 +61,23 @@ def nodes_model_section(text: str) -> str | None:
     return match.group(0) if match else None
 
 
-def with_nodes_model(text: str, registry: dict[str, type]) -> str:
+def with_nodes_model(text: str, factory: BehaviourFactory) -> str:
     """Tree file text with its ``<TreeNodesModel>`` replaced by (or, before ``</root>``, given) the current one."""
     match = _SECTION.search(text)
     if match:
-        return text[: match.start()] + nodes_model_xml(registry, match.group(1)) + text[match.end() :]
-    return text.replace("</root>", "\n" + nodes_model_xml(registry, "  ") + "</root>")
+        return text[: match.start()] + nodes_model_xml(factory, match.group(1)) + text[match.end() :]
+    return text.replace("</root>", "\n" + nodes_model_xml(factory, "  ") + "</root>")
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Regenerate the TreeNodesModel section of the shipped tree files.")
     parser.add_argument("--check", action="store_true", help="report stale files, change nothing (exit 1 if any)")
     args = parser.parse_args(argv)
-    from mission.behaviours.registry import all_behaviours
-
-    registry = all_behaviours()
+    factory = shipped_factory()
     stale = []
     for path in sorted(Path(__file__).resolve().parent.glob("*.xml")):
         text = path.read_text()
-        new = with_nodes_model(text, registry)
+        new = with_nodes_model(text, factory)
         if new != text:
             stale.append(path.name)
             if not args.check:

@@ -43,6 +43,7 @@ from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from mission.trees.factory import shipped_factory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 log = logging.getLogger(__name__)
@@ -113,6 +114,8 @@ class TreeRunner:
         self.tree_path: Path | None = None
         self.tree: py_trees.trees.BehaviourTree | None = None
         self.perception: PerceptionStage | None = None
+        # The node types tree files may use: the shipped behaviours; register your own before setup().
+        self.factory = shipped_factory()
         self.bb = bbk.writer("runner")
         self.dt = 1.0 / float(config.run.tick_hz)
         self.ticks = 0
@@ -132,8 +135,8 @@ class TreeRunner:
                 if self.config_file is None or self.tree_name != self.config.tree:
                     raise
                 raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
-            validate_tree(self.tree_path)
-            check_targets(self.tree_path, self.config.perception.targets)
+            validate_tree(self.tree_path, self.factory)
+            check_targets(self.tree_path, self.config.perception.targets, self.factory)
         if self._own_sources:
             file = None if self.config_file is None else str(self.config_file)
             self.sources = registry.create_all(self.config.perception.sources, file=file)
@@ -141,7 +144,7 @@ class TreeRunner:
         self.perception = PerceptionStage(self.sources, dict(perception.targets), perception.policy)
         self._seed_blackboard()
         if self.tree_path is not None:
-            root = load_tree(self.tree_path)
+            root = load_tree(self.tree_path, self.factory)
             self.tree = py_trees.trees.BehaviourTree(root)
             self.tree.setup(timeout=30.0)
         self.world.setup()

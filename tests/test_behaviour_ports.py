@@ -1,0 +1,148 @@
+"""A behaviour declares each XML port once — a field of its frozen ``Params`` dataclass — and its
+``PORTS``, its constructor and the checks on the values all come from that one declaration."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import py_trees
+import pytest
+
+from mission.behaviours.follow import FollowTarget
+from mission.behaviours.mission_state import SetMissionState
+from mission.behaviours.ports import REQUIRED, Port, PortsDeclared, port
+
+
+class Camera(py_trees.behaviour.Behaviour, PortsDeclared):
+    """A test-only leaf with a port of every kind."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        topic: str = port(doc="image topic")
+        exposure_ms: float = port(8.0, "exposure time")
+        binning: int = port(1, "pixels per output pixel")
+        colour: bool = port(True, "BGR rather than mono")
+        last_stamp: float = port(0.0, "stamp of the newest image", direction="output")
+
+    def __init__(self, name: str = "Camera", **ports: Any) -> None:
+        super().__init__(name)
+        self.params = self.bind_params(ports)
+
+
+def test_ports_are_the_params_fields_in_order_with_type_default_meaning_and_direction():
+    assert dict(Camera.PORTS) == {
+        "topic": Port(str, REQUIRED, "image topic"),
+        "exposure_ms": Port(float, 8.0, "exposure time"),
+        "binning": Port(int, 1, "pixels per output pixel"),
+        "colour": Port(bool, True, "BGR rather than mono"),
+        "last_stamp": Port(float, 0.0, "stamp of the newest image", "output"),
+    }
+    assert Camera.PORTS["topic"].required and not Camera.PORTS["binning"].required
+
+
+def test_a_shipped_behaviours_ports_are_exactly_its_params_fields():
+    fields = dataclasses.fields(FollowTarget.Params)
+    assert list(FollowTarget.PORTS) == [f.name for f in fields]
+    assert [p.default for p in FollowTarget.PORTS.values()] == [f.default for f in fields]
+
+
+def test_the_constructor_takes_the_ports_as_keywords_and_keeps_the_checked_values():
+    node = FollowTarget("follow", target="person", offset_m=1)
+    assert node.name == "follow"
+    assert node.params == FollowTarget.Params(target="person", offset_m=1.0, window=5, rate_hz=10.0)
+    assert type(node.params.offset_m) is float  # an int is a fine float; it is stored as one
+    assert FollowTarget().name == "FollowTarget"  # unnamed: the class name, as in a tree file
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        node.params.offset_m = 2.0  # type: ignore[misc]
+
+
+def test_an_unknown_keyword_is_a_type_error_naming_it_and_the_ports_there_are():
+    with pytest.raises(TypeError) as err:
+        FollowTarget(ofset_m=0.7)
+    assert str(err.value) == (
+        "FollowTarget: unknown port 'ofset_m' (did you mean offset_m?); "
+        "FollowTarget ports: target, offset_m, window, rate_hz"
+    )
+
+
+def test_a_missing_required_port_is_a_type_error_naming_it():
+    with pytest.raises(TypeError) as err:
+        SetMissionState()
+    assert str(err.value).startswith("SetMissionState: missing required port state (str); one of EXPLORE, DOCK")
+
+
+@pytest.mark.parametrize(
+    ("ports", "message"),
+    [
+        ({"window": "5"}, "FollowTarget: port window expects int, got '5'"),
+        ({"window": 2.5}, "FollowTarget: port window expects int, got 2.5"),
+        ({"offset_m": True}, "FollowTarget: port offset_m expects float, got True"),
+        ({"target": None}, "FollowTarget: port target expects str, got None"),
+    ],
+)
+def test_a_value_of_the_wrong_type_is_a_type_error_naming_the_port(ports, message):
+    with pytest.raises(TypeError) as err:
+        FollowTarget(**ports)
+    assert str(err.value) == message
+
+
+def test_range_checks_live_in_the_declaration_so_every_way_in_gets_them():
+    expected = r"expected window ≥ 1, rate_hz > 0, offset_m ≥ 0 \(got 0, 10.0, 0.5\)"
+    with pytest.raises(ValueError, match=expected):
+        FollowTarget(window=0)
+    with pytest.raises(ValueError, match=expected):
+        FollowTarget.Params(window=0)
+
+
+def test_a_refused_constructor_call_leaves_nothing_on_the_blackboard():
+    clients = dict(py_trees.blackboard.Blackboard.clients)
+    with pytest.raises(TypeError):
+        FollowTarget(ofset_m=0.7)
+    assert py_trees.blackboard.Blackboard.clients == clients
+
+
+def _declare(params: type) -> type:
+    return type("Broken", (py_trees.behaviour.Behaviour, PortsDeclared), {"Params": params})
+
+
+@dataclass(frozen=True, kw_only=True)
+class _PlainField:
+    gain: float = 1.0
+
+
+@dataclass(kw_only=True)
+class _Mutable:
+    gain: float = port(1.0, "a gain")
+
+
+@dataclass(frozen=True, kw_only=True)
+class _TuplePort:
+    points: tuple = port(doc="not a port type")  # type: ignore[type-arg]
+
+
+@dataclass(frozen=True, kw_only=True)
+class _IntDefaultForFloat:
+    gain: float = port(1, "an int written where a float is declared")
+
+
+class _NotADataclass:
+    gain: float = 1.0
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        (_PlainField, "Broken.Params.gain: expected a port(default, doc) field"),
+        (_Mutable, "Broken.Params: expected @dataclass(frozen=True, kw_only=True); port values never change"),
+        (_TuplePort, "Broken.Params.points: type tuple is not a port type; expected str, int, float or bool"),
+        (_IntDefaultForFloat, "Broken.Params.gain: default 1 is not float"),
+        (_NotADataclass, "Broken.Params: expected a dataclass declaring the ports"),
+    ],
+    ids=["plain field", "not frozen", "unsupported type", "default of another type", "not a dataclass"],
+)
+def test_a_malformed_declaration_fails_when_the_class_is_defined(params, message):
+    with pytest.raises(TypeError) as err:
+        _declare(params)
+    assert str(err.value).startswith(message)

@@ -1,0 +1,139 @@
+"""The tree factory: which node types a tree file may use, and what each is built from.
+
+Modelled on BehaviorTree.CPP's ``BehaviorTreeFactory``: a factory starts with the BT.CPP built-ins
+(trees/controls.py) and behaviours are registered on it explicitly, each under an XML tag and with the
+extra constructor arguments it needs (its dependencies) given at registration, as
+``registerNodeType<T>(ID, args...)`` does::
+
+    factory = shipped_factory()                       # the shipped behaviours (FollowTarget, …)
+    factory.register(Beacon, radio=radio)             # every <Beacon .../> is built with radio=radio
+    root = load_tree("patrol.xml", factory)
+
+Nothing is discovered: no import side effects fill it, no constructor signature is inspected. A node's
+ports come from its class's declaration (behaviours/ports.py); the factory turns a class into a
+:class:`~mission.trees.manifest.NodeManifest`, which is all the loader, the Groot2 TreeNodesModel and the
+README's behaviour table read. :func:`shipped_factory` is the one list of the behaviours that ship.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from py_trees.behaviour import Behaviour
+
+from mission.behaviours.dock import VisualServoDock
+from mission.behaviours.explore import Explore
+from mission.behaviours.follow import FollowTarget
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked
+from mission.behaviours.lost import HoldLastGoal
+from mission.behaviours.mission_state import SetMissionState
+from mission.behaviours.perceive import PerceiveTargets
+from mission.behaviours.ports import PortsDeclared
+from mission.behaviours.search import SearchSweep
+from mission.behaviours.staging import GoToStaging
+from mission.behaviours.visibility import IsTargetVisible
+from mission.trees.controls import BUILTINS, RESERVED_TAGS
+from mission.trees.manifest import Builder, Check, NodeKind, NodeManifest
+
+#: keywords the factory itself passes to constructors (the instance name and, for decorators and
+#: controls, the children), so they cannot be registration arguments
+STRUCTURAL_ARGUMENTS = frozenset({"name", "child", "children"})
+
+
+class BehaviourFactory:
+    """XML tag → :class:`NodeManifest`: the BT.CPP built-ins, then every behaviour registered on it."""
+
+    def __init__(self) -> None:
+        self._manifests: dict[str, NodeManifest] = dict(BUILTINS)
+
+    def register(self, cls: type[PortsDeclared], tag: str | None = None, /, **args: Any) -> NodeManifest:
+        """Make `cls` available in tree files as ``<tag>`` (default: the class name).
+
+        `args` are passed to the constructor of every instance, with the ports written in the tree file
+        (an argument the constructor refuses is a TreeError at the node when the tree is loaded). A tag
+        already taken (by a built-in or an earlier registration) or reserved by the file format is a
+        ValueError, as is an argument that is one of the class's ports (those come from the tree file).
+        """
+        if not (isinstance(cls, type) and issubclass(cls, PortsDeclared) and issubclass(cls, Behaviour)):
+            raise TypeError(f"{cls!r}: expected a py_trees Behaviour class declaring its ports (PortsDeclared)")
+        tag = cls.__name__ if tag is None else tag
+        if tag in RESERVED_TAGS:
+            raise ValueError(f"tag {tag!r} is part of the tree file format; register {cls.__name__} under another tag")
+        if tag in self._manifests:
+            taken = "a BT.CPP built-in" if tag in BUILTINS else "already registered"
+            raise ValueError(f"tag {tag!r} is {taken}; each tag names one node type")
+        for arg in args:
+            if arg in cls.PORTS:
+                raise ValueError(f"{tag}: {arg} cannot be a registration argument: it is a port, set in tree files")
+            if arg in STRUCTURAL_ARGUMENTS:
+                raise ValueError(f"{tag}: {arg} cannot be a registration argument: the loader passes it")
+        manifest = NodeManifest(
+            tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls)
+        )
+        self._manifests[tag] = manifest
+        return manifest
+
+    def manifest(self, tag: str) -> NodeManifest | None:
+        """The node type a tree file means by ``<tag>`` (None when nothing is registered under it)."""
+        return self._manifests.get(tag)
+
+    def builtins(self) -> list[NodeManifest]:
+        """The BT.CPP built-ins, in the order their documentation lists them."""
+        return [m for tag, m in self._manifests.items() if tag in BUILTINS]
+
+    def behaviours(self) -> list[NodeManifest]:
+        """The registered behaviours, sorted by tag (as Groot2 and the README list them)."""
+        return sorted((m for tag, m in self._manifests.items() if tag not in BUILTINS), key=lambda m: m.tag)
+
+
+def shipped_factory() -> BehaviourFactory:
+    """A factory with every shipped behaviour registered: the one list of the tags the shipped trees use.
+
+    PerceiveTargets is registered so trees written before perception became a stage still load (it is a
+    no-op); a user's own behaviours are registered on the returned factory before the tree is loaded.
+    """
+    factory = BehaviourFactory()
+    for cls in (
+        PerceiveTargets,
+        IsTargetVisible,
+        IsLineOfSightBlocked,
+        FollowTarget,
+        HoldLastGoal,
+        SearchSweep,
+        Explore,
+        GoToStaging,
+        VisualServoDock,
+        SetMissionState,
+    ):
+        factory.register(cls)
+    return factory
+
+
+def _summary(cls: type) -> str:
+    """The first paragraph of the class docstring, on one line: what the node does."""
+    return " ".join((cls.__doc__ or "").strip().split("\n\n")[0].split())
+
+
+def _builder(cls: type, kind: NodeKind, args: dict[str, Any]) -> Builder:
+    def build(name: str, children: list[Behaviour], ports: dict[str, Any]) -> Behaviour:
+        structure: dict[str, Any] = {}
+        if kind == "Decorator":
+            structure["child"] = children[0]
+        elif kind == "Control":
+            structure["children"] = children
+        return cls(name=name, **ports, **args, **structure)  # type: ignore[no-any-return]
+
+    return build
+
+
+def _params_check(cls: type[PortsDeclared]) -> Check:
+    """The declaration's own checks (``Params.__post_init__``), run by the loader before anything is built."""
+
+    def check(values: dict[str, Any], _n: int) -> str | None:
+        try:
+            cls.bind_params(values)
+        except (TypeError, ValueError) as exc:
+            return str(exc)
+        return None
+
+    return check
