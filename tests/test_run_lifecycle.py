@@ -69,6 +69,10 @@ def test_a_signal_mid_mission_writes_the_report_marked_interrupted_and_finalizes
     assert outcome["interrupted"] is True and outcome["stop_signal"] == name and outcome["success"] is False
     assert 0 < outcome["sim_time_s"] < 600 and outcome["ticks"] > 0
     assert outcome["metrics"]["state_transitions"], "what was measured so far is in the report"
+    made_by = outcome["provenance"]  # and what produced it, as for any run
+    assert made_by["seed"] == 2 and made_by["scenario"] == "follow_open"
+    assert made_by["tree_file"]["path"].endswith("follow.xml") and made_by["config"]["run"]["tick_hz"] > 0
+    assert [p["name"] for p in made_by["perception_plugins"]] == ["aruco"] and made_by["packages"]["py_trees"]
     assert (report / "trajectories.png").stat().st_size > 0 and (report / "timeline.png").stat().st_size > 0
     frames = iio.imread(gif, index=None)  # a complete GIF, not a 0-byte file
     assert len(frames) >= 2

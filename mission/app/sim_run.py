@@ -17,6 +17,7 @@ import py_trees
 
 from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.observers import RunObserver
+from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
@@ -50,6 +51,8 @@ class RunOutcome:
     faults: dict[str, Any] = field(default_factory=dict)  # scenario `faults:`: injected vs counted (sim/faults.py)
     interrupted: bool = False  # SIGINT/SIGTERM ended the run early; what was measured so far is reported
     stop_signal: str | None = None  # SIGINT | SIGTERM when interrupted
+    # what produced the run: resolved config, tree file, plugins and their versions, seed, package versions
+    provenance: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return dict(self.__dict__)
@@ -146,8 +149,11 @@ def run_scenario(
     try:
         runner.setup()
         wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
+        provenance = run_provenance(config, tree_file=runner.tree_path or "", seed=seed, config_file=config_path,
+                                    scenario=scenario.name)  # fmt: skip
         status = runner.run(until=duration, pacer=pacer)
         outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0)
+        outcome.provenance = provenance
         runner.finish(outcome)
         return outcome, recorder, adapter
     finally:

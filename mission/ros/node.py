@@ -314,7 +314,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             node.setup()
         except MissionError as err:
-            print(f"{NODE_NAME}: error: {err}", file=sys.stderr)
+            for line in str(err).splitlines():  # several problems (a config file's): one line each
+                print(f"{NODE_NAME}: error: {line}", file=sys.stderr)
             return 2
         node.spin()
         return 0
