@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 import py_trees
+from py_trees.blackboard import Blackboard
 
 from mission.behaviours.ports import PortsDeclared
 from mission.core import blackboard as bbk
@@ -69,15 +70,25 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
             reads = (*reads, bbk.NAV_STATUS)
             writes = (*writes, bbk.NAV_GOAL, bbk.TWIST, bbk.STATE, bbk.REASON)
         bbk.register(self.bb, read=tuple(dict.fromkeys(reads)), write=tuple(dict.fromkeys(writes)))
+        self._writable = frozenset(k.path for k in writes)
+        self._readable = frozenset(k.path for k in reads) | self._writable
         self._own_goal: NavGoal | None = None
         self._own_twist: Twist | None = None
         self._warned_clock = False
 
     # -- reading ------------------------------------------------------------------------------------
+    # The client checks access on every call and feeds the activity stream viewers read; with no stream
+    # (nobody watching) a declared key goes straight to the store: the same value, a tenth of the cost
+    # (the tree benchmark). An undeclared key still goes through the client, which refuses it.
     def read(self, key: Key, default: Any = None) -> Any:
+        if Blackboard.activity_stream is None and key.path in self._readable:
+            return Blackboard.storage.get(key.path, default)
         return bbk.get(self.bb, key, default)
 
     def write(self, key: Key, value: Any) -> None:
+        if Blackboard.activity_stream is None and key.path in self._writable:
+            Blackboard.storage[key.path] = value
+            return
         bbk.set_(self.bb, key, value)
 
     def now(self) -> float:
@@ -134,7 +145,9 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
 
     def drive(self, v: float, w: float) -> Twist:
         """Command a base velocity directly (overrides navigation)."""
-        twist = Twist(float(v), float(w))
+        own = self._own_twist
+        # the same command as last tick is the same object: nothing new for the adapter to compare
+        twist = own if own is not None and own.v == v and own.w == w else Twist(float(v), float(w))
         self._own_twist = twist
         self._own_goal = None
         self.write(bbk.TWIST, twist)

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
@@ -48,6 +49,8 @@ class GoToStaging(MissionLeaf):
         self._from_distance = math.inf  # range of the detection the current goal came from
         self._t0 = 0.0
         self.refinements = 0
+        self._staged_from: np.ndarray | None = None
+        self._staged: Pose2D | None = None
 
     def initialise(self) -> None:
         self._goal = None
@@ -55,6 +58,15 @@ class GoToStaging(MissionLeaf):
         self._t0 = self.now()
         self.refinements = 0
         self.feedback_message = f"DOCK: going to the staging pose of {self.params.target}"
+
+    def _staging(self, pose_map: np.ndarray) -> Pose2D:
+        """The staging pose of the tag at `pose_map`, computed once per new tag pose (the track replaces
+        its pose_map with a new array on each detection; between detections it is the same object)."""
+        if pose_map is not self._staged_from:
+            self._staged = staging_pose(pose_map, self.params.offset_m)
+            self._staged_from = pose_map
+        assert self._staged is not None
+        return self._staged
 
     def _wanted(self, pose: Pose2D, distance: float) -> bool:
         if self._goal is None:
@@ -73,7 +85,7 @@ class GoToStaging(MissionLeaf):
         if now - self._t0 > self.params.timeout_s:
             return self.fail(f"DOCK: staging pose not reached within {self.params.timeout_s:g} s")
         try:
-            pose = staging_pose(tr.pose_map, self.params.offset_m)
+            pose = self._staging(tr.pose_map)
         except ValueError as err:
             return self.fail(f"DOCK: {self.params.target}: {err}")
         distance = tr.detection.distance if tr.detection is not None else math.inf

@@ -149,7 +149,10 @@ class Detection:
 
     @property
     def distance(self) -> float:
-        return float(np.linalg.norm(self.position))
+        """Range to the camera (m). math.hypot on Python floats: a fifth of np.linalg.norm's cost on a
+        3-vector, and leaves read it every tick."""
+        p = self.position
+        return math.hypot(*(p.tolist() if isinstance(p, np.ndarray) else p))
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-serialisable dict (lists, floats, None) for `mission detect --json`, logs and ROS debug."""
