@@ -50,7 +50,7 @@ def _write(out: Path, name: str, data: dict[str, Any]) -> None:
 
 
 class _Sampler(RunObserver):
-    """A TickObserver sampling memory and tick wall time once per simulated minute."""
+    """A run observer sampling memory and tick wall time once per simulated minute."""
 
     def __init__(self, period_s: float, trace: bool, out: Path | None) -> None:
         self.period_s = period_s

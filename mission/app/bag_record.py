@@ -161,7 +161,7 @@ class BagRecorder:
 
 
 class BagObserver(RunObserver):
-    """A run observer (mission.app.observers.TickObserver) that records the sensors the tree saw each tick.
+    """A run observer (mission.app.observers.RunObserver) that records the sensors the tree saw each tick.
 
     ``mission run --record-bag PATH``: ``observers.append(BagObserver(PATH))``. It reads the newest
     frame, robot state and scan from the runner's blackboard after every tick (the values the adapter

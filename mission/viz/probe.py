@@ -151,7 +151,7 @@ class TickProbe:
         )
 
     def record(self, runner: Any, ground_truth: Any = None) -> dict[str, Any]:
-        """The JSON-ready record of the tick that just ran (call after ``runner.tick()``)."""
+        """The JSON-ready record of the tick that just ran (call after the tree ticked: an observer's on_tick)."""
         tt = self.last or _TreeTick(nodes=[["INVALID", "", None] for _ in self.nodes])
         rec: dict[str, Any] = {
             "tick": int(getattr(runner, "ticks", 0)),

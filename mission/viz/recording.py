@@ -87,7 +87,7 @@ def compose(
 
 
 class Recorder(RunObserver):
-    """A TickObserver writing the run to a GIF or MP4 at `fps` frames per simulated second."""
+    """A run observer writing the run to a GIF or MP4 at `fps` frames per simulated second."""
 
     def __init__(self, path: str | Path, fps: float = 5.0, height: int = 300, max_frames: int = 600) -> None:
         self.path = Path(path)

@@ -23,7 +23,7 @@ MAX_MOMENTS = 40  # a flapping state keeps the first ones and the final tick
 
 
 class TransitionTrees(RunObserver):
-    """A TickObserver that keeps the tree at each state transition and writes them at the end."""
+    """A run observer that keeps the tree at each state transition and writes them at the end."""
 
     def __init__(self, out_dir: str | Path) -> None:
         self.out_dir = Path(out_dir)

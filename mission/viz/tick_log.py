@@ -77,7 +77,7 @@ def header(runner: Any, adapter: Any, probe: Any, **extra: Any) -> dict[str, Any
 
 
 class TickLog(RunObserver):
-    """A TickObserver writing a JSON-lines tick log to `path` (every `every`-th tick)."""
+    """A run observer writing a JSON-lines tick log to `path` (every `every`-th tick)."""
 
     def __init__(self, path: str | Path, every: int = 1) -> None:
         self.path = Path(path)
