@@ -30,7 +30,8 @@ REFERENCE = {
     "nav2_msgs/action/NavigateToPose_Goal": "22a9dffbd6733011220460bd52edbc7843c8fc86282d40bc7ad3ca176a9dec10",
     "nav2_msgs/action/NavigateToPose_Result": "ddbff7fc6d1e51d774d5defdb8398a57cb23fa8709355002d676408bb4860b85",
     "nav2_msgs/action/NavigateToPose_Feedback": "9ebc544c7d41bd8c6060b191bf9f5e4ddca6c2f61ee9e04fcb62ed5d67218a33",
-    "nav2_msgs/action/NavigateToPose_FeedbackMessage": "9d1f6fa2eb975ce733b419ac2e97b134d8ff92b6478b6559feed9a50bdfd82b3",
+    "nav2_msgs/action/NavigateToPose_FeedbackMessage":
+        "9d1f6fa2eb975ce733b419ac2e97b134d8ff92b6478b6559feed9a50bdfd82b3",
     "nav2_msgs/action/NavigateToPose_SendGoal": "a4fcb3bee1bf32e21a0e541a943b221aa0826996e2c98f079b47022b256f48b5",
     "nav2_msgs/action/NavigateToPose_GetResult": "c407920357d566771e8882b4ef4d1f1a84ee922d609920ccd57faa6d6e391dc5",
     "nav2_msgs/msg/BehaviorTreeLog": "9335ecb688a4f61b7eb82a7c10f23eea5f4e8bbdb7edfa048e3539aa928f51b7",
@@ -99,4 +100,5 @@ def test_built_tf2_msgs_has_the_hash_computed_from_its_definition():
 
 def test_the_definitions_in_the_repo_are_what_was_built():
     for rel in ("action/NavigateToPose.action", "msg/BehaviorTreeLog.msg", "msg/BehaviorTreeStatusChange.msg"):
-        assert (ROOT / "ros" / "nav2_msgs" / rel).read_text() == (INSTALL / "nav2_msgs/share/nav2_msgs" / rel).read_text()
+        built = INSTALL / "nav2_msgs" / "share" / "nav2_msgs" / rel
+        assert (ROOT / "ros" / "nav2_msgs" / rel).read_text() == built.read_text()

@@ -28,7 +28,9 @@ NESTED = 1
 BOUNDED_STRING, BOUNDED_WSTRING = 21, 22
 ARRAY, BOUNDED_SEQUENCE, UNBOUNDED_SEQUENCE = 48, 96, 144
 
-_FIELD = re.compile(r"^(?P<type>[A-Za-z0-9_/]+(?:<=\d+)?)(?P<array>\[(?:<=)?\d*\])?\s+(?P<name>[a-z][a-z0-9_]*)(?:\s+.*)?$")
+_FIELD = re.compile(
+    r"^(?P<type>[A-Za-z0-9_/]+(?:<=\d+)?)(?P<array>\[(?:<=)?\d*\])?\s+(?P<name>[a-z][a-z0-9_]*)(?:\s+.*)?$"
+)
 
 
 @dataclass(frozen=True)
