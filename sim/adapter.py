@@ -117,6 +117,7 @@ class SimAdapter:
         bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.T_base_optical.copy())
         bbk.set_(bb, bbk.MAP, self.occupancy_grid)
         bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
+        bbk.set_(bb, bbk.NAV_REASON, self.navigator.reason)
         frame = None
         if self.t >= self._next_frame_t - 1e-9:
             frame = self.capture()
