@@ -184,6 +184,11 @@ class SimAdapter:
 
     # -- sensing -------------------------------------------------------------------------------------
     @property
+    def goal_seq(self) -> int | None:
+        """The seq of the NavGoal the navigator is working on (None: no goal)."""
+        return self._goal_seq
+
+    @property
     def robot_pose(self) -> Pose2D:
         assert self.base is not None
         s = self.base.state
