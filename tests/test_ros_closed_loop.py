@@ -86,7 +86,7 @@ def test_over_ros_the_mission_explores_docks_within_tolerance_and_starts_followi
         assert node.alive(), "the node keeps running when the robot stops"
     m = report["metrics"]
     states = [t["state"] for t in m["state_transitions"]]
-    assert states[:3] == ["EXPLORE", "DOCK", "FOLLOW"], states
+    assert states[:2] == ["EXPLORE", "DOCK"] and "FOLLOW" in states[2:], states  # (SEARCH may come first)
     dock = m["dock"]
     assert dock is not None and dock["lateral_m"] <= 0.03 and dock["distance_m"] <= 0.025 and dock["skew_deg"] <= 10
     assert m["collisions"] == 0
@@ -157,9 +157,9 @@ def test_a_nav2_that_aborts_every_goal_fails_the_staging_with_its_reason(tmp_pat
 
 @pytest.mark.parametrize(("fault", "seen"), [
     ("tf_loop", "TF loop: "),
-    ("tf_stale_at=4", "is stale: the newest transform"),
-    ("clock_back_at=5", "the clock jumped back"),
-    ("image_delay_s=1.0", "camera images arrive 1.0"),
+    pytest.param("tf_stale_at=4", "is stale: the newest transform", marks=pytest.mark.slow),
+    pytest.param("clock_back_at=5", "the clock jumped back", marks=pytest.mark.slow),
+    pytest.param("image_delay_s=1.0", "camera images arrive 1.0", marks=pytest.mark.slow),
 ])  # fmt: skip
 def test_a_broken_robot_is_a_fault_the_tree_sees_and_the_node_survives(tmp_path, watcher, fault, seen):
     with closed_loop(tmp_path, "explore_dock", 0, "explore_dock.xml", 12.0, (fault,)) as (node, robot):
@@ -169,6 +169,7 @@ def test_a_broken_robot_is_a_fault_the_tree_sees_and_the_node_survives(tmp_path,
     assert "Traceback" not in node.log()
 
 
+@pytest.mark.slow
 def test_without_tf_the_fallbacks_are_said_once_and_the_mission_goes_on(tmp_path, watcher):
     with closed_loop(tmp_path, "explore_dock", 0, "explore_dock.xml", 12.0, ("no_tf",)) as (node, robot):
         finish(robot, timeout=200)
