@@ -171,7 +171,7 @@ class VisualServoDock(MissionLeaf):
         state = self.robot()
         if state is None:
             self.halt()
-            self.feedback_message = "DOCK: waiting for the robot pose"
+            self.feedback_message = self.waiting_for_pose("DOCK: ")
             return py_trees.common.Status.RUNNING
         fresh = tr.last_seen != self._used_seen and tr.pose_map is not None
         if fresh:

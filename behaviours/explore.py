@@ -159,7 +159,9 @@ class Explore(MissionLeaf):
             self.index += 1
             self._goal = None
             self.halt()
-            self.feedback_message = f"EXPLORE: waypoint {self.index}/{len(self.route)} unreachable, skipping it"
+            why = self.nav_reason()
+            self.feedback_message = (f"EXPLORE: waypoint {self.index}/{len(self.route)} unreachable, skipping it"
+                                     + (f" ({why})" if why else ""))  # fmt: skip
             return py_trees.common.Status.RUNNING
         dist = math.hypot(wx - state.pose.x, wy - state.pose.y) if state is not None else float("nan")
         self.feedback_message = (

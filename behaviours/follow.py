@@ -77,7 +77,7 @@ class FollowTarget(MissionLeaf):
             self.feedback_message = (
                 f"waiting for {self.params.target}'s map position"
                 if state is not None
-                else "waiting for the robot pose"
+                else self.waiting_for_pose()
             )
             return py_trees.common.Status.RUNNING
         robot_xy = (state.pose.x, state.pose.y)

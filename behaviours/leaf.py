@@ -64,10 +64,10 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
         super().__init__(name=name)
         self.params = params
         self.bb = self.attach_blackboard_client(name=name)
-        reads = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, *self.READS)
+        reads = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.WORLD_FAULT, *self.READS)
         writes = tuple(self.WRITES)
         if self.COMMANDS:
-            reads = (*reads, bbk.NAV_STATUS)
+            reads = (*reads, bbk.NAV_STATUS, bbk.NAV_REASON)
             writes = (*writes, bbk.NAV_GOAL, bbk.TWIST, bbk.STATE, bbk.REASON)
         bbk.register(self.bb, read=tuple(dict.fromkeys(reads)), write=tuple(dict.fromkeys(writes)))
         self._writable = frozenset(k.path for k in writes)
@@ -108,6 +108,15 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
 
     def robot(self) -> RobotState | None:
         return self.read(bbk.ROBOT_STATE)
+
+    def world_fault(self) -> str:
+        """Why the world's inputs cannot be trusted now ('' when all is well): TF, clock, late images."""
+        return str(self.read(bbk.WORLD_FAULT, "") or "")
+
+    def waiting_for_pose(self, prefix: str = "") -> str:
+        """The feedback of a leaf that needs the robot pose and has none, with the adapter's reason."""
+        fault = self.world_fault()
+        return f"{prefix}waiting for the robot pose" + (f" ({fault})" if fault else "")
 
     def extrinsics(self) -> np.ndarray:
         """T_base_optical from the blackboard, or DEFAULT_EXTRINSICS when the adapter did not give one."""
@@ -187,6 +196,10 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
         if status in (NavStatus.SUCCEEDED, NavStatus.FAILED) and self.now() > goal.stamp:
             return status
         return None
+
+    def nav_reason(self) -> str:
+        """What the navigator said about the current goal (why it failed: Nav2's error, 'no action server')."""
+        return str(self.read(bbk.NAV_REASON, "") or "")
 
     def terminate(self, new_status: py_trees.common.Status) -> None:
         self.withdraw_commands()

@@ -81,6 +81,10 @@ class GoToStaging(MissionLeaf):
         now = self.now()
         tr = self.track(self.params.target)
         if tr is None or tr.pose_map is None:
+            if tr is not None and tr.last_seen is not None:  # seen, but the camera pose was unknown (TF)
+                fault = self.world_fault()
+                return self.fail(f"DOCK: {self.params.target} seen but not placed in the map"
+                                 + (f" ({fault})" if fault else ""))  # fmt: skip
             return self.fail(f"DOCK: {self.params.target} was never seen, no staging pose")
         if now - self._t0 > self.params.timeout_s:
             return self.fail(f"DOCK: staging pose not reached within {self.params.timeout_s:g} s")
@@ -105,7 +109,8 @@ class GoToStaging(MissionLeaf):
             self.feedback_message = f"DOCK: at the staging pose {where}"
             return py_trees.common.Status.SUCCESS
         if outcome == NavStatus.FAILED:
-            return self.fail(f"DOCK: navigation to the staging pose {where} failed")
+            why = self.nav_reason()
+            return self.fail(f"DOCK: navigation to the staging pose {where} failed" + (f": {why}" if why else ""))
         state = self.robot()
         togo = f", {math.hypot(g.x - state.pose.x, g.y - state.pose.y):.2f} m to go" if state is not None else ""
         self.feedback_message = (

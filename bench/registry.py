@@ -63,6 +63,8 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("sim", "sim_bench", "render ms/frame per resolution/renderer; closed-loop sim-s per wall-s"),
     Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),
     Benchmark("ros", "ros_transport", "image → /detected_aruco_pose latency over shared-memory DDS at 30 Hz"),
+    Benchmark("ros_missions", "ros_missions", "the mission over ROS (sim-robot + node) vs in process, same seeds "
+              "(only with --only ros_missions)", in_quick=False, in_full=False),
     Benchmark("soak", "soak", "long-running soak test (only with --only soak)", in_quick=False, in_full=False),
 )
 

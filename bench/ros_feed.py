@@ -105,8 +105,9 @@ class Subprocess:
         return self.proc.poll() is None
 
     def log(self) -> str:
-        """Everything the process printed so far."""
-        self._log.flush()
+        """Everything the process printed so far (also after it was stopped)."""
+        if not self._log.closed:
+            self._log.flush()
         return self.log_path.read_text(errors="replace")
 
     def log_tail(self, lines: int = 3) -> str:

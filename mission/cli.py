@@ -24,6 +24,7 @@ VERBS = {
     "viz": "draw a tree file (unicode, ascii, dot, svg, png, html) or a recorded tick",
     "plugins": "list installed perception plugins",
     "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
+    "sim-robot": "the pybullet world as a ROS 2 robot (camera, odom, scan, map, TF, /clock; navigate_to_pose)",
     "replay": "run the tree on a recorded rosbag2",
     "bench": "run the benchmarks and write their figures",
 }
@@ -93,6 +94,17 @@ def _add_tree(p: argparse.ArgumentParser) -> None:
     p.set_defaults(ros_args=[])
 
 
+def _add_sim_robot(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", default=None, help="scenario name under sim/scenarios/ or a YAML path")
+    p.add_argument("--config", default=None, help="mission config YAML (its `sim:` keys apply; defaults built in)")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="randomisation seed (default 0)")
+    p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR at the end")
+    p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds before stopping")
+    p.add_argument("--rate", type=rate, default=1.0, help="sim time per wall second (1.0 = real time; 0 = flat out)")
+    p.add_argument("--fault", action="append", default=[], metavar="NAME[=VALUE]",
+                   help="abort_goals, no_tf, tf_loop, tf_stale_at=S, clock_back_at=S, image_delay_s=D (repeatable)")
+
+
 def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("bag", metavar="BAG", help="a rosbag2 directory (sqlite3 or mcap)")
     p.add_argument("--config", default=None, help="mission config YAML")
@@ -111,7 +123,7 @@ def _add_bench(p: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
-    adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree,
+    adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
               "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None}
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text)
@@ -154,9 +166,9 @@ def _main(argv: Sequence[str] | None) -> int:
         # Everything from --ros-args on goes to rclpy, as `ros2 run mission tree --ros-args …` does.
         args.ros_args = extra[extra.index("--ros-args"):]
     try:
-        module = importlib.import_module(f"mission.commands.{args.verb}")
+        module = importlib.import_module(f"mission.commands.{args.verb.replace('-', '_')}")
     except ModuleNotFoundError as err:
-        if err.name == f"mission.commands.{args.verb}":
+        if err.name == f"mission.commands.{args.verb.replace('-', '_')}":
             print(f"mission: error: `mission {args.verb}` is not available in this build", file=sys.stderr)
             return 2
         raise

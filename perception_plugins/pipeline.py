@@ -112,6 +112,12 @@ class PerceptionStage:
             if not callable(getattr(src, "process", None)):
                 raise TypeError(f"perception source {src!r} has no process(frame) method")
 
+    def reset_time(self) -> None:
+        """Forget the newest processed stamp: the clock jumped back (a simulation restarted, a bag looped), so
+        frames stamped before it are new again, not stale."""
+        self._last_stamp = None
+        self._last_image = None
+
     def update(self, bb: py_trees.blackboard.Client) -> Perceived | None:
         """Perceive the newest frame on the blackboard, unless it was perceived already (None then).
 

@@ -117,6 +117,7 @@ class SimAdapter:
         bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.T_base_optical.copy())
         bbk.set_(bb, bbk.MAP, self.occupancy_grid)
         bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
+        bbk.set_(bb, bbk.NAV_REASON, self.navigator.reason)
         frame = None
         if self.t >= self._next_frame_t - 1e-9:
             frame = self.capture()
@@ -182,6 +183,11 @@ class SimAdapter:
             self.world = None
 
     # -- sensing -------------------------------------------------------------------------------------
+    @property
+    def goal_seq(self) -> int | None:
+        """The seq of the NavGoal the navigator is working on (None: no goal)."""
+        return self._goal_seq
+
     @property
     def robot_pose(self) -> Pose2D:
         assert self.base is not None

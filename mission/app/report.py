@@ -127,3 +127,13 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
     ax_d.set_xlabel("sim time (s)")
     ax_s.set_title(title or "timeline")
     _save(fig, path)
+
+
+def write_run_report(out: str | Path, outcome: Any, recorder: MetricsRecorder, adapter: Any, verdict: str) -> None:
+    """report.json, trajectories.png and timeline.png of a simulated run (`mission run` and `mission sim-robot`)."""
+    out = Path(out)
+    write_json(out / "report.json", outcome.to_json())
+    title = f"{outcome.scenario} seed {outcome.seed}: {verdict}"
+    plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title,
+                      getattr(adapter, "dock_xy", None))  # fmt: skip
+    plot_timeline(recorder, out / "timeline.png", title)

@@ -158,6 +158,8 @@ class TreeRunner:
             (bbk.NAV_GOAL, None),
             (bbk.TWIST, None),
             (bbk.NAV_STATUS, NavStatus.IDLE),
+            (bbk.NAV_REASON, ""),
+            (bbk.WORLD_FAULT, ""),
             (bbk.DOCK_SETPOINT, None),
             (bbk.STATE, ""),
             (bbk.REASON, ""),

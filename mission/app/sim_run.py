@@ -1,13 +1,16 @@
 """A simulated mission, start to finish: scenario + config + tree → ticks → metrics → outcome.
 
 `mission run` and the benchmark sweeps both call :func:`run_scenario`, so a bench figure and a CLI
-run are the same code path.
+run are the same code path. `mission sim-robot` calls it too, with ``robot=``: the simulated world is then
+wrapped as a ROS robot (mission/ros/sim_robot.py) and the tree runs in another process — the ROS node —
+while this one steps the world, measures it against ground truth and scores it by the same criteria.
 """
 
 from __future__ import annotations
 
 import signal
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -130,8 +133,13 @@ def run_scenario(
     max_duration: float | None = None,
     observers: list[RunObserver] | None = None,
     pacer: Pacer | None = None,
+    robot: Callable[[SimAdapter], Any] | None = None,
 ) -> tuple[RunOutcome, MetricsRecorder, SimAdapter]:
     """Run one scenario headless and measure it. Raises MissionError on config/tree problems.
+
+    With `robot`, the world is ``robot(sim_adapter)`` — the simulation behind ROS topics — and no tree runs
+    here: the remote tree's state, reason and status come back through that world (``tree_status()``,
+    ``finished``), and the run ends at the scenario's duration or when the remote tree finishes.
 
     SIGINT/SIGTERM end the run early: the outcome covers what ran, with ``interrupted`` set."""
     scenario = load_scenario(scenario_name)
@@ -142,16 +150,23 @@ def run_scenario(
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
     recorder = MetricsRecorder(dock_standoff_m=float(getattr(success_spec, "standoff_m", 0.30) or 0.30))
-    runner = TreeRunner(config, adapter, choose_tree(tree, config, scenario), config_file=config_path,
-                        observers=[recorder, *(observers or [])])  # fmt: skip
+    world = adapter if robot is None else robot(adapter)
+    runner = TreeRunner(config, world, choose_tree(tree, config, scenario) if robot is None else None,
+                        config_file=config_path, observers=[recorder, *(observers or [])],
+                        perception_only=robot is not None, sources=[] if robot is not None else None)  # fmt: skip
     duration = float(max_duration or scenario.duration_s)
+    until: Any = duration
+    if robot is not None:
+        until = lambda r: r.elapsed() >= duration or bool(getattr(world, "finished", False))  # noqa: E731
     wall0 = time.perf_counter()
     try:
         runner.setup()
         wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
         provenance = run_provenance(config, tree_file=runner.tree_path or "", seed=seed, config_file=config_path,
                                     scenario=scenario.name)  # fmt: skip
-        status = runner.run(until=duration, pacer=pacer)
+        status = runner.run(until=until, pacer=pacer)
+        if robot is not None:
+            status = world.tree_status()
         outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0)
         outcome.provenance = provenance
         runner.finish(outcome)

@@ -8,9 +8,9 @@ import sys
 from pathlib import Path
 
 from mission.app.observers import RunObserver
-from mission.app.report import plot_timeline, plot_trajectories, write_json
+from mission.app.report import write_run_report
 from mission.app.runner import WallClockPacer
-from mission.app.sim_run import run_scenario
+from mission.app.sim_run import RunOutcome, run_scenario
 from mission.core.errors import MissionError
 from mission.core.files import ensure_dir, unwritable
 
@@ -76,18 +76,19 @@ def main(args: argparse.Namespace) -> int:
     )
     verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     if args.report:
-        out = Path(args.report)
-        write_json(out / "report.json", outcome.to_json())
-        gt_dock = getattr(adapter, "dock_xy", None)
-        title = f"{outcome.scenario} seed {outcome.seed}: {verdict}"
-        plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title, gt_dock)
-        plot_timeline(recorder, out / "timeline.png", title)
+        write_run_report(args.report, outcome, recorder, adapter, verdict)
+    return result_line(outcome, label, args.report)
+
+
+def result_line(outcome: RunOutcome, label: str, report: str | None) -> int:
+    """Print the one-line verdict of a simulated run; its exit code (0 success, 1 failure, 128 + signal)."""
+    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     m = outcome.metrics
     print(
         f"{verdict}: {label}: {outcome.reason} "
         f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
         f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']})"
-        + (f"; report in {args.report}/" if args.report else "")
+        + (f"; report in {report}/" if report else "")
     )
     sys.stdout.flush()
     if outcome.interrupted:  # the shell's convention: 128 + the signal (130 SIGINT, 143 SIGTERM)

@@ -53,11 +53,18 @@ ROBOT_STATE = Key("/robot/state", "RobotState | None", "base pose and velocity i
 CAMERA_EXTRINSICS = Key("/robot/camera_extrinsics", "ndarray 4×4", "T_base_optical: camera optical frame in base")
 SCAN = Key("/robot/scan", "LaserScan | None", "latest 2D lidar scan")
 MAP = Key("/robot/map", "OccupancyGrid | None", "the static map (pre-mapping phase)")
+WORLD_FAULT = Key(
+    "/robot/fault",
+    "str",
+    "why the world's inputs cannot be trusted now (TF missing, stale or looping; the clock jumped back or "
+    "stopped; images late); '' when all is well. Written by the adapter",
+)
 
 # /goal --------------------------------------------------------------------------------------------
 NAV_GOAL = Key("/goal/nav_goal", "NavGoal | None", "goal for the navigator in the map frame (Nav2 /goal_pose)")
 TWIST = Key("/goal/twist", "Twist | None", "direct velocity command; when set it overrides navigation")
 NAV_STATUS = Key("/goal/nav_status", "str", "NavStatus of the current nav goal, written by the adapter")
+NAV_REASON = Key("/goal/nav_reason", "str", "the navigator's word on the current goal: why it failed, or progress")
 DOCK_SETPOINT = Key("/goal/dock_setpoint", "DockSetpoint | None", "detected dock pose for a docking server")
 
 # /mission -----------------------------------------------------------------------------------------

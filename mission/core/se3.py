@@ -176,3 +176,23 @@ def wrap_angle(a: float) -> float:
 
 # The optical frame (x right, y down, z forward) seen from a body frame (x forward, y left, z up).
 R_BODY_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def slerp(q0: ArrayLike, q1: ArrayLike, f: float) -> np.ndarray:
+    """Spherical interpolation between unit quaternions (x, y, z, w): q0 at f = 0, q1 at f = 1, shortest arc."""
+    a, b = normalize_quat(q0), normalize_quat(q1)
+    dot = float(a @ b)
+    if dot < 0.0:  # q and −q are the same rotation: go the short way
+        b, dot = -b, -dot
+    if dot > 0.9995:  # nearly equal: linear is exact enough and avoids dividing by sin(≈0)
+        return normalize_quat(a + f * (b - a))
+    theta = math.acos(dot)
+    s = math.sin(theta)
+    return (math.sin((1.0 - f) * theta) / s) * a + (math.sin(f * theta) / s) * b
+
+
+def interpolate(t0: np.ndarray, t1: np.ndarray, f: float) -> np.ndarray:
+    """The pose a fraction `f` of the way from `t0` to `t1`: translation linear, rotation slerped (as tf2 does)."""
+    p0, q0 = to_pos_quat(t0)
+    p1, q1 = to_pos_quat(t1)
+    return from_pos_quat(p0 + f * (p1 - p0), slerp(q0, q1, f))

@@ -359,3 +359,17 @@ def grid_from_msg(msg: Any) -> OccupancyGrid:
 def twist_msg(factory: MessageFactory, twist: Twist) -> Any:
     vec = lambda x=0.0, y=0.0, z=0.0: factory.new("geometry_msgs/msg/Vector3", x=x, y=y, z=z)  # noqa: E731
     return factory.new("geometry_msgs/msg/Twist", linear=vec(x=float(twist.v)), angular=vec(z=float(twist.w)))
+
+
+def grid_to_msg(factory: MessageFactory, grid: OccupancyGrid, stamp: float) -> Any:
+    """OccupancyGrid → nav_msgs/OccupancyGrid (what a map server latches on /map)."""
+    h, w = grid.data.shape
+    o = grid.origin
+    info = factory.new(
+        "nav_msgs/msg/MapMetaData",
+        map_load_time=factory.new("builtin_interfaces/msg/Time", sec=0, nanosec=0),
+        resolution=float(grid.resolution), width=int(w), height=int(h),
+        origin=matrix_to_pose(factory, se3.planar(o.x, o.y, o.yaw)),
+    )  # fmt: skip
+    return factory.new("nav_msgs/msg/OccupancyGrid", header=header_msg(factory, stamp, grid.frame_id or "map"),
+                       info=info, data=np.ascontiguousarray(grid.data, dtype=np.int8).reshape(-1))  # fmt: skip

@@ -2,13 +2,20 @@
 
 ``install/mission/lib/mission/tree`` (colcon) and ``mission tree`` both run :func:`main`.
 
-The node is wiring around the one loop (mission/app/runner.py): each timer tick (``tick_hz``) is one
-``runner.step()`` — the ROS adapter writes the newest frame, odometry, scan and map to the blackboard,
-the perception stage turns a new frame into detections and tracks, the tree ticks, the adapter
-publishes the tree's commands. Observers publish the rest (mission/ros/outputs.py): what perception
-found in each frame (``/marker_detected`` on transitions, ``/aruco/debug``, ``/detected_aruco_pose``,
-``/aruco_poses``, ``/tf``) and ``/mission/tree`` when the tree changes (at most 2 Hz, latched). A 1 Hz
-timer publishes the heartbeat with the counters.
+The node is wiring around the one loop (mission/app/runner.py). Perception runs when an image arrives:
+the image callback places the frame (the camera pose from TF at the image's stamp) and calls
+``runner.perceive()``, so a detection leaves on ``/detected_aruco_pose`` without waiting for a tick. Each
+timer tick (``tick_hz``, on ROS time: ``-p use_sim_time:=true`` follows ``/clock``) is one
+``runner.step()`` — the ROS adapter writes the newest odometry, scan, map, TF-derived poses and Nav2's
+navigation status to the blackboard, the tree ticks on the latest blackboard (a frame perceived on arrival
+is not perceived again), the adapter sends the tree's commands (``navigate_to_pose`` goals, ``/cmd_vel``).
+Observers publish the rest (mission/ros/outputs.py): what perception found in each frame
+(``/marker_detected`` on transitions, ``/aruco/debug``, ``/detected_aruco_pose``, ``/aruco_poses``,
+``/tf``), ``/mission/tree`` when the tree changes (at most 2 Hz, latched), the tree for Nav2's tools
+(``/behavior_tree_log``, nav2_msgs/BehaviorTreeLog status changes; ``/behavior_tree``, the XML) and
+``/mission/status``. Two timers on the wall clock keep running when ROS time stops: the 1 Hz heartbeat,
+and a watchdog that notices ``/clock`` or the camera going silent and then ticks the tree itself, so it
+sees the fault.
 
 ``tree:=none`` runs perception only, with no tree: the design notes' aruco_pose_streamer.
 """
@@ -21,6 +28,7 @@ import difflib
 import json
 import math
 import sys
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -48,11 +56,19 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "odom_topic": ("/odom", "nav_msgs/Odometry"),
     "scan_topic": ("/scan", "sensor_msgs/LaserScan"),
     "map_topic": ("/map", "nav_msgs/OccupancyGrid (latched)"),
-    "amcl_topic": ("/amcl_pose", "optional AMCL pose; corrects odometry into the map frame"),
+    "amcl_topic": ("/amcl_pose", "fallback for map → odom when /tf has none (AMCL's pose)"),
+    "odom_frame": ("odom", "odometry frame: map → odom → base_frame on /tf"),
     "target_marker_id": (-1, "marker id of the `target` (>= 0 overrides the config's perception.targets)"),
     "camera_info_tolerance_s": (0.1, "largest stamp difference when pairing image ↔ camera info / depth"),
-    "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0], "camera body frame in base_frame: x y z roll pitch yaw"),
-    "goal_tolerance_m": (0.25, "distance at which a sent goal counts as reached"),
+    "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0],
+                       "fallback camera mount (no TF base_frame → camera): camera body frame x y z roll pitch yaw"),
+    "navigator": ("action", "`action`: Nav2's navigate_to_pose (status, errors reach the tree); `topic`: /goal_pose"),
+    "nav_preempt_hz": (10.0, "at most this many new navigate_to_pose goals a second (the follow rate)"),
+    "nav_server_timeout_s": (2.0, "wait this long for a navigate_to_pose server, then navigation leaves fail"),
+    "goal_tolerance_m": (0.25, "navigator:=topic only: distance at which a sent goal counts as reached"),
+    "tf_tolerance_s": (0.1, "an image this much newer than the newest transform still gets it (held)"),
+    "image_late_s": (0.5, "images older than this on arrival are reported late in /robot/fault"),
+    "input_timeout_s": (2.0, "no /clock (use_sim_time) or no image for this long (wall) is a fault the tree sees"),
     "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
 }
 
@@ -64,8 +80,18 @@ _PARAM_RANGES: dict[str, tuple[float, float, str]] = {
     "camera_info_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
     "goal_tolerance_m": (1e-6, math.inf, "a distance > 0 (m)"),
     "serve_port": (0, 65535, "a TCP port 0..65535"),
+    "nav_preempt_hz": (1e-3, 1000.0, "a rate > 0 (Hz)"),
+    "nav_server_timeout_s": (0.0, math.inf, "a time ≥ 0 (s)"),
+    "tf_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
+    "image_late_s": (0.0, math.inf, "a time ≥ 0 (s; 0 = off)"),
+    "input_timeout_s": (0.1, math.inf, "a time > 0 (s)"),
     "target_marker_id": (-1, math.inf, "a marker id ≥ 0, or -1"),
 }
+
+
+# Parameters every rclpy node has (declared by rclpy itself): given on the command line, they are not unknown.
+BUILTIN_PARAMETERS = ("use_sim_time",)
+NAVIGATORS = ("action", "topic")
 
 
 def given_params(argv: Sequence[str]) -> list[str]:
@@ -88,7 +114,7 @@ def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
     ROS itself accepts ``-p tick_hz:=-5`` or ``-p tick_hz:=fast`` (dynamic typing) and ignores an unknown
     ``-p marker_size:=0.1``: here each is one ConfigError naming the parameter, before anything starts."""
     for name in given:
-        if name not in PARAMETERS:
+        if name not in PARAMETERS and name not in BUILTIN_PARAMETERS:
             close = difflib.get_close_matches(name, list(PARAMETERS), n=1)
             hint = f" (did you mean {close[0]}?)" if close else ""
             raise ConfigError(f"unknown parameter{hint}; the node's parameters: {', '.join(PARAMETERS)}",
@@ -105,6 +131,8 @@ def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
         if isinstance(default, str):
             if not isinstance(value, str):
                 raise ConfigError(f"expected a string, got {value!r}", key=key)
+            if name == "navigator" and value not in NAVIGATORS:
+                raise ConfigError(f"expected one of {', '.join(NAVIGATORS)}, got {value!r}", key=key)
             continue
         kind = int if isinstance(default, int) else float
         number = isinstance(value, int if kind is int else int | float) and not isinstance(value, bool)
@@ -161,11 +189,13 @@ class MissionNode:
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
         """Check the parameters, then wire the one loop: world, runner, observers, timers."""
+        from rclpy.clock import Clock, ClockType
+
         from mission.app.runner import TreeRunner
         from mission.ros.adapter import RELIABLE, RosAdapter
         from mission.ros.messages import RclpyMessages
-        from mission.ros.outputs import PerceptionOutputs, TreePublisher
-        from mission.ros.tf_support import load_tf_message
+        from mission.ros.outputs import BehaviorTreeLogPublisher, PerceptionOutputs, StatusPublisher, TreePublisher
+        from mission.ros.tf_support import load_nav2, load_tf_message
         from mission.ros.world_io import RosTopics
 
         p, n = self.params, self.node
@@ -177,24 +207,43 @@ class MissionNode:
             image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
             odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
             amcl_topic=p["amcl_topic"], camera_frame=p["camera_frame"], base_frame=p["base_frame"],
-            map_frame=p["map_frame"], camera_info_tolerance_s=float(p["camera_info_tolerance_s"]),
+            map_frame=p["map_frame"], odom_frame=p["odom_frame"],
+            camera_info_tolerance_s=float(p["camera_info_tolerance_s"]),
             camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]], goal_tolerance_m=float(p["goal_tolerance_m"]),
+            tf_tolerance_s=float(p["tf_tolerance_s"]), image_late_s=float(p["image_late_s"]),
         )  # fmt: skip
-        self.adapter = RosAdapter(n, topics)
         self.msgs = RclpyMessages()
         tf = load_tf_message()
         tf_message = tf.message
         if tf_message is None:
-            self.log.warning(f"/tf disabled: {tf.detail}")
+            self.log.warning(f"/tf disabled (no TF in or out; camera_xyz_rpy and /amcl_pose are used): {tf.detail}")
         else:
-            self.log.info(f"/tf: publishing marker frames ({tf.detail})")
+            self.log.info(f"/tf: reading the robot's frames, publishing marker frames ({tf.detail})")
+        self.nav2 = load_nav2()
+        navigation = None
+        if p["navigator"] == "action" and not self.perception_only:
+            if not self.nav2.ok:
+                raise ConfigError(f"navigator:=action needs nav2_msgs: {self.nav2.detail}; or -p navigator:=topic",
+                                  key="-p navigator")  # fmt: skip
+            from mission.ros.nav_client import ActionNavigation
+
+            def navigation() -> ActionNavigation:
+                return ActionNavigation(
+                    n, self.nav2.get("action", "NavigateToPose"), preempt_hz=float(p["nav_preempt_hz"]),
+                    server_timeout_s=float(p["nav_server_timeout_s"]), warn=self.log.warning, info=self.log.info,
+                )  # fmt: skip
+        self.adapter = RosAdapter(n, topics, tf_message=tf_message, navigation=navigation)
         self.outputs = PerceptionOutputs(
             n, self.msgs, camera_frame=topics.camera_frame, has_target="target" in config.perception.targets,
             emit_dock=self.adapter.emit if self.perception_only else None, tf_message=tf_message,
         )  # fmt: skip
         observers: list[Any] = [self.outputs]
         if not self.perception_only:
-            observers.append(TreePublisher(n, self.msgs))
+            observers += [TreePublisher(n, self.msgs), StatusPublisher(n, self.msgs)]
+            if self.nav2.ok:
+                observers.append(BehaviorTreeLogPublisher(n, self.msgs, self.nav2, self.adapter.now))
+            else:
+                self.log.warning(f"/behavior_tree_log disabled: {self.nav2.detail}")
         if int(p["serve_port"]) > 0:
             if self.perception_only:
                 self.log.warning("serve_port: the live view shows a tree, and tree:=none runs none; not serving")
@@ -211,11 +260,23 @@ class MissionNode:
         self.runner.setup()
         self.sources = self.runner.sources
         self.config = config
+        self.adapter.on_image = self._on_image
+        self.adapter.on_time_jump = self._on_time_jump
         self.sub_redetect = n.create_subscription(self.msgs.cls("std_msgs/msg/Empty"), "/mission/redetect",
                                                   self._on_redetect, RELIABLE)  # fmt: skip
         tick_hz = float(p["tick_hz"]) or float(config.run.tick_hz)
-        self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)
-        self.heartbeat_timer = n.create_timer(1.0, self._on_heartbeat)
+        self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)  # ROS time: sim time with use_sim_time
+        # wall clock: these keep running when ROS time stops (the simulation died, a bag paused)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.heartbeat_timer = n.create_timer(1.0, self._on_heartbeat, clock=steady)
+        self.input_timeout_s = float(p["input_timeout_s"])
+        self.use_sim_time = bool(n.get_parameter("use_sim_time").value)
+        self._last_clock = time.monotonic()
+        self._last_step = time.monotonic()
+        if self.use_sim_time:
+            self.sub_clock = n.create_subscription(self.msgs.cls("rosgraph_msgs/msg/Clock"), "/clock",
+                                                   self._on_clock, 10)  # fmt: skip
+        self.watchdog_timer = n.create_timer(min(0.5, self.input_timeout_s / 2), self._on_watchdog, clock=steady)
         names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
         what = "perception only" if self.perception_only else f"tree {self.runner.tree_path}"
         self.log.info(
@@ -224,16 +285,57 @@ class MissionNode:
         )
 
     # -- callbacks ---------------------------------------------------------------------------------
+    def _failed(self, what: str, err: Exception) -> None:
+        """A failing tick or perception must not take the node down: count, log once per kind."""
+        self._ticks_failed += 1
+        kind = f"{what}: {type(err).__name__}: {err}"
+        if kind not in self._tick_errors:
+            self._tick_errors.add(kind)
+            self.log.error(f"{kind}; further identical errors are counted, not logged")
+
     def _on_tick(self) -> None:
+        self._last_step = time.monotonic()
         try:
             self.runner.step()
-        except Exception as err:  # a failing tick must not take the node down: count, log once per kind
-            self._ticks_failed += 1
-            kind = f"{type(err).__name__}: {err}"
-            if kind not in self._tick_errors:
-                self._tick_errors.add(kind)
-                self.log.error(f"tick failed ({kind}); further identical errors are counted, not logged")
+        except Exception as err:
+            self._failed("tick failed", err)
 
+    def _on_image(self) -> None:
+        """Perception on arrival: place the new frame at its stamp and perceive it now, not at the next tick.
+
+        Until the first CameraInfo has arrived the frame waits for the tick instead: a driver publishes the
+        two together, and the first image would otherwise be perceived with the fallback pinhole."""
+        if not self.adapter.cache.stats.received.get("camera_info"):
+            return
+        try:
+            if self.adapter.sense_frame(self.runner.bb):
+                self.runner.perceive()
+        except Exception as err:
+            self._failed("perception failed", err)
+
+    def _on_time_jump(self) -> None:
+        if self.runner is not None and self.runner.perception is not None:
+            self.runner.perception.reset_time()  # frames stamped before the old time are new, not stale
+
+    def _on_clock(self, _msg: Any) -> None:
+        self._last_clock = time.monotonic()
+
+    def _on_watchdog(self) -> None:
+        """Wall clock: notice /clock or the camera going silent; with ROS time stopped, tick the tree from here."""
+        now, limit = time.monotonic(), self.input_timeout_s
+        problems = []
+        if self.use_sim_time and now - self._last_clock > limit:
+            silent = now - self._last_clock
+            problems.append(f"no /clock for {silent:.1f} s: the simulation (or the robot's clock) stopped")
+        seen = self.adapter.last_input.get("image")
+        if seen is not None and now - seen > limit:
+            problems.append(f"no camera image on {self.adapter.topics.image_topic} for {now - seen:.1f} s")
+        fault = "; ".join(problems)
+        if fault and fault.split(" for ")[0] != self.adapter.extra_fault.split(" for ")[0]:
+            self.log.warning(fault)
+        self.adapter.extra_fault = fault
+        if fault and now - self._last_step > limit and not self.perception_only:
+            self._on_tick()  # ROS time stands still: the tree still sees what is wrong
     def counters(self) -> dict[str, Any]:
         stats = dict(self.runner.get(bbk.PERCEPTION_STATS, {}) or {}) if self.runner else {}
         cache = self.adapter.cache.stats
@@ -246,6 +348,10 @@ class MissionNode:
             "frames_dropped": cache.images_dropped,
             "marker_visible": self.outputs.edge.visible,
             "ticks_failed": self._ticks_failed,
+            "fault": self.runner.get(bbk.WORLD_FAULT, "") if self.runner else "",
+            "time_jumps": self.adapter.time_jumps,
+            "navigation": {"sent": getattr(self.adapter.navigation, "sent", None),
+                           "results": getattr(self.adapter.navigation, "results", None)},
             **cache.to_json(),
             "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
         }

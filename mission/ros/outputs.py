@@ -5,6 +5,13 @@
   detection in this frame, else the nearest detection), ``/tf`` (one frame per marker and label) and,
   when the node perceives only, the dock's pose through the world (``detected_dock_pose``).
 * :class:`TreePublisher` — ``/mission/tree``: the tree snapshot when it changed, at most 2 Hz, latched.
+* :class:`BehaviorTreeLogPublisher` — the tree for Nav2's tools: ``/behavior_tree_log``
+  (nav2_msgs/BehaviorTreeLog: every node whose status changed in a tick, as bt_navigator publishes it) and
+  ``/behavior_tree`` (std_msgs/String, latched: the tree's XML).
+* :class:`StatusPublisher` — ``/mission/status`` (std_msgs/String JSON, latched, on change): the mission
+  state, the root's status, the reason and the world fault (what the sim-robot scores a run by).
+
+/detected_aruco_pose goes out first: it is what a downstream controller waits for.
 
 The payloads are plain data built in :mod:`mission.ros.marker_outputs` (tested without rclpy).
 """
@@ -15,6 +22,7 @@ import json
 import math
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from mission.app.observers import RunObserver, Tick
@@ -28,7 +36,7 @@ from mission.ros.marker_outputs import (
     observation_json,
     tf_child_frames,
 )
-from mission.ros.messages import RclpyMessages, header_msg
+from mission.ros.messages import RclpyMessages, header_msg, time_msg
 
 TREE_PUBLISH_PERIOD_S = 0.5  # /mission/tree at most 2 Hz
 
@@ -76,13 +84,6 @@ class PerceptionOutputs(RunObserver):
             return
         frame = perceived.frame
         frame_id, stamp = frame.frame_id or self.camera_frame, float(frame.stamp)
-        self.pub_debug.publish(
-            m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
-        )
-        self.pub_poses.publish(m.new(
-            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
-            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
-        ))  # fmt: skip
         tracks = run.get(bbk.TRACKS, {}) or {}
         if self.has_target:
             target = current_detection(tracks, "target", stamp)
@@ -90,6 +91,13 @@ class PerceptionOutputs(RunObserver):
             target = min(detections, key=lambda d: d.distance)
         if target is not None:
             self.pub_target.publish(pose_stamped(m, detection_matrix(target), stamp, frame_id))
+        self.pub_debug.publish(
+            m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
+        )
+        self.pub_poses.publish(m.new(
+            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
+            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
+        ))  # fmt: skip
         if self.emit_dock is not None:
             dock = current_detection(tracks, "dock", stamp)
             if dock is not None:
@@ -128,3 +136,66 @@ class TreePublisher(RunObserver):
             self._pending = False
             self._last_pub = now
             self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
+
+
+BT_STATUS = {"SUCCESS": "SUCCESS", "FAILURE": "FAILURE", "RUNNING": "RUNNING", "INVALID": "IDLE"}
+
+
+class BehaviorTreeLogPublisher(RunObserver):
+    """``/behavior_tree_log`` and ``/behavior_tree``: what Nav2's tools and behaviour-tree panels read.
+
+    After every tick, one nav2_msgs/BehaviorTreeLog with an event per node whose status changed (py_trees'
+    INVALID is BT.CPP's IDLE); ``uid`` is the node's place in a depth-first walk from 1, stable for the run,
+    ``node_name`` its name in the tree. The XML of the tree file goes out once, latched."""
+
+    def __init__(self, node: Any, msgs: RclpyMessages, nav2: Any, now: Callable[[], float]) -> None:
+        from mission.ros.adapter import LATCHED, RELIABLE
+
+        self.msgs, self.now = msgs, now
+        self.log_type = nav2.get("msg", "BehaviorTreeLog")
+        self.event_type = nav2.get("msg", "BehaviorTreeStatusChange")
+        self.pub_log = node.create_publisher(self.log_type, "/behavior_tree_log", RELIABLE)
+        self.pub_xml = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/behavior_tree", LATCHED)
+        self._last: dict[int, str] = {}
+        self.published = 0
+
+    def on_start(self, run: Any) -> None:
+        if run.tree_path is not None:
+            self.pub_xml.publish(self.msgs.new("std_msgs/msg/String", data=Path(run.tree_path).read_text()))
+
+    def on_tick(self, run: Any, tick: Tick) -> None:
+        if run.tree is None:
+            return
+        stamp = time_msg(self.msgs, self.now())
+        events = []
+        for uid, behaviour in enumerate(run.root.iterate(), start=1):
+            status = BT_STATUS.get(behaviour.status.name, "IDLE")
+            previous = self._last.get(uid, "IDLE")
+            if status != previous:
+                self._last[uid] = status
+                events.append(self.event_type(timestamp=stamp, node_name=behaviour.name, uid=uid,
+                                              previous_status=previous, current_status=status))  # fmt: skip
+        if events:
+            self.pub_log.publish(self.log_type(timestamp=stamp, event_log=events))
+            self.published += 1
+
+
+class StatusPublisher(RunObserver):
+    """``/mission/status``: {state, status, reason, fault, tick, clock} as JSON when any but tick/clock changed."""
+
+    def __init__(self, node: Any, msgs: RclpyMessages) -> None:
+        from mission.ros.adapter import LATCHED
+
+        self.msgs = msgs
+        self.pub = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/mission/status", LATCHED)
+        self._last: tuple[str, ...] = ()
+
+    def on_tick(self, run: Any, tick: Tick) -> None:
+        body = (str(run.get(bbk.STATE, "")), tick.status.name, str(run.get(bbk.REASON, "")),
+                str(run.get(bbk.WORLD_FAULT, "")))  # fmt: skip
+        if body != self._last:
+            self._last = body
+            state, status, reason, fault = body
+            data = {"state": state, "status": status, "reason": reason, "fault": fault, "tick": tick.index,
+                    "clock": round(float(tick.clock), 3)}  # fmt: skip
+            self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(data)))

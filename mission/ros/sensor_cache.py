@@ -267,6 +267,11 @@ class SensorCache:
             return None
         return near.value
 
+    @property
+    def map_from_odom(self) -> np.ndarray | None:
+        """AMCL's map → odom correction from /amcl_pose (None before the first one)."""
+        return self._T_map_odom
+
     def robot_state(self) -> RobotState | None:
         """The base pose in the map frame (AMCL-corrected odometry when /amcl_pose is available)."""
         if self.odom is None:

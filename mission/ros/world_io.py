@@ -12,8 +12,16 @@ Commands (intent on the blackboard → messages):
 * ``/goal/twist``         → ``cmd_vel`` every tick while set, one zero twist when it is cleared;
 * ``/goal/dock_setpoint`` → ``dock`` (``detected_dock_pose`` for Nav2's opennav_docking) once per setpoint.
 
-Without nav2_msgs (not on PyPI) there is no action feedback, so the navigator status is inferred:
-RUNNING from the moment a goal is sent, SUCCEEDED once the robot is within ``goal_tolerance_m``.
+Navigation goes through a :class:`Navigation`: the live node's default is Nav2's ``navigate_to_pose`` action
+(mission/ros/nav_client.py: status and reason from the action's feedback and result); :class:`TopicNavigation`
+publishes ``/goal_pose`` (bt_navigator's topic) and infers the status — RUNNING from the moment a goal is sent,
+SUCCEEDED once the robot is within ``goal_tolerance_m`` — which is also what replay uses. A goal the tree lets
+go of (``/goal/nav_goal`` cleared: the behaviour was halted) is cancelled.
+
+Poses come from :class:`~mission.ros.frames.RobotFrames`: TF when the robot publishes it, the fallbacks
+otherwise; a frame carries the camera pose at its own stamp. ``/robot/fault`` says why inputs cannot be
+trusted (TF broken, the clock jumped back, images late); with the robot pose unknown no goal is sent, and the
+navigation leaves see FAILED with that reason.
 """
 
 from __future__ import annotations
@@ -21,15 +29,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import py_trees
 
 from mission.core import blackboard as bbk
 from mission.core import se3
-from mission.core.types import DockSetpoint, NavGoal, NavStatus, Twist
+from mission.core.types import DockSetpoint, Frame, NavGoal, NavStatus, RobotState, Twist
 from mission.ros.conversions import pose2d_stamped, pose_stamped, twist_msg
+from mission.ros.frames import RobotFrames
 from mission.ros.messages import MessageFactory
 from mission.ros.sensor_cache import SensorCache
 
@@ -52,9 +61,12 @@ class RosTopics:
     camera_frame: str = "camera_optical_frame"
     base_frame: str = "base_link"
     map_frame: str = "map"
+    odom_frame: str = "odom"
     camera_info_tolerance_s: float = 0.1
     target_goal_hz: float = 10.0
     goal_tolerance_m: float = 0.25
+    tf_tolerance_s: float = 0.1  # an image this much newer than the last transform still gets it
+    image_late_s: float = 0.5  # an image older than this on arrival is reported late (/robot/fault)
     # the camera body frame (x forward, y left, z up) in the base frame: x, y, z (m), roll, pitch, yaw (rad)
     camera_xyz_rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.3, 0.0, 0.0, 0.0])
 
@@ -65,21 +77,74 @@ class RosTopics:
         return se3.transform(r_body @ se3.R_BODY_OPTICAL, (x, y, z))
 
 
+class Navigation(Protocol):
+    """Where navigation goals go and what comes back (the action client, or /goal_pose)."""
+
+    def send(self, goal: NavGoal, now: float, frame_id: str) -> None: ...
+
+    def cancel(self) -> None: ...
+
+    def status(self, state: RobotState | None, now: float) -> tuple[str, str]:
+        """(NavStatus of the newest goal, the navigator's word on it)."""
+        ...
+
+
+class TopicNavigation:
+    """Goals on /goal_pose (bt_navigator starts a navigation per message); the status inferred by distance."""
+
+    def __init__(self, emit: Any, msgs: MessageFactory, tolerance_m: float) -> None:
+        self.emit, self.msgs, self.tolerance_m = emit, msgs, tolerance_m
+        self._goal: NavGoal | None = None
+        self._status = NavStatus.IDLE
+
+    def send(self, goal: NavGoal, now: float, frame_id: str) -> None:
+        self._goal, self._status = goal, NavStatus.RUNNING
+        self.emit("goal", pose2d_stamped(self.msgs, goal.pose, now, frame_id))
+
+    def cancel(self) -> None:
+        self._goal, self._status = None, NavStatus.IDLE
+
+    def status(self, state: RobotState | None, now: float) -> tuple[str, str]:
+        goal = self._goal
+        reached = goal is not None and state is not None and state.pose.distance_to(goal.pose) <= self.tolerance_m
+        if reached and self._status == NavStatus.RUNNING:
+            self._status = NavStatus.SUCCEEDED
+        return self._status, ""
+
+
+CLOCK_JUMP_NOTICE_S = 2.0  # /robot/fault says the clock jumped back for this long (new time)
+
+
 class CachedWorld:
     """The shared half of a ROS-message world. Subclasses provide ``now()`` and ``emit()``."""
 
-    def __init__(self, topics: RosTopics, msgs: MessageFactory, warn: Any = lambda message: None) -> None:
+    def __init__(self, topics: RosTopics, msgs: MessageFactory, warn: Any = lambda message: None,
+                 say: Any = None) -> None:  # fmt: skip
         self.topics = topics
         self.msgs = msgs
+        self.warn = warn
         self.cache = SensorCache(
             camera_frame=topics.camera_frame, info_tolerance_s=topics.camera_info_tolerance_s, warn=warn
         )
+        self.frames = RobotFrames(
+            map_frame=topics.map_frame, odom_frame=topics.odom_frame, base_frame=topics.base_frame,
+            fallback_mount=topics.camera_extrinsics(), tolerance_s=topics.tf_tolerance_s, say=say or (lambda m: None),
+        )  # fmt: skip
+        self.navigation: Navigation = TopicNavigation(self.emit, msgs, topics.goal_tolerance_m)
         self._frame_seq = 0
         self._goal: NavGoal | None = None
-        self._goal_status = NavStatus.IDLE
         self._last_target_goal = -math.inf
         self._twist_active = False
         self._dock_stamp: float | None = None
+        self._fed_odom: float | None = None
+        self._last_now: float | None = None
+        self._jump: tuple[float, str] | None = None  # (new time, what happened) of the last backward jump
+        self._late = ""  # images arrive late: why
+        self.extra_fault = ""  # set by the live adapter's watchdog (the clock or the sensors stopped)
+        self.on_time_jump: Any = lambda: None  # the node resets the perception stage's clock
+        self.time_jumps = 0
+        self.state: RobotState | None = None
+        self._camera_frame_id = topics.camera_frame
 
     # -- to implement ------------------------------------------------------------------------------
     def now(self) -> float:
@@ -93,31 +158,74 @@ class CachedWorld:
     def advance(self, dt: float) -> None:
         """ROS worlds run on their own clock."""
 
-    def sense(self, bb: py_trees.blackboard.Client) -> None:
+    def _feed_odometry(self) -> None:
+        odom = self.cache.odom
+        if odom is not None and odom.stamp != self._fed_odom:
+            self._fed_odom = odom.stamp
+            self.frames.on_odometry(odom)
+
+    def _check_clock(self, now: float) -> None:
+        last = self._last_now
+        self._last_now = now
+        if last is not None and now < last - 1e-6:
+            self.time_jumps += 1
+            self.frames.clear()
+            self._fed_odom = None
+            what = f"the clock jumped back from {last:.2f} s to {now:.2f} s: TF history cleared"
+            self._jump = (now, what)
+            self.warn(what)
+            self.on_time_jump()
+
+    def _place(self, frame: Frame, now: float) -> Frame:
+        """The frame with the camera pose at its own stamp (when TF or the odometry history knows it)."""
+        camera = frame.frame_id or self.topics.camera_frame
+        t_map_camera, _why = self.frames.camera_in_map(self.cache, camera, float(frame.stamp))
+        age = now - float(frame.stamp)
+        late = self.topics.image_late_s
+        self._late = f"camera images arrive {age:.2f} s late (> {late:g} s)" if late > 0 and age > late else ""
+        if t_map_camera is None:
+            return frame
+        return dataclasses.replace(frame, T_anchor_camera=t_map_camera, anchor_frame=self.topics.map_frame)
+
+    def fault(self, now: float) -> str:
+        """Why the inputs cannot be trusted now ('' when all is well)."""
+        parts = [self.extra_fault, self.frames.fault, self._late]
+        if self._jump is not None and now - self._jump[0] < CLOCK_JUMP_NOTICE_S:
+            parts.append(self._jump[1])
+        return "; ".join(p for p in parts if p)
+
+    def sense_frame(self, bb: py_trees.blackboard.Client) -> bool:
+        """Only the newest image (placed at its stamp) and the robot pose: for perception on arrival."""
+        now = self.now()
+        self._check_clock(now)
+        self._feed_odometry()
         frame = self.cache.take_frame()
-        state = self.cache.robot_state()
-        extrinsics = self.topics.camera_extrinsics()
-        if frame is not None:
-            if state is not None:
-                # Where the camera was in the map when the image was taken (latching sources need it).
-                p = state.pose
-                frame = dataclasses.replace(
-                    frame, T_anchor_camera=se3.compose(se3.planar(p.x, p.y, p.yaw), extrinsics),
-                    anchor_frame=self.topics.map_frame,
-                )  # fmt: skip
-            self._frame_seq += 1
-            bbk.set_(bb, bbk.FRAME, frame)
-            bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
-        bbk.set_(bb, bbk.CLOCK, self.now())
+        if frame is None:
+            return False
+        self._frame_seq += 1
+        self._camera_frame_id = frame.frame_id or self.topics.camera_frame
+        bbk.set_(bb, bbk.FRAME, self._place(frame, now))
+        bbk.set_(bb, bbk.FRAME_SEQ, self._frame_seq)
+        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.frames.camera_mount(self._camera_frame_id))
+        bbk.set_(bb, bbk.ROBOT_STATE, self.frames.robot_state(self.cache, now))
+        return True
+
+    def sense(self, bb: py_trees.blackboard.Client) -> None:
+        now = self.now()
+        self.sense_frame(bb)
+        state = self.state = self.frames.robot_state(self.cache, now)
+        bbk.set_(bb, bbk.CLOCK, now)
         bbk.set_(bb, bbk.ROBOT_STATE, state)
         bbk.set_(bb, bbk.SCAN, self.cache.scan)
         bbk.set_(bb, bbk.MAP, self.cache.map)
-        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, extrinsics)
-        goal, tol = self._goal, self.topics.goal_tolerance_m
-        reached = goal is not None and state is not None and state.pose.distance_to(goal.pose) <= tol
-        if reached and self._goal_status == NavStatus.RUNNING:
-            self._goal_status = NavStatus.SUCCEEDED
-        bbk.set_(bb, bbk.NAV_STATUS, self._goal_status)
+        bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.frames.camera_mount(self._camera_frame_id))
+        fault = self.fault(now)
+        bbk.set_(bb, bbk.WORLD_FAULT, fault)
+        status, reason = self.navigation.status(state, now)
+        if self._goal is not None and state is None and fault:
+            status, reason = NavStatus.FAILED, f"not navigating: {fault}"
+        bbk.set_(bb, bbk.NAV_STATUS, status)
+        bbk.set_(bb, bbk.NAV_REASON, reason)
         stats = bbk.get(bb, bbk.PERCEPTION_STATS, None)
         stats = dict(stats) if isinstance(stats, dict) else {}
         stats["frames_dropped_transport"] = self.cache.stats.images_dropped
@@ -131,13 +239,14 @@ class CachedWorld:
             frame_id = goal.frame_id or t.map_frame
             if self._goal is None or goal.seq != self._goal.seq:
                 self._goal = goal
-                self._goal_status = NavStatus.RUNNING
-                self.emit("goal", pose2d_stamped(m, goal.pose, now, frame_id))
+                if self.state is not None or not self.fault(now):  # the pose is known: navigate
+                    self.navigation.send(goal, now, frame_id)
             if now - self._last_target_goal >= 1.0 / t.target_goal_hz - 1e-3:
                 self._last_target_goal = now
                 self.emit("target_goal", pose2d_stamped(m, goal.pose, now, frame_id))
         elif goal is None and self._goal is not None:
-            self._goal, self._goal_status = None, NavStatus.IDLE
+            self._goal = None
+            self.navigation.cancel()  # the behaviour let go of its goal (halted, done, preempted): cancel it
 
         twist = bbk.get(bb, bbk.TWIST, None)
         if isinstance(twist, Twist):
