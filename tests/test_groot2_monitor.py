@@ -16,29 +16,14 @@ import xml.etree.ElementTree as ET
 import pytest
 import zmq
 from groot2_client import Groot2Client, ProtocolError
-from viz_world import MarkerWorld, step
+from viz_world import SUBTREE_WATCH, MarkerWorld, step
 
 from mission.app.runner import TreeRunner
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
 from mission.groot.publisher import Groot2Publisher
 
-SUBTREE_WATCH = """<root BTCPP_format="4" main_tree_to_execute="Watch">
-  <BehaviorTree ID="Watch">
-    <ReactiveFallback name="coordinator">
-      <SubTree ID="FollowWhileSeen" name="follow"/>
-      <SearchSweep duration_s="0.35"/>
-    </ReactiveFallback>
-  </BehaviorTree>
-  <BehaviorTree ID="FollowWhileSeen">
-    <ReactiveSequence name="FOLLOW">
-      <IsTargetVisible max_misses="0"/>
-      <FollowTarget/>
-    </ReactiveSequence>
-  </BehaviorTree>
-</root>
-"""
-# BT.CPP's numbering of that file: depth first from 1, the SubTree before the tree it opens
+# BT.CPP's numbering of SUBTREE_WATCH: depth first from 1, the SubTree before the tree it opens
 COORDINATOR, SUBTREE, FOLLOW, VISIBLE, FOLLOW_TARGET, SWEEP = range(1, 7)
 IDLE, RUNNING, SUCCESS, FAILURE = 0, 1, 2, 3
 

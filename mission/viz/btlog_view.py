@@ -6,7 +6,9 @@ transitions that share a timestamp form one step (in a log `mission run --btlog`
 one BT.CPP wrote, usually a single status change), and each step is a record with every node's status
 after it, in the same shape as a tick log's (mission.viz.tick_log), so the text, SVG, PNG and HTML
 playback views work unchanged. BT.CPP's IDLE is drawn as not ticked, SKIPPED as not ticked with the
-feedback "skipped".
+feedback "skipped". BT.CPP resets finished nodes to IDLE when their parent finishes; within one step a
+node is drawn with the status it reached there (as Groot2 draws it faded), so the step that ends a tree
+still shows what succeeded and what failed.
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ def _tree_from_xml(xml: str, where: Path) -> tuple[VizNode, list[int]]:
             tree_id = el.get("ID", "")
             inner = instances.get(el.get("_fullpath", ""))
             children = [node(inner[0], depth + 1)] if inner is not None and len(inner) else []
-            return {"tag": "SubTree", "name": el.get("name") or tree_id, "kind": "SubTree", "ports": ports,
+            return {"tag": "SubTree", "name": _subtree_name(el), "kind": "SubTree", "ports": ports,
                     "children": children, "subtree": tree_id}  # fmt: skip
         tag = el.get("ID", "") if el.tag in _EXPLICIT else el.tag
         kind = el.tag if el.tag in _EXPLICIT else kinds.get(tag)
@@ -68,6 +70,13 @@ def _tree_from_xml(xml: str, where: Path) -> tuple[VizNode, list[int]]:
     return viz, uids
 
 
+def _subtree_name(el: ET.Element) -> str:
+    """The SubTree's ``name``; BT.CPP writes none, but its ``_fullpath`` ends with it (else with ``ID::uid``)."""
+    tree_id = el.get("ID", "")
+    last = el.get("_fullpath", "").rsplit("/", 1)[-1]
+    return el.get("name") or (last if last and not last.startswith(f"{tree_id}::") else tree_id)
+
+
 def read_btlog_ticks(path: str | Path) -> TickLogData:
     """A .btlog as a tick log: header with the tree, one record per timestamp, no end record."""
     log = read_btlog(path)
@@ -80,12 +89,19 @@ def read_btlog_ticks(path: str | Path) -> TickLogData:
     data = TickLogData(path=log.path, header=header)
     unknown = 0
     for step, (t_us, group) in enumerate(groupby(log.transitions, key=lambda t: t.t_us), start=1):
+        shown = list(status)  # a node reset to IDLE within this step is drawn with the status it reached
         for t in group:
-            if t.uid in index:
-                status[index[t.uid]] = t.status
-            else:
+            if t.uid not in index:
                 unknown += 1
-        rows = [[_STATUS_NAMES.get(s, "INVALID"), "skipped" if s == p.SKIPPED else "", None] for s in status]
+                continue
+            i = index[t.uid]
+            status[i] = t.status
+            if t.status != p.IDLE:
+                shown[i] = t.status
+            elif shown[i] == p.RUNNING:  # halted
+                shown[i] = p.IDLE
+            # else: finished, and reset as its parent finished in this step: drawn with its result
+        rows = [[_STATUS_NAMES.get(s, "INVALID"), "skipped" if s == p.SKIPPED else "", None] for s in shown]
         data.ticks.append({"tick": step, "t": round(t_us / 1e6, 6), "status": rows[0][0], "state": "",
                            "reason": "", "nodes": rows})  # fmt: skip
     if unknown:
