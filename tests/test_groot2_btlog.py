@@ -14,7 +14,7 @@ import time
 import xml.etree.ElementTree as ET
 
 import pytest
-from viz_world import SUBTREE_WATCH, MarkerWorld, step
+from viz_world import SUBTREE_WATCH, MarkerWorld
 
 from mission.app.runner import TreeRunner
 from mission.cli import main
@@ -162,7 +162,8 @@ def test_a_log_bt_cpp_wrote_is_read_too(tmp_path, capsys):
     body = b"".join(struct.pack("<Q", t)[:6] + struct.pack("<HB", uid, s) for t, uid, s in BTCPP_TRANSITIONS)
     path = tmp_path / "bt.btlog"
     encoded = xml.encode()
-    path.write_bytes(MAGIC + b"\x01" + struct.pack("<i", len(encoded)) + encoded + struct.pack("<q", 1_796_154_268_729_122) + body)
+    start = struct.pack("<q", 1_796_154_268_729_122)
+    path.write_bytes(MAGIC + b"\x01" + struct.pack("<i", len(encoded)) + encoded + start + body)
     log = read_btlog_ticks(path)
     assert len(log.ticks) == len({t for t, _u, _s in BTCPP_TRANSITIONS})  # one step per distinct timestamp
     assert log.tree().name == "top" and [c.name for c in log.tree().children] == ["first", "Fallback", "Inverter"]
