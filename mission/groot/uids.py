@@ -116,7 +116,7 @@ class UidTree:
             tree = ET.SubElement(root, "BehaviorTree", {"ID": inst.tree_id, "_fullpath": inst.path})
             _element_xml(inst.root, tree)
         if factory is not None:
-            root.append(ET.fromstring(nodes_model_xml(factory)))
+            root.append(ET.fromstring(nodes_model_xml(factory, descriptions=True)))
         ET.indent(root, space="  ")
         return ET.tostring(root, encoding="unicode")
 

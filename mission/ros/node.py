@@ -8,7 +8,8 @@ the perception stage turns a new frame into detections and tracks, the tree tick
 publishes the tree's commands. Observers publish the rest (mission/ros/outputs.py): what perception
 found in each frame (``/marker_detected`` on transitions, ``/aruco/debug``, ``/detected_aruco_pose``,
 ``/aruco_poses``, ``/tf``) and ``/mission/tree`` when the tree changes (at most 2 Hz, latched). A 1 Hz
-timer publishes the heartbeat with the counters.
+timer publishes the heartbeat with the counters. ``serve_port`` adds the live web view, ``groot_port``
+Groot2's live monitor (mission.groot.publisher).
 
 ``tree:=none`` runs perception only, with no tree: the design notes' aruco_pose_streamer.
 """
@@ -54,6 +55,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0], "camera body frame in base_frame: x y z roll pitch yaw"),
     "goal_tolerance_m": (0.25, "distance at which a sent goal counts as reached"),
     "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
+    "groot_port": (0, "serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (Groot2's default 1667); 0 = off"),
 }
 
 
@@ -64,6 +66,7 @@ _PARAM_RANGES: dict[str, tuple[float, float, str]] = {
     "camera_info_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
     "goal_tolerance_m": (1e-6, math.inf, "a distance > 0 (m)"),
     "serve_port": (0, 65535, "a TCP port 0..65535"),
+    "groot_port": (0, 65534, "a TCP port 1..65534 (PORT and PORT+1 are used), or 0 for off"),
     "target_marker_id": (-1, math.inf, "a marker id ≥ 0, or -1"),
 }
 
@@ -157,6 +160,7 @@ class MissionNode:
         self._ticks_failed = 0
         self._tick_errors: set[str] = set()
         self.live_view: Any = None
+        self.groot: Any = None
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -204,6 +208,15 @@ class MissionNode:
                 self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
                 observers.append(self.live_view)
                 self.log.info(f"live view at {self.live_view.url}")
+        if int(p["groot_port"]) > 0:
+            if self.perception_only:
+                self.log.warning("groot_port: Groot2 monitors a tree, and tree:=none runs none; not serving")
+            else:
+                from mission.groot.publisher import Groot2Publisher
+
+                self.groot = Groot2Publisher(int(p["groot_port"]), option="-p groot_port", quiet=True)
+                observers.append(self.groot)
+                self.log.info(f"Groot2 monitor on {self.groot.host}:{self.groot.port}")
         # a bad param is an error naming the config file and key; an unknown dictionary only warns
         self.runner = TreeRunner(config, self.adapter, None if self.perception_only else (tree or None),
                                  config_file=config_file, observers=observers,
@@ -283,6 +296,8 @@ class MissionNode:
                 self.log.warning(f"closing the runner: {err}")
         if self.live_view is not None:
             self.live_view.close()
+        if self.groot is not None:
+            self.groot.close()
         self.node.destroy_node()
 
 
