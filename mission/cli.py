@@ -121,7 +121,7 @@ def _add_nodes_model(p: argparse.ArgumentParser) -> None:
     out.add_argument("-o", "--output", default=None, metavar="FILE",
                      help="write a models file Groot2 can import (default: stdout)")
     out.add_argument("--into", default=None, metavar="TREE.xml",
-                     help="replace (or add) the <TreeNodesModel> of this tree file")
+                     help="replace (or add) the TreeNodesModel section of this tree file")
     p.epilog = ("behaviours come from the shipped set and every installed package's "
                 "`mission.behaviours` entry points")
 
