@@ -2,8 +2,8 @@
 by `mission viz --log`, and compared with what BehaviorTree.CPP itself writes for the same tree.
 
 The BT.CPP facts below were recorded on a development machine from BehaviorTree.CPP 4.10.0 (built from
-its source; nothing of it is in this repository): its Groot2Publisher's FULLTREE reply and the .btlog its
-FileLogger2 wrote for BTCPP_TREE after one ``tickOnce()``.
+its source; nothing of it is in this repository): its Groot2Publisher's FULLTREE reply and the .btlogs its
+FileLogger2 wrote for BTCPP_TREE after one ``tickOnce()`` and for the two scripted trees, tick by tick.
 """
 
 from __future__ import annotations
@@ -12,11 +12,15 @@ import logging
 import struct
 import time
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 
+import py_trees
 import pytest
 from viz_world import SUBTREE_WATCH, MarkerWorld
 
 from mission.app.runner import TreeRunner
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.ports import port
 from mission.cli import main
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
@@ -64,11 +68,110 @@ BTCPP_TRANSITIONS = [
 ]  # fmt: skip
 
 
-def _run(tmp_path, tree_text: str, ticks: int, name: str = "run.btlog") -> TreeRunner:
+# Scripted leaves, the same in BT.CPP (C++ nodes written for the recording) and here: <Act script="R,R,S"/>
+# returns RUNNING, RUNNING, SUCCESS on its 1st, 2nd, 3rd tick since it started (then the last letter
+# again) and starts over when halted; <Flag script="S,F"/> returns the letter of the tree's tick number.
+SCRIPTED_REACTIVE = """<root BTCPP_format="4" main_tree_to_execute="Main">
+  <BehaviorTree ID="Main">
+    <ReactiveFallback name="root">
+      <SubTree ID="FollowTree" name="follow"/>
+      <Sequence name="search">
+        <Act name="turn" script="R,S"/>
+        <Act name="wait" script="R,R,F"/>
+      </Sequence>
+    </ReactiveFallback>
+  </BehaviorTree>
+  <BehaviorTree ID="FollowTree">
+    <ReactiveSequence name="seen">
+      <Flag name="visible" script="S,S,S,F,F,F,F,S,S,F,F,F,F,F"/>
+      <Act name="chase" script="R"/>
+    </ReactiveSequence>
+  </BehaviorTree>
+</root>
+"""
+SCRIPTED_PARALLEL = """<root BTCPP_format="4" main_tree_to_execute="Main">
+  <BehaviorTree ID="Main">
+    <Sequence name="root">
+      <Parallel success_count="2" failure_count="1">
+        <Act name="a" script="R,R,S"/>
+        <Act name="b" script="R,S"/>
+        <Act name="c" script="R,R,R,R,R"/>
+      </Parallel>
+      <Fallback>
+        <Inverter><Act name="d" script="S"/></Inverter>
+        <ForceFailure><Act name="e" script="R,S"/></ForceFailure>
+        <ReactiveSequence>
+          <Flag name="f" script="S"/>
+          <Act name="g" script="R,R,S"/>
+        </ReactiveSequence>
+      </Fallback>
+    </Sequence>
+  </BehaviorTree>
+</root>
+"""
+# BT.CPP 4.10 FileLogger2 (uid, status) transitions of the two trees ticked with tickOnce() until they finished
+BTCPP_SCRIPTED = {
+    "reactive": [
+        (1, 1), (2, 1), (3, 1), (4, 2), (5, 1), (4, 0), (4, 2), (4, 0), (4, 2), (4, 0), (4, 3), (4, 0), (5, 0),
+        (3, 3), (3, 0), (2, 3), (6, 1), (7, 1), (2, 0), (2, 1), (3, 1), (4, 3), (4, 0), (3, 3), (3, 0), (2, 3),
+        (7, 2), (8, 1), (2, 0), (2, 1), (3, 1), (4, 3), (4, 0), (3, 3), (3, 0), (2, 3), (2, 0), (2, 1), (3, 1),
+        (4, 3), (4, 0), (3, 3), (3, 0), (2, 3), (8, 3), (7, 0), (8, 0), (6, 3), (2, 0), (6, 0), (1, 3), (1, 0),
+    ],
+    "parallel": [
+        (1, 1), (2, 1), (3, 1), (4, 1), (5, 1), (4, 2), (3, 2), (3, 0), (4, 0), (5, 0), (2, 2), (6, 1), (7, 1),
+        (8, 2), (8, 0), (7, 3), (9, 1), (10, 1), (10, 2), (10, 0), (9, 3), (11, 1), (12, 2), (13, 1), (12, 0),
+        (12, 2), (12, 0), (12, 2), (13, 2), (12, 0), (13, 0), (11, 2), (7, 0), (9, 0), (11, 0), (6, 2), (2, 0),
+        (6, 0), (1, 2), (1, 0),
+    ],
+}  # fmt: skip
+_LETTERS = {"R": py_trees.common.Status.RUNNING, "S": py_trees.common.Status.SUCCESS,
+            "F": py_trees.common.Status.FAILURE}  # fmt: skip
+
+
+class Act(MissionLeaf):
+    """The letter of `script` for this tick since the action started."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        script: str = port("R", "R, S or F per tick since the start, comma-separated")
+
+    NODE_TYPE = "Action"
+
+    def initialise(self) -> None:
+        self.count = 0
+
+    def update(self) -> py_trees.common.Status:
+        letters = self.params.script.split(",")
+        letter = letters[min(self.count, len(letters) - 1)]
+        self.count += 1
+        self.feedback_message = f"tick {self.count}: {letter}"
+        return _LETTERS[letter]
+
+
+class Flag(MissionLeaf):
+    """The letter of `script` for the tree's tick number (the world's clock in 0.1 s steps)."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        script: str = port("S", "S or F per tick of the tree, comma-separated")
+
+    NODE_TYPE = "Condition"
+
+    def update(self) -> py_trees.common.Status:
+        letters = self.params.script.split(",")
+        letter = letters[min(round(float(self.now()) / 0.1), len(letters) - 1)]
+        self.feedback_message = letter
+        return _LETTERS[letter]
+
+
+def _run(tmp_path, tree_text: str, ticks: int, name: str = "run.btlog", scripted: bool = False) -> TreeRunner:
     tree = tmp_path / "tree.xml"
     tree.write_text(tree_text)
     world = MarkerWorld(visible_ticks=3)
     runner = TreeRunner(MissionConfig(), world, str(tree), observers=[BtLogWriter(tmp_path / name)])
+    if scripted:
+        runner.factory.register(Act)
+        runner.factory.register(Flag)
     try:
         runner.setup()
         for _ in range(ticks):
@@ -92,12 +195,19 @@ def test_uids_and_instance_paths_are_the_ones_bt_cpp_gives(tmp_path):
 
 
 def test_a_ticks_transitions_are_the_ones_bt_cpps_file_logger_writes(tmp_path):
-    """The same tree ticked once: the same transitions in the same order, except BT.CPP's reset of the
-    root after a completed tickOnce() (the runner stops at a finished root; nothing resets it)."""
+    """The same tree ticked once: the same transitions in the same order."""
     _run(tmp_path, BTCPP_TREE, ticks=1)
     ours = [(t.uid, t.status) for t in read_btlog(tmp_path / "run.btlog").transitions]
-    theirs = [(uid, status) for _t, uid, status in BTCPP_TRANSITIONS]
-    assert ours == theirs[:-1] and theirs[-1] == (1, 0)
+    assert ours == [(uid, status) for _t, uid, status in BTCPP_TRANSITIONS]
+
+
+@pytest.mark.parametrize(("tree", "name"), [(SCRIPTED_REACTIVE, "reactive"), (SCRIPTED_PARALLEL, "parallel")])
+def test_running_halted_and_reactive_nodes_log_as_bt_cpp_logs_them(tmp_path, tree, name):
+    """Leaves that run for several ticks, conditions re-checked by reactive controls, a subtree that fails
+    and is re-entered, a Parallel, decorators: tick after tick, the transitions BT.CPP writes."""
+    _run(tmp_path, tree, ticks=14, scripted=True)
+    ours = [(t.uid, t.status) for t in read_btlog(tmp_path / "run.btlog").transitions]
+    assert ours == BTCPP_SCRIPTED[name]
 
 
 def test_a_real_run_writes_a_file_logger2_log_that_reads_back(tmp_path):
@@ -119,7 +229,7 @@ def test_a_real_run_writes_a_file_logger2_log_that_reads_back(tmp_path):
     statuses = {uid: [t.status for t in log.transitions if t.uid == uid] for uid in range(1, 7)}
     assert statuses[5][:1] == [1]  # FollowTarget RUNNING first …
     assert statuses[6][-2:] == [3, 0]  # … the sweep failed at the end, and was reset as the root finished
-    assert statuses[1][-1] == 3
+    assert statuses[1][-2:] == [3, 0]  # the root failed; BT.CPP leaves a finished root IDLE
     assert not log.torn
 
 

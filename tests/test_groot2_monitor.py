@@ -68,16 +68,18 @@ def test_status_follows_the_run_tick_by_tick(watched):
     step(runner, world, 3)  # the marker is seen: FOLLOW
     following = client.statuses()
     assert list(following) == [1, 2, 6, 3, 4, 5]  # instance by instance, as BT.CPP lists them
-    assert following[FOLLOW_TARGET] == RUNNING and following[VISIBLE] == SUCCESS
+    assert following[FOLLOW_TARGET] == RUNNING
+    assert following[VISIBLE] == 10 + SUCCESS  # succeeded, then reset by its ReactiveSequence, as in BT.CPP
     assert following[SUBTREE] == following[FOLLOW] == following[COORDINATOR] == RUNNING
     assert following[SWEEP] == IDLE
     step(runner, world, 2)  # the marker is gone: the subtree fails, SEARCH sweeps
     searching = client.statuses()
-    assert searching[SWEEP] == RUNNING and searching[SUBTREE] == FAILURE
+    assert searching[SWEEP] == RUNNING
+    assert searching[SUBTREE] == 10 + FAILURE  # failed, then reset by the ReactiveFallback ticking the sweep
     assert searching[FOLLOW] == 10 + FAILURE  # reset when its SubTree finished: IDLE after FAILURE
     assert searching[FOLLOW_TARGET] == 10 + RUNNING  # halted while running
     step(runner, world, 3)  # the sweep times out: the tree fails
-    assert client.statuses()[COORDINATOR] == FAILURE
+    assert client.statuses()[COORDINATOR] == 10 + FAILURE  # finished, so reset: IDLE after FAILURE
 
 
 def test_blackboard_reply_is_msgpack_of_each_requested_instance(watched):
@@ -177,3 +179,19 @@ def test_mission_run_groot_serves_a_simulated_mission_to_the_protocol_client(tmp
             proc.wait()
     assert proc.returncode in (0, 1), err
     assert "explore_dock seed 0" in out
+
+
+def test_a_built_tree_that_is_not_its_files_is_named_where_they_part(tmp_path):
+    """UIDs are matched to py_trees nodes by the file's shape; a tree built otherwise is refused, with the
+    element where it differs (the publisher then warns and shows the tree with every node idle)."""
+    from mission.groot.uids import BindError, bind, uid_tree
+    from mission.trees.loader import load_tree
+
+    tree, other = tmp_path / "watch.xml", tmp_path / "other.xml"
+    tree.write_text(SUBTREE_WATCH)
+    other.write_text(SUBTREE_WATCH.replace('<SearchSweep duration_s="0.35"/>', "<AlwaysFailure/>"))
+    numbered = uid_tree(tree)
+    assert sorted(bind(numbered, load_tree(tree))) == [1, 2, 3, 4, 5, 6]
+    with pytest.raises(BindError, match=r"watch.xml:5: <SearchSweep>: expected a node named 'SearchSweep', "
+                                        r"the tree has 'AlwaysFailure'"):  # fmt: skip
+        bind(numbered, load_tree(other))

@@ -185,16 +185,15 @@ def bind(tree: UidTree, root: Behaviour) -> dict[int, Behaviour]:
         out[node.uid] = behaviour
         if node.is_subtree:
             if behaviour.name != node.name:
-                raise BindError(f"{node.element.where}: expected the subtree root {node.name!r}, "
-                                f"the tree has {behaviour.name!r}")  # fmt: skip
+                raise BindError(node.element.error(f"expected the subtree root {node.name!r}, "
+                                                   f"the tree has {behaviour.name!r}"))  # fmt: skip
             pair(node.children[0], behaviour, named=False)
             return
         if named and behaviour.name != node.name:
-            raise BindError(f"{node.element.where}: expected a node named {node.name!r}, "
-                            f"the tree has {behaviour.name!r}")  # fmt: skip
+            raise BindError(node.element.error(f"expected a node named {node.name!r}, the tree has {behaviour.name!r}"))
         if len(behaviour.children) != len(node.children):
-            raise BindError(f"{node.element.where}: {node.name!r} has {len(node.children)} children in the file, "
-                            f"{len(behaviour.children)} in the tree")  # fmt: skip
+            raise BindError(node.element.error(f"{len(node.children)} children in the file, "
+                                               f"{len(behaviour.children)} in the tree"))  # fmt: skip
         for child_node, child in zip(node.children, behaviour.children, strict=True):
             pair(child_node, child, named=True)
 
