@@ -5,9 +5,9 @@ A live `mission_full` run is recorded tick by tick (bench/tick_recording.py) and
 in turn, on the same ticks and the same machine load: with no observer (the baseline), with
 ``--btlog`` (BtLogWriter), and with ``--groot`` (Groot2Publisher) while a Groot2 protocol client on
 loopback asks for STATUS every POLL_S (faster than Groot2 itself polls). Timed: each ``runner.step()``
-(the tick with its visitor, then the observers' ``on_tick``), with GAP_S between steps. Passes alternate so a change of load hits
-all three alike. Target: each ratio ≤ 1.3 on the step; what is added is also given as a share of the
-15 Hz tick period, the budget it comes out of.
+(the tick with its visitor, then the observers' ``on_tick``), with GAP_S between steps. Passes
+alternate so a change of load hits all three alike. Target: each ratio ≤ 1.3 on the step; what is
+added is also given against the 15 Hz tick period, the budget it comes out of.
 """
 
 from __future__ import annotations

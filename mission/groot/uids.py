@@ -13,7 +13,8 @@ a ``<TreeNodesModel>`` of the factory's behaviours so Groot2 shows their ports.
 
 py_trees has no SubTree nodes: the loader builds a subtree's root in place of the ``<SubTree>`` and
 names it after the subtree (trees/loader.py). So a ``<SubTree>`` UID and the UID of its subtree's root
-are the same py_trees behaviour; every other element is one behaviour, children in order.
+are the same py_trees behaviour (or, should a loader build the SubTree as a scope node above the
+subtree's root, that node); every other element is one behaviour, children in order.
 :func:`bind` pairs them and checks names and child counts on the way.
 """
 
@@ -174,28 +175,46 @@ class BindError(ValueError):
 
 
 def bind(tree: UidTree, root: Behaviour) -> dict[int, Behaviour]:
-    """UID → the py_trees behaviour that carries its status (a SubTree and its subtree's root share one).
+    """UID → the py_trees behaviour that carries its status.
 
+    A ``<SubTree>`` is either flattened (the subtree's root built in its place and named after it: the
+    SubTree and its root share one behaviour) or built as a node of its own named after it, with the
+    subtree's root as its only child (a loader that gives each instance its own scope may build it so).
     Checked on the way: every element's instance name and number of children match the behaviour's
     (the subtree roots and the main root are named after their tree, so only their children are checked).
     BindError names the element where the shapes part."""
     out: dict[int, Behaviour] = {}
-
-    def pair(node: UidNode, behaviour: Behaviour, named: bool) -> None:
-        out[node.uid] = behaviour
-        if node.is_subtree:
-            if behaviour.name != node.name:
-                raise BindError(node.element.error(f"expected the subtree root {node.name!r}, "
-                                                   f"the tree has {behaviour.name!r}"))  # fmt: skip
-            pair(node.children[0], behaviour, named=False)
-            return
-        if named and behaviour.name != node.name:
-            raise BindError(node.element.error(f"expected a node named {node.name!r}, the tree has {behaviour.name!r}"))
-        if len(behaviour.children) != len(node.children):
-            raise BindError(node.element.error(f"{len(node.children)} children in the file, "
-                                               f"{len(behaviour.children)} in the tree"))  # fmt: skip
-        for child_node, child in zip(node.children, behaviour.children, strict=True):
-            pair(child_node, child, named=True)
-
-    pair(tree.root, root, named=False)
+    _pair(out, tree.root, root, named=False)
     return out
+
+
+def _pair(out: dict[int, Behaviour], node: UidNode, behaviour: Behaviour, named: bool) -> None:
+    out[node.uid] = behaviour
+    if node.is_subtree:
+        if behaviour.name != node.name:
+            raise BindError(node.element.error(f"expected the subtree root {node.name!r}, "
+                                               f"the tree has {behaviour.name!r}"))  # fmt: skip
+        inner = node.children[0]
+        flat: dict[int, Behaviour] = {}
+        try:
+            _pair(flat, inner, behaviour, named=False)
+        except BindError:
+            if len(behaviour.children) != 1:
+                raise
+            scoped: dict[int, Behaviour] = {}
+            try:
+                _pair(scoped, inner, behaviour.children[0], named=False)
+            except BindError:
+                raise BindError(node.element.error(
+                    f"{node.name!r} is neither the subtree's root nor a node above it"
+                )) from None  # fmt: skip
+            flat = scoped
+        out.update(flat)
+        return
+    if named and behaviour.name != node.name:
+        raise BindError(node.element.error(f"expected a node named {node.name!r}, the tree has {behaviour.name!r}"))
+    if len(behaviour.children) != len(node.children):
+        raise BindError(node.element.error(f"{len(node.children)} children in the file, "
+                                           f"{len(behaviour.children)} in the tree"))  # fmt: skip
+    for child_node, child in zip(node.children, behaviour.children, strict=True):
+        _pair(out, child_node, child, named=True)
