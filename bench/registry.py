@@ -59,6 +59,7 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("pose", "pose_accuracy", "pose error by range × angle vs the raw library's naive IPPE pose"),
     Benchmark("apriltag_backends", "apriltag_backends", "AprilTag 3 (pupil) vs OpenCV backend: accuracy and speed"),
     Benchmark("tree", "tree_tick", "µs per tick of mission.xml on scripted inputs vs a bare py_trees tree"),
+    Benchmark("groot", "groot_monitor", "µs per step with --btlog / --groot (a client polling STATUS) vs none"),
     Benchmark("latency", "latency", "frame → command on the blackboard, p50/p99, vs the detector alone"),
     Benchmark("sim", "sim_bench", "render ms/frame per resolution/renderer; closed-loop sim-s per wall-s"),
     Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),

@@ -27,6 +27,7 @@ VERBS = {
     "sim-robot": "the pybullet world as a ROS 2 robot (camera, odom, scan, map, TF, /clock; navigate_to_pose)",
     "replay": "run the tree on a recorded rosbag2",
     "bench": "run the benchmarks and write their figures",
+    "nodes-model": "write the Groot2 palette (TreeNodesModel) of every registered behaviour, installed ones too",
 }
 
 
@@ -49,6 +50,7 @@ positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
 port = _number(int, lambda v: 0 <= v <= 65535, "a TCP port, a whole number 0–65535 (0 = any free port)")
+port_pair = _number(int, lambda v: 0 <= v <= 65534, "a TCP port 0–65534 (PORT and PORT+1 are used; 0 = any free pair)")
 
 
 def _add_run(p: argparse.ArgumentParser) -> None:
@@ -64,6 +66,10 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
     p.add_argument("--port", type=port, default=8765,
                    help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
+    p.add_argument("--groot", type=port_pair, nargs="?", const=1667, default=None, metavar="PORT",
+                   help="serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (default 1667; 0 = any free)")
+    p.add_argument("--btlog", default=None, metavar="FILE",
+                   help="write a Groot2 log (.btlog, BT.CPP FileLogger2) of every node's transitions")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
@@ -82,8 +88,10 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
     p.add_argument("--format", default="unicode", choices=["unicode", "ascii", "dot", "svg", "png", "html"],
                    help="unicode|ascii|dot|svg|png|html (svg/html need no Graphviz; png uses `dot` when present)")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write here instead of stdout")
-    p.add_argument("--log", default=None, metavar="FILE", help="a JSON-lines tick log from `mission run --log`")
-    p.add_argument("--tick", type=non_negative_int, default=None, help="with --log: the tree as it was at tick N")
+    p.add_argument("--log", default=None, metavar="FILE",
+                   help="a JSON-lines tick log (`mission run --log`) or a Groot2 .btlog (`--btlog`, BT.CPP's)")
+    p.add_argument("--tick", type=non_negative_int, default=None,
+                   help="with --log: the tree as it was at tick N (a .btlog: at its Nth timestamp)")
 
 
 def _add_tree(p: argparse.ArgumentParser) -> None:
@@ -120,11 +128,22 @@ def _add_bench(p: argparse.ArgumentParser) -> None:
                    help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)")
 
 
+def _add_nodes_model(p: argparse.ArgumentParser) -> None:
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("-o", "--output", default=None, metavar="FILE",
+                     help="write a models file Groot2 can import (default: stdout)")
+    out.add_argument("--into", default=None, metavar="TREE.xml",
+                     help="replace (or add) the TreeNodesModel section of this tree file")
+    p.epilog = ("behaviours come from the shipped set and every installed package's "
+                "`mission.behaviours` entry points")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
-              "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None}
+              "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None,
+              "nodes-model": _add_nodes_model}
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text)
         adders[verb](p)
@@ -157,6 +176,11 @@ def _output_closed() -> int:
     return 128 + signal.SIGPIPE
 
 
+def _module(verb: str) -> str:
+    """The module of a verb under mission/commands/ (``nodes-model`` → ``nodes_model``)."""
+    return verb.replace("-", "_")
+
+
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
@@ -166,9 +190,9 @@ def _main(argv: Sequence[str] | None) -> int:
         # Everything from --ros-args on goes to rclpy, as `ros2 run mission tree --ros-args …` does.
         args.ros_args = extra[extra.index("--ros-args"):]
     try:
-        module = importlib.import_module(f"mission.commands.{args.verb.replace('-', '_')}")
+        module = importlib.import_module(f"mission.commands.{_module(args.verb)}")
     except ModuleNotFoundError as err:
-        if err.name == f"mission.commands.{args.verb.replace('-', '_')}":
+        if err.name == f"mission.commands.{_module(args.verb)}":
             print(f"mission: error: `mission {args.verb}` is not available in this build", file=sys.stderr)
             return 2
         raise

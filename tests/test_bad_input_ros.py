@@ -241,6 +241,7 @@ def _defaults() -> dict:
         ("marker_size_m", 0.0, "-p marker_size_m: expected a side length > 0 (m), got 0.0"),
         ("target_marker_id", 1.5, "-p target_marker_id: expected an integer, got 1.5"),
         ("serve_port", 70000, "-p serve_port: expected a TCP port 0..65535, got 70000"),
+        ("groot_port", 65535, "-p groot_port: expected a TCP port 1..65534 (PORT and PORT+1 are used), or 0 for"),
         ("camera_xyz_rpy", [0.1, 0.0], "-p camera_xyz_rpy: expected 6 numbers [x, y, z, roll, pitch, yaw], got [0.1"),
         ("image_topic", 5, "-p image_topic: expected a string, got 5"),
     ],

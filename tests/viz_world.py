@@ -33,6 +33,22 @@ WATCH_TREE = """<root BTCPP_format="4" main_tree_to_execute="Watch">
   </BehaviorTree>
 </root>
 """
+# The same watch with the FOLLOW branch as a SubTree (Groot2's UIDs count the SubTree node too).
+SUBTREE_WATCH = """<root BTCPP_format="4" main_tree_to_execute="Watch">
+  <BehaviorTree ID="Watch">
+    <ReactiveFallback name="coordinator">
+      <SubTree ID="FollowWhileSeen" name="follow"/>
+      <SearchSweep duration_s="0.35"/>
+    </ReactiveFallback>
+  </BehaviorTree>
+  <BehaviorTree ID="FollowWhileSeen">
+    <ReactiveSequence name="FOLLOW">
+      <IsTargetVisible max_misses="0"/>
+      <FollowTarget/>
+    </ReactiveSequence>
+  </BehaviorTree>
+</root>
+"""
 WATCH_NODES = [  # the root is named after its tree ID by the loader
     "Watch", "FOLLOW", "IsTargetVisible", "FollowTarget", "SearchSweep",
 ]  # fmt: skip

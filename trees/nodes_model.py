@@ -40,16 +40,21 @@ def _port_xml(name: str, port: Port) -> str:
     return f"<{tag} {attrs}>{escape(port.doc)}</{tag}>" if port.doc else f"<{tag} {attrs}/>"
 
 
-def nodes_model_xml(factory: BehaviourFactory, indent: str = "") -> str:
+def nodes_model_xml(factory: BehaviourFactory, indent: str = "", *, descriptions: bool = False) -> str:
     """``<TreeNodesModel>`` for every behaviour registered in `factory` (sorted by tag), each line
-    prefixed by `indent`. The built-ins are left out: Groot2 knows them."""
+    prefixed by `indent`. The built-ins are left out: Groot2 knows them. With `descriptions`, each node
+    also carries what it does, as BT.CPP writes a node's metadata
+    (``<MetadataFields><Metadata description="…"/></MetadataFields>``): the palette and the monitor do."""
     lines = ["<TreeNodesModel>"]
     for node in factory.behaviours():
-        if not node.ports:
+        about = descriptions and bool(node.doc)
+        if not node.ports and not about:
             lines.append(f"  <{node.kind} ID={quoteattr(node.tag)}/>")
             continue
         lines.append(f"  <{node.kind} ID={quoteattr(node.tag)}>")
         lines.extend(f"    {_port_xml(name, port)}" for name, port in node.ports.items())
+        if about:
+            lines.append(f"    <MetadataFields><Metadata description={quoteattr(node.doc)}/></MetadataFields>")
         lines.append(f"  </{node.kind}>")
     lines.append("</TreeNodesModel>")
     return "".join(f"{indent}{line}\n" for line in lines)
@@ -61,12 +66,13 @@ def nodes_model_section(text: str) -> str | None:
     return match.group(0) if match else None
 
 
-def with_nodes_model(text: str, factory: BehaviourFactory) -> str:
+def with_nodes_model(text: str, factory: BehaviourFactory, *, descriptions: bool = False) -> str:
     """Tree file text with its ``<TreeNodesModel>`` replaced by (or, before ``</root>``, given) the current one."""
     match = _SECTION.search(text)
     if match:
-        return text[: match.start()] + nodes_model_xml(factory, match.group(1)) + text[match.end() :]
-    return text.replace("</root>", "\n" + nodes_model_xml(factory, "  ") + "</root>")
+        model = nodes_model_xml(factory, match.group(1), descriptions=descriptions)
+        return text[: match.start()] + model + text[match.end() :]
+    return text.replace("</root>", "\n" + nodes_model_xml(factory, "  ", descriptions=descriptions) + "</root>")
 
 
 def main(argv: list[str] | None = None) -> int:

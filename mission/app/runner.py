@@ -33,6 +33,7 @@ from typing import Any, Protocol
 
 import py_trees
 
+from mission.app.behaviour_plugins import mission_factory
 from mission.app.observers import RunObserver, Tick
 from mission.app.snapshot import active_branch, snapshot
 from mission.core import blackboard as bbk
@@ -43,7 +44,6 @@ from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
-from mission.trees.factory import shipped_factory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 log = logging.getLogger(__name__)
@@ -114,8 +114,9 @@ class TreeRunner:
         self.tree_path: Path | None = None
         self.tree: py_trees.trees.BehaviourTree | None = None
         self.perception: PerceptionStage | None = None
-        # The node types tree files may use: the shipped behaviours; register your own before setup().
-        self.factory = shipped_factory()
+        # The node types tree files may use: the shipped behaviours and installed packages' (entry-point
+        # group mission.behaviours); register your own before setup().
+        self.factory = mission_factory()
         self.bb = bbk.writer("runner")
         self.dt = 1.0 / float(config.run.tick_hz)
         self.ticks = 0

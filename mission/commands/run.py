@@ -40,6 +40,14 @@ def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
         from mission.viz.report_trees import TransitionTrees
 
         observers.append(TransitionTrees(args.report))
+    if getattr(args, "btlog", None):
+        from mission.groot.btlog import BtLogWriter
+
+        observers.append(BtLogWriter(args.btlog))
+    if getattr(args, "groot", None) is not None:
+        from mission.groot.publisher import Groot2Publisher
+
+        observers.append(Groot2Publisher(args.groot))
     if getattr(args, "record_bag", None):
         from mission.app.bag_record import BagObserver
 
@@ -63,8 +71,9 @@ def main(args: argparse.Namespace) -> int:
     _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
     scenario = args.scenario or DEFAULT_SCENARIO
     label = f"{Path(scenario).stem} seed {args.seed}"
-    # --serve: simulated time at wall-clock speed, so the page can be watched
-    pacer = WallClockPacer(1.0) if getattr(args, "serve", False) else None
+    # --serve, --groot: simulated time at wall-clock speed, so the run can be watched
+    watched = getattr(args, "serve", False) or getattr(args, "groot", None) is not None
+    pacer = WallClockPacer(1.0) if watched else None
     outcome, recorder, adapter = run_scenario(
         scenario,
         config_file=args.config,

@@ -4,6 +4,7 @@
     mission viz trees/mission.xml --format svg -o mission.svg
     mission viz --log run.jsonl --tick 120 --format svg -o t120.svg
     mission viz --log run.jsonl --format html -o run.html   # the whole run, with a slider
+    mission viz --log run.btlog --format html -o run.html   # a Groot2 log (mission run --btlog, or BT.CPP's)
 
 Text formats go to stdout without -o; svg/dot/html too; png needs -o. SVG, HTML and PNG are laid out
 here (mission.viz.layout) — Graphviz is not needed for any format.
@@ -87,9 +88,16 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _from_log(args: argparse.Namespace, fmt: str) -> int:
-    from mission.viz.tick_log import read_log
+    from mission.groot.btlog import is_btlog
 
-    log = read_log(args.log)
+    if is_btlog(args.log):  # a Groot2 log (ours or BT.CPP's), by its first bytes
+        from mission.viz.btlog_view import read_btlog_ticks
+
+        log = read_btlog_ticks(args.log)
+    else:
+        from mission.viz.tick_log import read_log
+
+        log = read_log(args.log)
     if args.tree:
         raise MissionError("give either a tree file or --log, not both")
     if fmt == "html":

@@ -15,7 +15,8 @@ Observers publish the rest (mission/ros/outputs.py): what perception found in ea
 (``/behavior_tree_log``, nav2_msgs/BehaviorTreeLog status changes; ``/behavior_tree``, the XML) and
 ``/mission/status``. Two timers on the wall clock keep running when ROS time stops: the 1 Hz heartbeat,
 and a watchdog that notices ``/clock`` or the camera going silent and then ticks the tree itself, so it
-sees the fault.
+sees the fault. ``serve_port`` adds the live web view, ``groot_port`` Groot2's live monitor
+(mission.groot.publisher).
 
 ``tree:=none`` runs perception only, with no tree: the design notes' aruco_pose_streamer.
 """
@@ -70,6 +71,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "image_late_s": (0.5, "images older than this on arrival are reported late in /robot/fault"),
     "input_timeout_s": (2.0, "no /clock (use_sim_time) or no image for this long (wall) is a fault the tree sees"),
     "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
+    "groot_port": (0, "serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (Groot2's default 1667); 0 = off"),
 }
 
 
@@ -85,6 +87,7 @@ _PARAM_RANGES: dict[str, tuple[float, float, str]] = {
     "tf_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
     "image_late_s": (0.0, math.inf, "a time ≥ 0 (s; 0 = off)"),
     "input_timeout_s": (0.1, math.inf, "a time > 0 (s)"),
+    "groot_port": (0, 65534, "a TCP port 1..65534 (PORT and PORT+1 are used), or 0 for off"),
     "target_marker_id": (-1, math.inf, "a marker id ≥ 0, or -1"),
 }
 
@@ -185,6 +188,7 @@ class MissionNode:
         self._ticks_failed = 0
         self._tick_errors: set[str] = set()
         self.live_view: Any = None
+        self.groot: Any = None
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -253,6 +257,15 @@ class MissionNode:
                 self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
                 observers.append(self.live_view)
                 self.log.info(f"live view at {self.live_view.url}")
+        if int(p["groot_port"]) > 0:
+            if self.perception_only:
+                self.log.warning("groot_port: Groot2 monitors a tree, and tree:=none runs none; not serving")
+            else:
+                from mission.groot.publisher import Groot2Publisher
+
+                self.groot = Groot2Publisher(int(p["groot_port"]), option="-p groot_port", quiet=True)
+                observers.append(self.groot)
+                self.log.info(f"Groot2 monitor on {self.groot.host}:{self.groot.port}")
         # a bad param is an error naming the config file and key; an unknown dictionary only warns
         self.runner = TreeRunner(config, self.adapter, None if self.perception_only else (tree or None),
                                  config_file=config_file, observers=observers,
@@ -389,6 +402,8 @@ class MissionNode:
                 self.log.warning(f"closing the runner: {err}")
         if self.live_view is not None:
             self.live_view.close()
+        if self.groot is not None:
+            self.groot.close()
         self.node.destroy_node()
 
 

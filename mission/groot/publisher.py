@@ -1,0 +1,266 @@
+"""Groot2 live monitoring of a running mission: BT.CPP's ``Groot2Publisher`` side of the protocol over ZeroMQ.
+
+``mission run --groot [PORT]`` (default 1667, Groot2's own default) or the ROS node's ``groot_port``
+attach a :class:`Groot2Publisher`; in Groot2, *Monitor* → connect to 127.0.0.1, port PORT. It binds a
+REP socket on PORT and a PUB socket on PORT + 1, on 127.0.0.1 unless told otherwise (reach a robot's
+monitor through ``ssh -L 1667:127.0.0.1:1667 -L 1668:127.0.0.1:1668 robot``). Served
+(mission.groot.protocol has the bytes):
+
+* FULLTREE — the tree file as the loader read it, expanded per subtree instance, every node with the
+  ``_uid`` BT.CPP would give it, and the TreeNodesModel of the runner's factory (mission.groot.uids);
+* STATUS — every node's status after the last tick (IDLE after a status as 10 + that status);
+* BLACKBOARD — the entries of the blackboard (msgpack of ``{name: {key: value}}``) for each requested
+  tree instance (the main tree's ID or a subtree's ``_fullpath``): every instance sees the one store
+  the mission's keys live in (mission.groot.blackboard_export);
+* TOGGLE_RECORDING / GET_TRANSITIONS — the transitions since recording started (the last 1000), in
+  wall-clock µs;
+* HOOKS_DUMP (no hooks: ``[]``), REMOVE_ALL_HOOKS and DISABLE_ALL_HOOKS are acknowledged; inserting a
+  hook or breakpoint is refused with an error reply (a breakpoint would stop the tick).
+
+The requests are answered on a thread of their own; the tick thread only updates a status buffer under a
+lock, so a connected Groot2 costs the tick nothing but the visitor (mission.groot.transitions).
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import sys
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+import msgpack
+import zmq
+
+from mission.app.observers import RunObserver, Tick
+from mission.core.errors import MissionError
+from mission.groot import protocol as p
+from mission.groot.blackboard_export import blackboard_entries
+from mission.groot.transitions import TransitionRecorder
+from mission.groot.uids import BindError, UidTree, bind, uid_tree
+
+if TYPE_CHECKING:
+    from mission.app.runner import TreeRunner
+
+log = logging.getLogger(__name__)
+
+DEFAULT_PORT = 1667  # Groot2's and BT.CPP's default
+HOST = "127.0.0.1"
+MAX_RECORDED = 1000  # transitions kept between two GET_TRANSITIONS, as BT.CPP keeps
+_POLL_MS = 100
+
+
+def _wall_us() -> int:
+    return time.time_ns() // 1000
+
+
+class Groot2Publisher(RunObserver):
+    """Serves Groot2 from the moment it is made (so a busy port fails before the run starts) until the run ends.
+
+    `port` 0 picks a free pair (PORT, PORT + 1); :attr:`port` is the one bound. `option` names the
+    setting in error messages (``--groot``, ``-p groot_port``)."""
+
+    def __init__(self, port: int = DEFAULT_PORT, host: str = HOST, *, option: str = "--groot",
+                 quiet: bool = False) -> None:  # fmt: skip
+        self.host = host
+        self.quiet = quiet
+        self._ctx = zmq.Context()
+        self._server = self._ctx.socket(zmq.REP)
+        self._publisher = self._ctx.socket(zmq.PUB)
+        for sock in (self._server, self._publisher):
+            sock.setsockopt(zmq.LINGER, 0)
+            sock.setsockopt(zmq.SNDTIMEO, 1000)
+        try:
+            self.port = self._bind_pair(port)
+        except zmq.ZMQError as err:
+            self._close_sockets()
+            raise MissionError(
+                f"{option} {port}: cannot listen on {host}:{port} and {host}:{port + 1} ({err.strerror}); "
+                "expected two free TCP ports (PORT for requests, PORT + 1 for notifications); "
+                "give another port, or 0 for any free pair"
+            ) from None
+        self.tree_uuid = p.new_tree_uuid()
+        self._lock = threading.Lock()
+        self._xml: bytes | None = None
+        self._status = bytearray()
+        self._status_at: dict[int, int] = {}  # uid → offset of its status byte in _status
+        self._instances: dict[str, str] = {}  # blackboard name Groot2 asks for → instance path
+        self._recorder: TransitionRecorder | None = None
+        self._run: TreeRunner | None = None
+        self._recording = False
+        self._recording_t0 = 0
+        self._recorded: collections.deque[bytes] = collections.deque(maxlen=MAX_RECORDED)
+        self._stop = threading.Event()
+        self.requests = 0  # answered so far (tests, the log line at the end)
+        self._thread = threading.Thread(target=self._serve, name="mission-groot2", daemon=True)
+        self._thread.start()
+
+    @property
+    def address(self) -> str:
+        return f"tcp://{self.host}:{self.port}"
+
+    def _bind_pair(self, port: int) -> int:
+        if port:
+            self._server.bind(f"tcp://{self.host}:{port}")
+            self._publisher.bind(f"tcp://{self.host}:{port + 1}")
+            return port
+        for _ in range(50):  # any free pair: a random port for requests, then the one above it
+            chosen = self._server.bind_to_random_port(f"tcp://{self.host}", min_port=20000, max_port=65000)
+            try:
+                self._publisher.bind(f"tcp://{self.host}:{chosen + 1}")
+                return chosen
+            except zmq.ZMQError:
+                self._server.unbind(f"tcp://{self.host}:{chosen}")
+        raise zmq.ZMQError(zmq.EADDRINUSE, "no free pair of ports found")
+
+    # -- RunObserver ------------------------------------------------------------------------------
+    def on_start(self, run: TreeRunner) -> None:
+        if run.tree is None or run.tree_path is None:
+            log.warning("Groot2 monitor: this run has no tree (perception only); nothing to show")
+            return
+        tree = uid_tree(run.tree_path)
+        try:
+            uids = bind(tree, run.root)
+        except BindError as err:  # monitoring must never stop a mission: show the tree, statuses stay IDLE
+            log.warning("Groot2 monitor: statuses unavailable, the built tree differs from its file: %s", err)
+            uids = {}
+        recorder = TransitionRecorder.for_tree(tree, uids)
+        run.tree.add_visitor(recorder)
+        with self._lock:
+            self._xml = tree.xml(run.factory).encode("utf-8")
+            self._status, self._status_at = _status_buffer(tree)
+            self._instances = {inst.name: inst.path for inst in tree.instances} | {"": ""}
+            self._recorder, self._run = recorder, run
+        if not self.quiet:
+            print(f"mission: Groot2 monitor on {self.host}:{self.port} (Groot2 → Monitor → connect)",
+                  file=sys.stderr, flush=True)  # fmt: skip
+
+    def on_tick(self, run: TreeRunner, tick: Tick) -> None:
+        if self._recorder is None:
+            return
+        changes = self._recorder.drain()
+        if not changes:
+            return
+        now = _wall_us()
+        with self._lock:
+            for t in changes:
+                shown = p.IDLE_FROM + t.previous if t.status == p.IDLE else t.status
+                self._status[self._status_at[t.uid]] = shown
+                if self._recording:
+                    self._recorded.append(p.pack_transition(now - self._recording_t0, t.uid, t.status))
+
+    def on_end(self, run: TreeRunner, outcome: Any) -> None:
+        if self._recorder is not None and run.tree is not None and self._recorder in run.tree.visitors:
+            run.tree.visitors.remove(self._recorder)
+        self.close()
+
+    def close(self) -> None:
+        """Stop answering and let go of both ports (idempotent)."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(timeout=2.0)
+        self._close_sockets()
+
+    def _close_sockets(self) -> None:
+        self._server.close(linger=0)
+        self._publisher.close(linger=0)
+        self._ctx.term()
+
+    # -- the request loop -------------------------------------------------------------------------
+    def _serve(self) -> None:
+        poller = zmq.Poller()
+        poller.register(self._server, zmq.POLLIN)
+        while not self._stop.is_set():
+            try:
+                if not poller.poll(_POLL_MS):
+                    continue
+                request = self._server.recv_multipart()
+            except zmq.ZMQError:  # the context is going away
+                return
+            try:
+                reply = self.answer(request)
+            except Exception as err:  # a bad request must not end the monitor: say why, keep serving
+                reply = [b"error", f"{type(err).__name__}: {err}".encode()]
+            try:
+                self._server.send_multipart(reply)
+                self.requests += 1
+            except zmq.ZMQError:
+                return
+
+    def answer(self, request: list[bytes]) -> list[bytes]:
+        """The reply parts for one request's parts (the protocol, without sockets)."""
+        if not request:
+            return _error("empty request")
+        try:
+            header = p.parse_request_header(request[0])
+        except ValueError:
+            return _error("wrong request header")
+        first = p.reply_header(header, self.tree_uuid)
+        kind = header.type
+        if kind in _NEEDS_ARGUMENT and len(request) != 2:
+            return _error("must be 2 parts message")
+        with self._lock:
+            xml, status = self._xml, bytes(self._status)
+        if kind == p.FULLTREE:
+            if xml is None:
+                return _error("the run has not started: no tree yet")
+            return [first, xml]
+        if kind == p.STATUS:
+            return [first, status]
+        if kind == p.BLACKBOARD:
+            return [first, self._blackboards(request[1].decode("utf-8", "replace"))]
+        if kind == p.HOOKS_DUMP:
+            return [first, b"[]"]
+        if kind in (p.REMOVE_ALL_HOOKS, p.DISABLE_ALL_HOOKS):
+            return [first]
+        if kind in (p.HOOK_INSERT, p.HOOK_REMOVE, p.BREAKPOINT_UNLOCK):
+            return _error("breakpoints and hooks are not supported by this executor (mission, py_trees)")
+        if kind == p.TOGGLE_RECORDING:
+            return self._toggle_recording(first, request[1])
+        if kind == p.GET_TRANSITIONS:
+            with self._lock:
+                recorded, self._recorded = b"".join(self._recorded), collections.deque(maxlen=MAX_RECORDED)
+            return [first, recorded]
+        return _error("Request not recognized")
+
+    def _blackboards(self, names: str) -> bytes:
+        entries: dict[str, Any] | None = None
+        dump: dict[str, Any] = {}
+        for name in names.split(";"):
+            if name in self._instances:
+                entries = blackboard_entries() if entries is None else entries
+                dump[name] = entries
+        return msgpack.packb(dump, use_bin_type=True)
+
+    def _toggle_recording(self, first: bytes, command: bytes) -> list[bytes]:
+        if command == b"start":
+            now = _wall_us()
+            with self._lock:
+                self._recording, self._recording_t0 = True, now
+                self._recorded.clear()
+            return [first, str(now).encode()]
+        if command == b"stop":
+            with self._lock:
+                self._recording = False
+            return [first]
+        return _error(f"expected start or stop, got {command[:20]!r}")
+
+
+_NEEDS_ARGUMENT = frozenset({p.BLACKBOARD, p.HOOK_INSERT, p.HOOK_REMOVE, p.BREAKPOINT_UNLOCK, p.TOGGLE_RECORDING})
+
+
+def _error(message: str) -> list[bytes]:
+    return [b"error", message.encode("utf-8")]
+
+
+def _status_buffer(tree: UidTree) -> tuple[bytearray, dict[int, int]]:
+    """Every node IDLE, in STATUS order; uid → offset of its status byte."""
+    buffer = bytearray()
+    offsets: dict[int, int] = {}
+    for uid in tree.status_order():
+        buffer += p.STATUS_ENTRY.pack(uid, p.IDLE)
+        offsets[uid] = len(buffer) - 1
+    return buffer, offsets
