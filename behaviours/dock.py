@@ -139,6 +139,10 @@ class VisualServoDock(MissionLeaf):
             f"skew {off.skew_deg:+.1f}°"
         )
 
+    def _where(self) -> str:
+        """Where the servo last had the robot, for a failure's reason ('' before the first offsets)."""
+        return f" at {self._describe(self.offsets)}" if self.offsets is not None else ""
+
     def _within(self, off: DockOffsets) -> bool:
         return (
             abs(off.standoff_m - self.params.standoff_m) <= self.params.distance_tol_m
@@ -159,14 +163,13 @@ class VisualServoDock(MissionLeaf):
         tr = self.track(self.params.target)
         if tr is None or tr.last_seen is None:
             return self.fail(f"DOCK: {self.params.target} was never seen, nothing to servo on")
-        where = f" at {self._describe(self.offsets)}" if self.offsets is not None else ""
         if now - self._t0 > self.params.timeout_s:
-            return self.fail(f"DOCK: not docked within {self.params.timeout_s:g} s{where}")
+            return self.fail(f"DOCK: not docked within {self.params.timeout_s:g} s{self._where()}")
         unseen = now - max(tr.last_seen, self._t0)
         if unseen > self.params.detection_timeout_s:
             return self.fail(
                 f"DOCK: {self.params.target} tag unseen for {unseen:.1f} s "
-                f"(> {self.params.detection_timeout_s:.1f} s){where}"
+                f"(> {self.params.detection_timeout_s:.1f} s){self._where()}"
             )
         state = self.robot()
         if state is None:

@@ -51,6 +51,8 @@ class GoToStaging(MissionLeaf):
         self.refinements = 0
         self._staged_from: np.ndarray | None = None
         self._staged: Pose2D | None = None
+        self._where_for: Pose2D | None = None
+        self._where_text = ""
 
     def initialise(self) -> None:
         self._goal = None
@@ -67,6 +69,13 @@ class GoToStaging(MissionLeaf):
             self._staged_from = pose_map
         assert self._staged is not None
         return self._staged
+
+    def _where(self, g: Pose2D) -> str:
+        """The goal as the feedback shows it, formatted once per goal (every tick reads it)."""
+        if self._where_for is not g:
+            self._where_text = f"({g.x:.2f}, {g.y:.2f}, {round(math.degrees(g.yaw))}°)"
+            self._where_for = g
+        return self._where_text
 
     def _wanted(self, pose: Pose2D, distance: float) -> bool:
         if self._goal is None:
@@ -103,7 +112,7 @@ class GoToStaging(MissionLeaf):
             self.resend_goal(self._goal)
         outcome = self.nav_outcome(self._goal)
         g = self._goal.pose
-        where = f"({g.x:.2f}, {g.y:.2f}, {round(math.degrees(g.yaw))}°)"
+        where = self._where(g)
         if outcome == NavStatus.SUCCEEDED:
             self.halt()
             self.feedback_message = f"DOCK: at the staging pose {where}"
