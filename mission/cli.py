@@ -63,6 +63,9 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
     p.add_argument("--port", type=port, default=8765,
                    help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="a tree port, config or scenario key for this run (repeatable), e.g. "
+                        "--set SearchSweep.angular_speed=0.8 --set run.tick_hz=10 --set camera.width=320")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 

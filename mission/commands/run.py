@@ -8,9 +8,10 @@ import sys
 from pathlib import Path
 
 from mission.app.observers import RunObserver
-from mission.app.report import plot_timeline, plot_trajectories, write_json
+from mission.app.overrides import RunOverrides, run_overrides
+from mission.app.report import report_observers, verdict, write_report
 from mission.app.runner import WallClockPacer
-from mission.app.sim_run import run_scenario
+from mission.app.sim_run import check_prepared, prepare_run, run_scenario, unused_ports
 from mission.core.errors import MissionError
 from mission.core.files import ensure_dir, unwritable
 
@@ -37,9 +38,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
 
         observers.append(Recorder(args.record))
     if getattr(args, "report", None):
-        from mission.viz.report_trees import TransitionTrees
-
-        observers.append(TransitionTrees(args.report))
+        observers += report_observers(args.report)
     if getattr(args, "record_bag", None):
         from mission.app.bag_record import BagObserver
 
@@ -59,10 +58,20 @@ def _check_report_dir(args: argparse.Namespace) -> None:
             raise MissionError(f"--report {args.report}: {unwritable(err, args.report, directory=True)}") from None
 
 
+def checked_overrides(args: argparse.Namespace, scenario: str) -> RunOverrides:
+    """--set KEY=VALUE …, every key and value checked against this run's files before anything runs."""
+    overrides = run_overrides(getattr(args, "set", None) or [])
+    if overrides:
+        prepared = prepare_run(scenario, config_file=args.config, tree=args.tree, overrides=overrides)
+        unused_ports(overrides, check_prepared(prepared), Path(prepared.tree).name)
+    return overrides
+
+
 def main(args: argparse.Namespace) -> int:
-    _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
     scenario = args.scenario or DEFAULT_SCENARIO
-    label = f"{Path(scenario).stem} seed {args.seed}"
+    overrides = checked_overrides(args, scenario)
+    _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
+    label = f"{Path(scenario).stem} seed {args.seed}" + (f" ({overrides.label})" if overrides else "")
     # --serve: simulated time at wall-clock speed, so the page can be watched
     pacer = WallClockPacer(1.0) if getattr(args, "serve", False) else None
     outcome, recorder, adapter = run_scenario(
@@ -73,18 +82,13 @@ def main(args: argparse.Namespace) -> int:
         max_duration=args.max_duration,
         observers=_observers(args, label),
         pacer=pacer,
+        overrides=overrides,
     )
-    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     if args.report:
-        out = Path(args.report)
-        write_json(out / "report.json", outcome.to_json())
-        gt_dock = getattr(adapter, "dock_xy", None)
-        title = f"{outcome.scenario} seed {outcome.seed}: {verdict}"
-        plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title, gt_dock)
-        plot_timeline(recorder, out / "timeline.png", title)
+        write_report(args.report, outcome, recorder, adapter)
     m = outcome.metrics
     print(
-        f"{verdict}: {label}: {outcome.reason} "
+        f"{verdict(outcome)}: {label}: {outcome.reason} "
         f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
         f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']})"
         + (f"; report in {args.report}/" if args.report else "")
