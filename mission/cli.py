@@ -25,6 +25,7 @@ VERBS = {
     "plugins": "list installed perception plugins",
     "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
     "replay": "run the tree on a recorded rosbag2",
+    "sweep": "scenarios × seeds × --set values on Dask (local or a cluster): results table + summary",
     "bench": "run the benchmarks and write their figures",
 }
 
@@ -46,6 +47,7 @@ def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expect
 
 positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds (a finite number > 0)")
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
+positive_int = _number(int, lambda v: v >= 1, "a whole number ≥ 1")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
 port = _number(int, lambda v: 0 <= v <= 65535, "a TCP port, a whole number 0–65535 (0 = any free port)")
 
@@ -103,6 +105,31 @@ def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
 
 
+def _add_sweep(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenarios", default=None, metavar="A,B,…", help="scenario names or YAML paths, comma-separated")
+    p.add_argument("--seeds", default=None, metavar="A-B", help="seeds: A-B (inclusive), N, or a comma list of them")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=V1,V2",
+                   help="a grid axis (repeatable): a tree port, config or scenario key and its values, "
+                        "e.g. --set SearchSweep.angular_speed=0.6,1.0 --set run.tick_hz=10,15")
+    p.add_argument("--config", default=None, help="mission config YAML for every run")
+    p.add_argument("--tree", default=None, help="tree XML file for every run (overrides the config's `tree`)")
+    p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds per run at most")
+    p.add_argument("--out", default="out/sweep", metavar="DIR",
+                   help="sweep directory (default out/sweep); the same --out resumes: finished runs are skipped")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="an existing Dask scheduler (tcp://host:8786); default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local cluster: worker processes (default: one per core)")
+    p.add_argument("--dashboard", type=port, default=None, metavar="PORT",
+                   help="local cluster: the scheduler's HTTP port on 127.0.0.1 (default: any free; needs bokeh)")
+    p.add_argument("--pictures", default="all", choices=["all", "failed", "none"],
+                   help="report pictures for all runs (default), failed runs only, or none (report.json always)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, only the result lines")
+    p.add_argument("--compare", nargs=2, default=None, metavar=("A", "B"),
+                   help="compare two sweep directories cell by cell, with a significance note on each rate")
+    p.add_argument("-o", "--output", default=None, metavar="FILE.html", help="with --compare: also write a page")
+
+
 def _add_bench(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
     p.add_argument("--json", action="store_true", help="print machine-readable results")
@@ -115,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree,
-              "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None}
+              "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench, "plugins": lambda p: None}
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text)
         adders[verb](p)

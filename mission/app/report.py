@@ -65,7 +65,8 @@ def _json_default(o: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(o).__name__}")
 
 
-def _save(fig: plt.Figure, path: Path) -> None:
+def save_figure(fig: plt.Figure, path: Path) -> None:
+    """Write `fig` to `path` atomically and close it (a reader sees the old picture or the new one)."""
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, bbox_inches="tight")
@@ -110,7 +111,7 @@ def plot_trajectories(
     ax.set_ylabel("y (m)")
     ax.set_title(title or "trajectories")
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _stretches(values: list[str], end: int) -> list[tuple[int, int, str]]:
@@ -155,4 +156,4 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
             ax_d.set_yticks([])
     ax_d.set_xlabel("sim time (s)")
     ax_s.set_title(title or "timeline")
-    _save(fig, path)
+    save_figure(fig, path)

@@ -49,6 +49,7 @@ from mission.trees.loader import check_targets, load_tree, resolve_tree_path, va
 log = logging.getLogger(__name__)
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+SETUP_TIMEOUT_S = 30.0  # the tree's setup() (py_trees raises when a behaviour's setup takes longer)
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
@@ -156,7 +157,11 @@ class TreeRunner:
         if self.tree_path is not None:
             root = load_tree(self.tree_path, self.factory)
             self.tree = py_trees.trees.BehaviourTree(root)
-            self.tree.setup(timeout=30.0)
+            # py_trees arms its set-up timeout with a signal, which only the main thread may do; in another
+            # thread (a Dask worker runs each sweep run in one) the tree is set up without it: the shipped
+            # behaviours' setup() is light wiring that never waits.
+            in_main = threading.current_thread() is threading.main_thread()
+            self.tree.setup(timeout=SETUP_TIMEOUT_S if in_main else py_trees.common.Duration.INFINITE)
         self.world.setup()
         self._started = True
         for o in self.observers:
