@@ -12,7 +12,7 @@ from mission.app.overrides import RunOverrides, run_overrides
 from mission.app.report import report_observers, verdict, write_report
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import check_prepared, prepare_run, run_scenario, unused_ports
-from mission.core.errors import MissionError
+from mission.core.errors import ConfigError, MissionError
 from mission.core.files import ensure_dir, unwritable
 
 DEFAULT_SCENARIO = "mission_full"
@@ -59,11 +59,17 @@ def _check_report_dir(args: argparse.Namespace) -> None:
 
 
 def checked_overrides(args: argparse.Namespace, scenario: str) -> RunOverrides:
-    """--set KEY=VALUE …, every key and value checked against this run's files before anything runs."""
+    """--set KEY=VALUE …, every key and value checked against this run's files before anything runs.
+
+    A port of a node type the tree does not use is a warning, not an error: it changes nothing, and a
+    sweep's reproduce command for a scenario whose tree lacks that node must still run."""
     overrides = run_overrides(getattr(args, "set", None) or [])
     if overrides:
         prepared = prepare_run(scenario, config_file=args.config, tree=args.tree, overrides=overrides)
-        unused_ports(overrides, check_prepared(prepared), Path(prepared.tree).name)
+        try:
+            unused_ports(overrides, check_prepared(prepared), Path(prepared.tree).name)
+        except ConfigError as err:
+            print(f"mission: warning: {err}", file=sys.stderr)
     return overrides
 
 

@@ -110,7 +110,9 @@ class SweepStore:
         return True
 
     def write_table(self) -> None:
-        """results.parquet from every recorded row."""
+        """results.parquet from every row in runs.jsonl: the file is the record, so a Ctrl-C that landed
+        between a row's line and its entry here still leaves that run in the table."""
+        self.rows = {r["run_id"]: r for r in read_jsonl(self.rows_path)}
         write_parquet(self.table_path, list(self.rows.values()))
 
 

@@ -38,9 +38,14 @@ def worker_name() -> str:
 def run_one(spec: RunSpec) -> RunResult:
     """Run `spec` as `mission run --report` would and return its row and report. A run that raises is a
     failed row saying so ("crashed: …"): the same seed would raise again, so it is not retried."""
+    import py_trees
+
     from mission.app.report import report_observers, write_report
     from mission.app.sim_run import run_scenario
 
+    # A worker process runs many runs; each starts from an empty blackboard, as a fresh `mission run`
+    # process does (a key one run wrote must not be what the next one reads before its world writes it).
+    py_trees.blackboard.Blackboard.clear()
     wall0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="mission-sweep-") as tmp:
         out = Path(tmp)
