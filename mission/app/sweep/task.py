@@ -64,7 +64,9 @@ def run_one(spec: RunSpec) -> RunResult:
             last = traceback.format_exception_only(type(err), err)[-1].strip()
             data = {"success": False, "reason": f"crashed: {last}", "crashed": True,
                     "wall_time_s": round(time.perf_counter() - wall0, 3), "metrics": {}}  # fmt: skip
-            return RunResult(spec.run_id, outcome_row(spec, data, [], pictures=False, worker=worker_name()), {})
+            row = outcome_row(spec, data, [], pictures=False, worker=worker_name())
+            row["task_s"] = data["wall_time_s"]
+            return RunResult(spec.run_id, row, {})
         keep_pictures = spec.pictures == "all" or (spec.pictures == "failed" and not outcome.success)
         if keep_pictures:
             write_report(out, outcome, recorder, adapter)
@@ -78,6 +80,7 @@ def run_one(spec: RunSpec) -> RunResult:
         files = {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
     reacquisitions = [e.end - e.start for e in recorder.losses if e.end is not None]
     row = outcome_row(spec, outcome.to_json(), reacquisitions, pictures=keep_pictures, worker=worker_name())
+    row["task_s"] = round(time.perf_counter() - wall0, 3)
     return RunResult(spec.run_id, row, files)
 
 
