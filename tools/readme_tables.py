@@ -202,7 +202,8 @@ def cli_block() -> str:
                 continue
             flag = ", ".join(action.option_strings) or action.metavar or action.dest
             if action.option_strings and action.nargs != 0:
-                flag += f" {action.metavar or action.dest.upper()}"
+                metavar = action.metavar or action.dest.upper()
+                flag += f" {' '.join(metavar) if isinstance(metavar, tuple) else metavar}"  # nargs=2: "A B"
             default = "" if action.default in (None, False, argparse.SUPPRESS, []) else f"`{action.default}`"
             rows.append((f"`{flag}`", default, (action.help or "").replace("|", "\\|")))
         parts.append(f"#### `mission {verb}` — {help_text}\n\n")

@@ -216,7 +216,7 @@ def _page(store: SweepStore, rows: Sequence[dict[str, Any]], plots: Sequence[Pat
         + (f" (the last plan asked for {planned})" if planned is not None else "")
         + f"; {len(rows) - len(failing)} succeeded, {len(failing)} failed. "
         f"Written {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}.</p>",
-        "<p>Plan: " + e(", ".join(f"{k} {v}" for k, v in plan.items() if v not in (None, [], {}))) + "</p>",
+        f"<p>Plan: {e(_plan_text(plan))}</p>",
         "<p>Tables: <a href='results.parquet'>results.parquet</a> · <a href='runs.jsonl'>runs.jsonl</a>. "
         "Rates are k/n with a 95 % Wilson interval; compare two sweeps with "
         "<code>mission sweep --compare A B</code>.</p>",
@@ -230,6 +230,17 @@ def _page(store: SweepStore, rows: Sequence[dict[str, Any]], plots: Sequence[Pat
     body += [f"<h2>Failing runs ({len(failing)})</h2>", _failures_table(failing) if failing else "<p>None.</p>"]
     return ("<!doctype html><html><head><meta charset='utf-8'><title>mission sweep</title>"
             f"<style>{STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")  # fmt: skip
+
+
+def _plan_text(plan: dict[str, Any]) -> str:
+    """``scenarios a, b · seeds 0-19 · --set K=V1,V2 · --max-duration 12``: the plan as it was typed."""
+    parts = [f"scenarios {', '.join(plan.get('scenarios') or [])}", f"seeds {plan.get('seeds')}"]
+    parts += [f"--set {k}={','.join(format_value(v) for v in vs)}" for k, vs in (plan.get("set") or {}).items()]
+    for key, flag in (("config_file", "--config"), ("tree", "--tree"), ("max_duration_s", "--max-duration"),
+                      ("pictures", "--pictures")):  # fmt: skip
+        if plan.get(key) is not None:
+            parts.append(f"{flag} {plan[key]:g}" if isinstance(plan[key], float) else f"{flag} {plan[key]}")
+    return " · ".join(parts)
 
 
 def _median(values: Sequence[float]) -> str:
