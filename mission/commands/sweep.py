@@ -55,7 +55,7 @@ def main(args: argparse.Namespace) -> int:
         outcome = run_sweep(plan, args.out, scheduler=args.scheduler, workers=args.workers,
                             dashboard=args.dashboard, progress=not args.quiet)  # fmt: skip
     out = Path(args.out)
-    rows = [r for r in outcome.rows]
+    rows = outcome.rows
     ok = sum(1 for r in rows if r.get("success"))
     where = "local cluster" if outcome.scheduler == "local" else outcome.scheduler
     print(
@@ -66,7 +66,10 @@ def main(args: argparse.Namespace) -> int:
         + ("; INTERRUPTED: run the same command to resume" if outcome.interrupted else "")
     )
     print(f"table {out / 'results.parquet'} (and runs.jsonl); summary {out / 'summary.html'}")
-    for run_id in outcome.unfinished[:10] if not outcome.interrupted else []:
+    for line in outcome.errors[:10]:
+        print(f"unfinished: {line}", file=sys.stderr)
+    errored = {line.split(":", 1)[0] for line in outcome.errors}
+    for run_id in [r for r in outcome.unfinished if r not in errored][:10] if not outcome.interrupted else []:
         print(f"unfinished: {run_id} (its workers died; it runs again on resume)", file=sys.stderr)
     if outcome.interrupted:
         return 128 + (caught[0] if caught else int(signal.SIGINT))

@@ -39,6 +39,7 @@ COLUMNS: tuple[tuple[str, str], ...] = (
     ("sim_time_s", "float64"),
     ("wall_time_s", "float64"),
     ("task_s", "float64"),
+    ("task_cpu_s", "float64"),
     ("ticks", "int64"),
     ("loss_events", "int64"),
     ("loss_events_recovered", "int64"),
@@ -91,6 +92,7 @@ def outcome_row(spec: Any, outcome: dict[str, Any], reacquisitions: Sequence[flo
         "sim_time_s": _num(outcome.get("sim_time_s")),
         "wall_time_s": _num(outcome.get("wall_time_s")),
         "task_s": None,  # the whole task on the worker (run, report, files): set by task.run_one
+        "task_cpu_s": None,  # the CPU seconds of the worker process meanwhile (load-independent)
         "ticks": outcome.get("ticks"),
         "loss_events": m.get("loss_events"),
         "loss_events_recovered": m.get("loss_events_recovered"),

@@ -46,7 +46,7 @@ def run_one(spec: RunSpec) -> RunResult:
     # A worker process runs many runs; each starts from an empty blackboard, as a fresh `mission run`
     # process does (a key one run wrote must not be what the next one reads before its world writes it).
     py_trees.blackboard.Blackboard.clear()
-    wall0 = time.perf_counter()
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     with tempfile.TemporaryDirectory(prefix="mission-sweep-") as tmp:
         out = Path(tmp)
         observers = report_observers(out) if spec.pictures != "none" else []
@@ -65,7 +65,7 @@ def run_one(spec: RunSpec) -> RunResult:
             data = {"success": False, "reason": f"crashed: {last}", "crashed": True,
                     "wall_time_s": round(time.perf_counter() - wall0, 3), "metrics": {}}  # fmt: skip
             row = outcome_row(spec, data, [], pictures=False, worker=worker_name())
-            row["task_s"] = data["wall_time_s"]
+            row["task_s"], row["task_cpu_s"] = data["wall_time_s"], round(time.process_time() - cpu0, 3)
             return RunResult(spec.run_id, row, {})
         keep_pictures = spec.pictures == "all" or (spec.pictures == "failed" and not outcome.success)
         if keep_pictures:
@@ -80,7 +80,7 @@ def run_one(spec: RunSpec) -> RunResult:
         files = {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()}
     reacquisitions = [e.end - e.start for e in recorder.losses if e.end is not None]
     row = outcome_row(spec, outcome.to_json(), reacquisitions, pictures=keep_pictures, worker=worker_name())
-    row["task_s"] = round(time.perf_counter() - wall0, 3)
+    row["task_s"], row["task_cpu_s"] = round(time.perf_counter() - wall0, 3), round(time.process_time() - cpu0, 3)
     return RunResult(spec.run_id, row, files)
 
 
