@@ -61,7 +61,7 @@ def test_a_value_the_schema_refuses_names_the_key_as_given(text, line):
 
 
 def test_a_key_given_twice_or_without_a_value_is_an_error():
-    with pytest.raises(ConfigError, match="run.tick_hz: given twice"):
+    with pytest.raises(ConfigError, match=r"run\.tick_hz: given twice"):
         run_overrides(["run.tick_hz=10", "run.tick_hz=15"])
-    with pytest.raises(ConfigError, match="expected KEY=VALUE, got 'run.tick_hz'"):
+    with pytest.raises(ConfigError, match=r"expected KEY=VALUE, got 'run\.tick_hz'"):
         run_overrides(["run.tick_hz"])

@@ -48,7 +48,8 @@ def _record(store: SweepStore, plan: SweepPlan, failing: set[int]) -> None:
     store.open(plan)
     for spec in plan.runs():
         ok = spec.seed not in failing
-        outcome = {"success": ok, "reason": "followed the target to the end" if ok else "2 loss event(s) never recovered",
+        reason = "followed the target to the end" if ok else "2 loss event(s) never recovered"
+        outcome = {"success": ok, "reason": reason,
                    "sim_time_s": 10.0, "wall_time_s": 4.2, "ticks": 150,
                    "metrics": {"loss_events": 2, "loss_events_recovered": 2 if ok else 0, "collisions": 0,
                                "reacquisition_time_s": {"n": 2, "max": 3.5} if ok else None}}  # fmt: skip
@@ -111,8 +112,8 @@ def test_compare_puts_two_sweeps_side_by_side_with_a_significance_note(tmp_path,
 
 def test_compare_matches_scenarios_when_the_two_sweeps_tried_different_settings(tmp_path):
     _record(SweepStore(tmp_path / "base"), SweepPlan.from_args("follow_occlusion", "0-9"), failing={1})
-    _record(SweepStore(tmp_path / "tuned"), SweepPlan.from_args("follow_occlusion", "0-9",
-                                                                ["HoldLastGoal.timeout_s=5"]), failing=set())  # fmt: skip
+    tuned = SweepPlan.from_args("follow_occlusion", "0-9", ["HoldLastGoal.timeout_s=5"])
+    _record(SweepStore(tmp_path / "tuned"), tuned, failing=set())
     rows, notes = compare_sweeps(tmp_path / "base", tmp_path / "tuned")
     assert len(rows) == 1 and rows[0].b_set == "HoldLastGoal.timeout_s=5" and "scenarios matched" in notes[0]
     assert not rows[0].comparison.significant  # one flipped seed of ten proves nothing

@@ -22,6 +22,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
@@ -83,7 +85,7 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     # Workers' statistical profiler samples every 10 ms for the dashboard's profile page: measured here,
     # ~12 % of a simulation's CPU. The local cluster leaves it off (an existing cluster keeps its own config).
     settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.worker.profile.enabled": False}
-    with dask.config.set(settings):
+    with dask.config.set(settings), _workers_ignore_ctrl_c():
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,  # one simulation per process: pybullet and the GIL do not share well
@@ -103,6 +105,22 @@ def connect(scheduler: str | None = None, workers: int | None = None,
         _quiet_shutdown()
         with contextlib.suppress(Exception):
             cluster.close(timeout=20)
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c() -> Iterator[None]:
+    """Ctrl-C in a terminal reaches every process of the sweep; it is the driver's to handle (cancel, write
+    the table, shut the cluster down). Worker processes are spawned with SIGINT ignored, a disposition a
+    child keeps (and Python then installs no KeyboardInterrupt handler), so they do not die mid-task with
+    a traceback each. Ctrl-C is ignored meanwhile: the cluster's start-up, a second or two."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _quiet_shutdown() -> None:
