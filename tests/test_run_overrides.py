@@ -65,3 +65,19 @@ def test_a_key_given_twice_or_without_a_value_is_an_error():
         run_overrides(["run.tick_hz=10", "run.tick_hz=15"])
     with pytest.raises(ConfigError, match=r"expected KEY=VALUE, got 'run\.tick_hz'"):
         run_overrides(["run.tick_hz"])
+
+
+def test_the_report_trees_show_a_port_as_the_run_set_it_not_as_the_file_writes_it():
+    import py_trees
+
+    from mission.trees.factory import shipped_factory
+    from mission.trees.loader import load_tree, resolve_tree_path
+    from mission.viz.probe import static_tree
+
+    factory = shipped_factory()
+    factory.set_port("SearchSweep", "duration_s", 7.5)  # follow.xml writes duration_s="20"
+    root = load_tree("follow.xml", factory)
+    py_trees.trees.BehaviourTree(root)
+    drawn = static_tree(root, resolve_tree_path("follow.xml"), factory)
+    search = next(n for n in drawn.walk() if n.type == "SearchSweep")
+    assert search.ports["duration_s"] == "7.5"
