@@ -40,6 +40,16 @@ LOOPBACK = "127.0.0.1"
 ALLOWED_FAILURES = 3  # workers a run may kill before it is left unfinished (Dask's default, made explicit)
 TABLE_EVERY_S = 10.0  # results.parquet is rewritten at most this often while runs arrive (and at the end)
 WORKER_WAIT_S = 60.0  # an existing scheduler must have a worker within this long
+#: Dask settings of the local cluster, each measured on a 3 s simulated run (CPU seconds per run):
+#: * the workers' statistical profiler samples every 10 ms for the dashboard's profile page: ~12 % more CPU;
+#: * Dask spawns workers with MALLOC_TRIM_THRESHOLD_=65536, which fixes glibc's mmap threshold, so every
+#:   camera image (~0.9 MB) is mapped and unmapped anew: ~0.7 s more system time per run (+25 %). Unset,
+#:   a run costs on a worker what it costs alone. (An existing cluster keeps its own config: README.)
+WORKER_SETTINGS = {
+    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+    "distributed.worker.profile.enabled": False,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+}
 
 
 @dataclass
@@ -82,10 +92,7 @@ def connect(scheduler: str | None = None, workers: int | None = None,
                 client.close(timeout=10)
         return
     n = max(1, workers or os.cpu_count() or 1)
-    # Workers' statistical profiler samples every 10 ms for the dashboard's profile page: measured here,
-    # ~12 % of a simulation's CPU. The local cluster leaves it off (an existing cluster keeps its own config).
-    settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.worker.profile.enabled": False}
-    with dask.config.set(settings), _workers_ignore_ctrl_c():
+    with dask.config.set(WORKER_SETTINGS), _workers_ignore_ctrl_c():
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,  # one simulation per process: pybullet and the GIL do not share well
@@ -131,7 +138,8 @@ def _quiet_shutdown() -> None:
 
 def check_workers(client: Any, scheduler: str | None) -> int:
     """Wait for a worker (an existing cluster may still be starting them) and check every worker runs
-    the same mission as this driver; the number of workers."""
+    the same mission as this driver (the same version, and the same commit where both know theirs: a
+    wheel installed on a worker has none); the number of workers."""
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_S)
     except TimeoutError:
@@ -139,7 +147,8 @@ def check_workers(client: Any, scheduler: str | None) -> int:
                            f"workers with `dask worker {scheduler}`") from None  # fmt: skip
     here = worker_identity()
     for address, theirs in client.run(worker_identity).items():
-        if theirs != here:
+        commits = (theirs.get("commit"), here.get("commit"))
+        if theirs.get("mission") != here.get("mission") or (None not in commits and commits[0] != commits[1]):
             raise MissionError(
                 f"worker {address} runs mission {theirs.get('mission')} at commit {theirs.get('commit')}, this "
                 f"driver {here.get('mission')} at {here.get('commit')}; every worker must run the same mission "
