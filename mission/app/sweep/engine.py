@@ -287,7 +287,7 @@ def _drive(client: Any, todo: list[RunSpec], store: SweepStore, result: SweepOut
                 bar.advance(res.row)
                 future.release()
                 if time.monotonic() - last_table > TABLE_EVERY_S:
-                    store.write_table()
+                    store.write_table(reread=False)
                     last_table = time.monotonic()
                 if budget_s is not None and time.perf_counter() - t0 > budget_s:
                     result.cut_short = True

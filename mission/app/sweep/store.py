@@ -109,10 +109,12 @@ class SweepStore:
         self.rows[result.run_id] = result.row
         return True
 
-    def write_table(self) -> None:
+    def write_table(self, *, reread: bool = True) -> None:
         """results.parquet from every row in runs.jsonl: the file is the record, so a Ctrl-C that landed
-        between a row's line and its entry here still leaves that run in the table."""
-        self.rows = {r["run_id"]: r for r in read_jsonl(self.rows_path)}
+        between a row's line and its entry here still leaves that run in the table. `reread=False` (the
+        refreshes while runs arrive) writes the rows held here without reading the file again."""
+        if reread:
+            self.rows = {r["run_id"]: r for r in read_jsonl(self.rows_path)}
         write_parquet(self.table_path, list(self.rows.values()))
 
 
