@@ -52,7 +52,9 @@ def _record(store: SweepStore, plan: SweepPlan, failing: set[int]) -> None:
         outcome = {"success": ok, "reason": reason,
                    "sim_time_s": 10.0, "wall_time_s": 4.2, "ticks": 150,
                    "metrics": {"loss_events": 2, "loss_events_recovered": 2 if ok else 0, "collisions": 0,
-                               "reacquisition_time_s": {"n": 2, "max": 3.5} if ok else None}}  # fmt: skip
+                               "reacquisition_time_s": {"n": 2, "max": 3.5} if ok else None,
+                               "dock": {"lateral_m": 0.01 + 0.001 * spec.seed, "distance_m": 0.02 if ok else 0.04,
+                                        "standoff_m": 0.3, "skew_deg": 2.0}}}  # fmt: skip
         row = outcome_row(spec, outcome, [1.2, 3.5] if ok else [], pictures=False, worker="here:1")
         store.record(RunResult(spec.run_id, row, {"report.json": b"{}"}))
 
@@ -123,3 +125,19 @@ def test_compare_of_a_folder_that_is_no_sweep_is_a_one_line_error(tmp_path, caps
     assert cli.main(["sweep", "--compare", str(tmp_path), str(Path(tmp_path) / "x")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not a sweep directory" in err
+
+
+def test_the_summary_draws_every_figure_it_has_data_for_and_links_every_failing_run(tmp_path):
+    from mission.app.sweep.summary import write_summary
+
+    store = SweepStore(tmp_path)
+    _record(store, SweepPlan.from_args("follow_occlusion,mission_full", "0-9", ["HoldLastGoal.timeout_s=2,3"]),
+            failing={2, 7})  # fmt: skip
+    page = write_summary(store).read_text()
+    pictures = {p.name for p in (tmp_path / "summary").iterdir()}
+    assert pictures == {"success_by_cell.png", "success_by_HoldLastGoal.timeout_s.png", "reacquisition_cdf.png",
+                        "dock_errors.png"}  # fmt: skip
+    assert "16/20 = 80 %" not in page and "8/10 = 80 % [49–94 %]" in page  # per cell, with its interval
+    failing = [r for r in store.rows.values() if not r["success"]]
+    assert len(failing) == 8 and all(r["command"] in page for r in failing)
+    assert "seeds 0-9 · --set HoldLastGoal.timeout_s=2,3" in page

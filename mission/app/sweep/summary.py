@@ -99,8 +99,8 @@ def _plot_rates(rows: Sequence[dict[str, Any]], path: Path) -> Path | None:
     _errorbar(ax, x, rates, fmt="none", ecolor="black")
     for xi, r in zip(x, rates, strict=True):
         ax.text(xi, 0.02, f"{r.k}/{r.n}", ha="center", fontsize=8, color="white")
-    ax.set_xticks(x, labels, fontsize=7, rotation=30 if len(groups) > 4 else 0, ha="right" if len(groups) > 4 else
-                  "center")  # fmt: skip
+    slanted = len(groups) > 4 or max(len(max(label.split("\n"), key=len)) for label in labels) > 22
+    ax.set_xticks(x, labels, fontsize=7, rotation=25 if slanted else 0, ha="right" if slanted else "center")
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("success rate (95 % Wilson interval)")
     ax.set_title("Success rate per scenario and cell")
@@ -167,13 +167,15 @@ def _plot_docks(rows: Sequence[dict[str, Any]], path: Path) -> Path | None:
         return None
     fig, ax = _figure(5.5, 4.5)
     ax.add_patch(_box())
-    for label, group in cells(docked).items():
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, (label, group) in enumerate(cells(docked).items()):
         name = " ".join(p for p in label if p)
-        for ok, marker in ((True, "o"), (False, "x")):
+        for ok, marker in ((True, "o"), (False, "x")):  # one colour per cell; o succeeded, x failed
             pts = [(100 * r["dock_lateral_m"], 100 * r["dock_distance_m"]) for r in group if bool(r["success"]) is ok]
             if pts:
                 xs, ys = zip(*pts, strict=True)
-                ax.scatter(xs, ys, marker=marker, label=f"{name} ({'ok' if ok else 'failed'})", alpha=0.8)
+                ax.scatter(xs, ys, marker=marker, color=colours[i % len(colours)], alpha=0.8,
+                           label=f"{name} ({'ok' if ok else 'failed'})")  # fmt: skip
     ax.set(xlabel="lateral error (cm)", ylabel="stand-off error (cm)",
            title="Docking errors (box: tolerance 3 cm × 2.5 cm)")  # fmt: skip
     ax.set_xlim(left=0)
