@@ -1,8 +1,10 @@
 """Benchmark: mission outcomes over many seeds per scenario, against the design notes' targets.
 
-Each run is ``mission.app.sim_run.run_scenario(name, seed=…)`` — the code path of ``mission run`` — in a
-worker process (one per core, spawned; a rich progress bar on stderr). Every finished run is appended
-to ``<out>/missions_runs.jsonl`` as it completes, so a cut-short sweep still leaves its data.
+The runs are a `mission sweep` (mission/app/sweep: scenarios × seeds on a Dask LocalCluster bound to
+127.0.0.1, one worker process per core, a progress bar on stderr), so this benchmark and ``mission sweep``
+are one code path, and each run is ``run_scenario`` — the code path of ``mission run``. The sweep's
+directory is ``<out>/missions_sweep/`` (results.parquet, runs.jsonl, summary.html, the failing runs'
+pictures); its rows are copied to ``<out>/missions_runs.jsonl``. A cut-short sweep still leaves its data.
 
 Per scenario: success rate (target ≥ 90 %), loss events and the fraction recovered (≥ 90 %),
 occlusion-detection latency (≤ 0.5 s), re-acquisition time (≤ 10 s), goal jitter while the target
@@ -17,8 +19,8 @@ this many wall seconds and report what finished).
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 import os
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,9 @@ from typing import Any
 import numpy as np
 
 from bench.common import Figure, pct, progress, save_figure
+from mission.app.sweep.engine import SweepOutcome, run_sweep
+from mission.app.sweep.plan import SweepPlan
+from mission.core.files import atomic_write_text
 
 SCENARIOS = ("follow_occlusion", "search_corner", "explore_dock", "mission_full")
 QUICK_SCENARIOS = ("follow_occlusion", "explore_dock")
@@ -41,56 +46,22 @@ TARGETS = {
     "dock_skew_deg": 10.0,
 }
 DESIGN = "design target (seeds/001 follow coordinator, seeds/002 docking)"
+SWEEP_DIR = "missions_sweep"  # the sweep directory (table, summary.html, failing runs' pictures); gitignored
 
 
-def _one(task: tuple[str, int, float | None]) -> dict[str, Any]:
-    """One simulated run in a worker process (imports here: the parent never touches pybullet for this)."""
-    name, seed, max_duration = task
-    from mission.app.sim_run import run_scenario
-
-    t0 = time.perf_counter()
-    try:
-        outcome, _, _ = run_scenario(name, seed=seed, max_duration=max_duration)
-        res = outcome.to_json()
-    except Exception as err:  # a crashed run is a failed run, with its reason
-        res = {"scenario": name, "seed": seed, "success": False, "reason": f"crashed: {type(err).__name__}: {err}",
-               "metrics": {}, "sim_time_s": 0.0}  # fmt: skip
-    res["wall_time_s"] = round(time.perf_counter() - t0, 2)
-    return res
-
-
-def sweep(tasks: list[tuple[str, int, float | None]], workers: int, log: Path,
-          budget_s: float | None) -> tuple[list[dict[str, Any]], bool]:  # fmt: skip
-    """Run `tasks` on `workers` processes with a progress bar; (results, cut short by the budget)."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    results: list[dict[str, Any]] = []
-    cut = False
-    t0 = time.perf_counter()
-    log.write_text("")
-    ctx = mp.get_context("spawn")
-    columns = (TextColumn("missions"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-               TextColumn("{task.description}"))  # fmt: skip
-    with (
-        ctx.Pool(workers, maxtasksperchild=4) as pool,
-        Progress(
-            *columns, transient=False, redirect_stdout=False, redirect_stderr=False, console=Console(stderr=True)
-        ) as bar,
-    ):
-        job = bar.add_task("", total=len(tasks))
-        for res in pool.imap_unordered(_one, tasks, chunksize=1):
-            results.append(res)
-            with log.open("a") as f:
-                f.write(json.dumps(res, default=str) + "\n")
-            ok = sum(1 for r in results if r.get("success"))
-            bar.update(job, advance=1, description=f"{res['scenario']} seed {res['seed']}: "
-                       f"{'ok' if res.get('success') else 'FAIL'} ({ok}/{len(results)} ok)")  # fmt: skip
-            if budget_s is not None and time.perf_counter() - t0 > budget_s and len(results) < len(tasks):
-                cut = True
-                pool.terminate()
-                break
-    return results, cut
+def sweep(scenarios: tuple[str, ...], seeds: int, max_duration: float | None, out: Path, budget_s: float | None,
+          workers: int) -> tuple[list[dict[str, Any]], bool, SweepOutcome]:  # fmt: skip
+    """The runs on `mission sweep`'s engine (a LocalCluster on loopback, one worker per core, a progress bar):
+    (rows, cut short by the budget, the sweep's outcome). The sweep directory is made afresh — a benchmark
+    measures, it never resumes — and every finished row is also copied to ``<out>/missions_runs.jsonl``."""
+    plan = SweepPlan(scenarios, tuple(range(seeds)), max_duration=max_duration, pictures="failed")
+    sweep_dir = out / SWEEP_DIR
+    shutil.rmtree(sweep_dir, ignore_errors=True)
+    outcome = run_sweep(plan, sweep_dir, workers=workers, progress=True, budget_s=budget_s)
+    order = {r.run_id: i for i, r in enumerate(plan.runs())}
+    rows = sorted(outcome.rows, key=lambda r: order.get(r["run_id"], len(order)))
+    atomic_write_text(out / "missions_runs.jsonl", "".join(json.dumps(r, default=str) + "\n" for r in rows))
+    return rows, outcome.cut_short or outcome.interrupted, outcome
 
 
 def _total(runs: list[dict[str, Any]], key: str) -> float:
@@ -195,11 +166,11 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     seeds = int(os.environ.get("MISSION_BENCH_SEEDS", "1" if quick else "20"))
     budget = float(os.environ["MISSION_BENCH_BUDGET_S"]) if os.environ.get("MISSION_BENCH_BUDGET_S") else None
     max_duration = QUICK_MAX_DURATION_S if quick else None
-    tasks = [(s, seed, max_duration) for seed in range(seeds) for s in scenarios]  # seed-major: fair when cut
-    workers = max(1, min(os.cpu_count() or 1, len(tasks)))
-    progress(f"missions: {len(tasks)} runs ({seeds} seeds × {len(scenarios)} scenarios) on {workers} processes")
+    workers = max(1, min(os.cpu_count() or 1, seeds * len(scenarios)))
+    progress(f"missions: {seeds * len(scenarios)} runs ({seeds} seeds × {len(scenarios)} scenarios) on "
+             f"`mission sweep` with {workers} worker processes")  # fmt: skip
     t0 = time.perf_counter()
-    results, cut = sweep(tasks, workers, out / "missions_runs.jsonl", budget)
+    results, cut, outcome = sweep(scenarios, seeds, max_duration, out, budget, workers)
     wall = time.perf_counter() - t0
     per: dict[str, Any] = {}
     figures: list[Figure] = []
@@ -215,9 +186,10 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                  + (" (QUICK: runs cut at 12 s simulated — a smoke test, not outcome figures)" if quick else ""),
         "figures": [f.to_json() for f in figures],
         "details": {"scenarios": per, "seeds_requested": seeds, "runs_finished": len(results),
-                    "runs_requested": len(tasks), "cut_short_by_budget": cut, "workers": workers,
+                    "runs_requested": outcome.planned, "cut_short_by_budget": cut, "workers": outcome.workers,
                     "wall_s": round(wall, 1), "max_duration_s": max_duration,
-                    "runs_log": "missions_runs.jsonl"},
+                    "runs_log": "missions_runs.jsonl", "sweep_dir": SWEEP_DIR,
+                    "engine": "mission sweep (mission/app/sweep), Dask LocalCluster on 127.0.0.1"},
         "plots": [plot] if plot else [],
     }  # fmt: skip
 

@@ -26,6 +26,7 @@ VERBS = {
     "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
     "sim-robot": "the pybullet world as a ROS 2 robot (camera, odom, scan, map, TF, /clock; navigate_to_pose)",
     "replay": "run the tree on a recorded rosbag2",
+    "sweep": "scenarios × seeds × --set values on Dask (local or a cluster): results table + summary",
     "bench": "run the benchmarks and write their figures",
     "nodes-model": "write the Groot2 palette (TreeNodesModel) of every registered behaviour, installed ones too",
 }
@@ -48,6 +49,7 @@ def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expect
 
 positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds (a finite number > 0)")
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
+positive_int = _number(int, lambda v: v >= 1, "a whole number ≥ 1")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
 port = _number(int, lambda v: 0 <= v <= 65535, "a TCP port, a whole number 0–65535 (0 = any free port)")
 port_pair = _number(int, lambda v: 0 <= v <= 65534, "a TCP port 0–65534 (PORT and PORT+1 are used; 0 = any free pair)")
@@ -70,6 +72,9 @@ def _add_run(p: argparse.ArgumentParser) -> None:
                    help="serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (default 1667; 0 = any free)")
     p.add_argument("--btlog", default=None, metavar="FILE",
                    help="write a Groot2 log (.btlog, BT.CPP FileLogger2) of every node's transitions")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="a tree port, config or scenario key for this run (repeatable), e.g. "
+                        "--set SearchSweep.angular_speed=0.8 --set run.tick_hz=10 --set camera.width=320")
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
@@ -120,6 +125,31 @@ def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
 
 
+def _add_sweep(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenarios", default=None, metavar="A,B,…", help="scenario names or YAML paths, comma-separated")
+    p.add_argument("--seeds", default=None, metavar="A-B", help="seeds: A-B (inclusive), N, or a comma list of them")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=V1,V2",
+                   help="a grid axis (repeatable): a tree port, config or scenario key and its values, "
+                        "e.g. --set SearchSweep.angular_speed=0.6,1.0 --set run.tick_hz=10,15")
+    p.add_argument("--config", default=None, help="mission config YAML for every run")
+    p.add_argument("--tree", default=None, help="tree XML file for every run (overrides the config's `tree`)")
+    p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds per run at most")
+    p.add_argument("--out", default="out/sweep", metavar="DIR",
+                   help="sweep directory (default out/sweep); the same --out resumes: finished runs are skipped")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="an existing Dask scheduler (tcp://host:8786); default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local cluster: worker processes (default: one per core)")
+    p.add_argument("--dashboard", type=port, default=None, metavar="PORT",
+                   help="local cluster: the scheduler's HTTP port on 127.0.0.1 (default: any free; needs bokeh)")
+    p.add_argument("--pictures", default="all", choices=["all", "failed", "none"],
+                   help="report pictures for all runs (default), failed runs only, or none (report.json always)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, only the result lines")
+    p.add_argument("--compare", nargs=2, default=None, metavar=("A", "B"),
+                   help="compare two sweep directories cell by cell, with a significance note on each rate")
+    p.add_argument("-o", "--output", default=None, metavar="FILE.html", help="with --compare: also write a page")
+
+
 def _add_bench(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
     p.add_argument("--json", action="store_true", help="print machine-readable results")
@@ -142,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
-              "replay": _add_replay, "bench": _add_bench, "plugins": lambda p: None,
+              "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench, "plugins": lambda p: None,
               "nodes-model": _add_nodes_model}
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text)

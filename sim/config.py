@@ -15,29 +15,27 @@ from __future__ import annotations
 
 from typing import Any
 
+from mission.core.config import merge_mappings
 from mission.core.errors import ConfigError
 from mission.sim.scenario import Scenario, scenario_from_dict
 
 
-def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for key, value in over.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = _merge(out[key], value)
-        else:
-            out[key] = value
-    return out
+def apply_overrides(
+    scenario: Scenario, overrides: dict[str, Any] | None, *, file: str | None = None, within: str = "sim"
+) -> Scenario:
+    """The scenario with the config's `sim:` keys merged over it (the scenario itself when there are none).
 
-
-def apply_overrides(scenario: Scenario, overrides: dict[str, Any] | None, *, file: str | None = None) -> Scenario:
-    """The scenario with the config's `sim:` keys merged over it (the scenario itself when there are none)."""
+    Problems name the keys under `within` (``sim.camera.widht``), as the config file spells them; ``""``
+    names them as scenario keys (``mission run --set camera.widht=…``)."""
     if not overrides:
         return scenario
     if not isinstance(overrides, dict):
-        raise ConfigError(f"expected a mapping, got {type(overrides).__name__}", file=file, key="sim")
-    data = _merge(scenario.model_dump(mode="python"), overrides)
+        raise ConfigError(f"expected a mapping, got {type(overrides).__name__}", file=file, key=within or None)
+    data = merge_mappings(scenario.model_dump(mode="python"), overrides)
     try:
         merged = scenario_from_dict(data, file=file)
     except ConfigError as err:
-        raise err.within("sim", file=file) from None
+        if not within:
+            raise
+        raise err.within(within, file=file) from None
     return merged

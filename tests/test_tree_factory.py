@@ -156,3 +156,40 @@ def test_the_tree_nodes_model_comes_from_the_same_declaration():
         for f in dataclasses.fields(VisualServoDock.Params)
     ]
     assert written == declared
+
+
+# ------------------------------------------------------------------------ a run's port values (set_port)
+def _nodes(root: py_trees.behaviour.Behaviour, cls_name: str) -> list[py_trees.behaviour.Behaviour]:
+    return [n for n in root.iterate() if type(n).__name__ == cls_name]
+
+
+def test_a_port_set_on_a_factory_reaches_every_node_of_that_type_whatever_the_file_writes():
+    factory = shipped_factory()
+    factory.set_port("SearchSweep", "angular_speed", 1)  # an int for a float port, as a user types it
+    factory.set_port("SearchSweep", "duration_s", 7.5)  # follow.xml writes duration_s="20"
+    searches = _nodes(load_tree("mission.xml", factory), "SearchSweep")
+    assert searches and all(n.params.angular_speed == 1.0 and n.params.duration_s == 7.5 for n in searches)
+    assert factory.port_values() == {"SearchSweep": {"angular_speed": 1.0, "duration_s": 7.5}}
+    untouched = _nodes(load_tree("mission.xml", shipped_factory()), "SearchSweep")
+    assert all(n.params.duration_s == 20.0 for n in untouched)  # only that factory changed; the file says 20
+
+
+def test_a_port_value_out_of_its_range_is_the_trees_error_at_the_node(tmp_path):
+    factory = shipped_factory()
+    factory.set_port("FollowTarget", "window", 0)
+    with pytest.raises(TreeError, match=r"follow\.xml:\d+: .*window"):
+        validate_tree("follow.xml", factory)
+
+
+@pytest.mark.parametrize(
+    ("tag", "port", "value", "message"),
+    [
+        ("SearchSwep", "angular_speed", 1.0, r"no behaviour 'SearchSwep' \(did you mean SearchSweep\?\)"),
+        ("SearchSweep", "angular_sped", 1.0, r"unknown port 'angular_sped' \(did you mean angular_speed\?\)"),
+        ("SearchSweep", "angular_speed", "fast", r"port angular_speed expects float, got 'fast'"),
+        ("Sequence", "memory", True, r"no behaviour 'Sequence'"),  # built-ins have no settable ports
+    ],
+)
+def test_setting_a_port_that_does_not_exist_or_a_wrong_type_says_what_was_expected(tag, port, value, message):
+    with pytest.raises(ValueError, match=message):
+        shipped_factory().set_port(tag, port, value)

@@ -202,7 +202,8 @@ def cli_block() -> str:
                 continue
             flag = ", ".join(action.option_strings) or action.metavar or action.dest
             if action.option_strings and action.nargs != 0:
-                value = action.metavar or action.dest.upper()
+                metavar = action.metavar or action.dest.upper()
+                value = " ".join(metavar) if isinstance(metavar, tuple) else metavar  # nargs=2: "A B"
                 flag += f" [{value}]" if action.nargs == "?" else f" {value}"  # an optional value, as --help shows it
             default = "" if action.default in (None, False, argparse.SUPPRESS, []) else f"`{action.default}`"
             rows.append((f"`{flag}`", default, (action.help or "").replace("|", "\\|")))

@@ -17,6 +17,9 @@ README's behaviour table read. :func:`shipped_factory` is the one list of the be
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
+from types import MappingProxyType
 from typing import Any
 
 from py_trees.behaviour import Behaviour
@@ -28,7 +31,7 @@ from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.lost import HoldLastGoal
 from mission.behaviours.mission_state import SetMissionState
 from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import PortsDeclared
+from mission.behaviours.ports import PortsDeclared, unknown_port, wrong_type
 from mission.behaviours.search import SearchSweep
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
@@ -45,6 +48,8 @@ class BehaviourFactory:
 
     def __init__(self) -> None:
         self._manifests: dict[str, NodeManifest] = dict(BUILTINS)
+        self._registered: dict[str, NodeManifest] = {}  # as registered, before any set_port
+        self._port_values: dict[str, dict[str, Any]] = {}  # tag → port → value (set_port)
 
     def register(self, cls: type[PortsDeclared], tag: str | None = None, /, **args: Any) -> NodeManifest:
         """Make `cls` available in tree files as ``<tag>`` (default: the class name).
@@ -70,8 +75,37 @@ class BehaviourFactory:
         manifest = NodeManifest(
             tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls)
         )
-        self._manifests[tag] = manifest
+        self._manifests[tag] = self._registered[tag] = manifest
         return manifest
+
+    def set_port(self, tag: str, port: str, value: Any) -> None:
+        """Every ``<tag>`` node of the trees this factory builds gets ``port=value``, whatever the file writes.
+
+        A run's parameter (``mission run --set SearchSweep.angular_speed=0.8``, a sweep's grid): the tree
+        file stays as written, and the node is checked and built with this value, as if the port's default
+        were `value` and the file wrote nothing for it. Only this factory is changed. A tag that names no
+        registered behaviour, an unknown port or a value of the wrong type is a ValueError that says what
+        was expected; a value out of the port's range is the tree's error at the node when it is loaded.
+        """
+        base = self._registered.get(tag)
+        if base is None:
+            hint = difflib.get_close_matches(tag, list(self._registered), n=1)
+            raise ValueError(
+                f"no behaviour {tag!r}{f' (did you mean {hint[0]}?)' if hint else ''}; "
+                f"registered: {', '.join(sorted(self._registered)) or 'none'}"
+            )
+        declared = base.ports.get(port)
+        if declared is None:
+            raise ValueError(unknown_port(port, tag, base.ports))
+        if not declared.accepts(value):
+            raise ValueError(wrong_type(port, declared.type.__name__, value))
+        values = {**self._port_values.get(tag, {}), port: declared.type(value)}
+        self._port_values[tag] = values
+        self._manifests[tag] = _with_port_values(base, values)
+
+    def port_values(self) -> dict[str, dict[str, Any]]:
+        """What :meth:`set_port` changed: tag → port → value (a copy)."""
+        return {tag: dict(values) for tag, values in self._port_values.items()}
 
     def manifest(self, tag: str) -> NodeManifest | None:
         """The node type a tree file means by ``<tag>`` (None when nothing is registered under it)."""
@@ -124,6 +158,23 @@ def _builder(cls: type, kind: NodeKind, args: dict[str, Any]) -> Builder:
         return cls(name=name, **ports, **args, **structure)  # type: ignore[no-any-return]
 
     return build
+
+
+def _with_port_values(base: NodeManifest, values: dict[str, Any]) -> NodeManifest:
+    """`base` with `values` as its ports' defaults, and imposed on what a tree file writes when the loader
+    checks and builds a node (the loader itself is unchanged: it reads the manifest it is given)."""
+    ports = MappingProxyType(
+        {name: dataclasses.replace(p, default=values[name]) if name in values else p for name, p in base.ports.items()}
+    )
+    check = base.check
+
+    def build(name: str, children: list[Behaviour], written: dict[str, Any]) -> Behaviour:
+        return base.build(name, children, {**written, **values})
+
+    def checked(written: dict[str, Any], n: int) -> str | None:
+        return None if check is None else check({**written, **values}, n)
+
+    return dataclasses.replace(base, ports=ports, build=build, check=checked)
 
 
 def _params_check(cls: type[PortsDeclared]) -> Check:

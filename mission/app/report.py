@@ -1,5 +1,10 @@
 """Pictures and the JSON of a run: what a person looks at after `mission run --report DIR`.
 
+:func:`report_observers` (attached before the run) and :func:`write_report` (after it) are the whole of
+``--report``: `mission run` and each run of `mission sweep` call both, so a sweep keeps for every run
+exactly what `mission run --report` writes — report.json, trajectories.png, timeline.png, the tree at
+each state transition (trees/*.svg) and report.html.
+
 Files are written atomically (mission.core.files), so a crash mid-write leaves the previous file intact.
 """
 
@@ -17,11 +22,35 @@ import numpy as np
 from matplotlib.collections import LineCollection
 
 from mission.app.metrics import MetricsRecorder
+from mission.app.observers import RunObserver
 from mission.core.files import atomic_path, atomic_write_text
 from mission.core.types import OccupancyGrid
 from mission.viz.style import STATE_COLOURS
 
 NO_STATE = "#c7c7c7"  # ticks before the mission state is first written
+
+
+def report_observers(out: str | Path) -> list[RunObserver]:
+    """What watches a run for its report: the tree at every state transition (written with report.html
+    into `out` when the run ends)."""
+    from mission.viz.report_trees import TransitionTrees
+
+    return [TransitionTrees(out)]
+
+
+def verdict(outcome: Any) -> str:
+    """SUCCESS, FAILURE or INTERRUPTED: the word a run's result line and pictures lead with."""
+    return "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
+
+
+def write_report(out: str | Path, outcome: Any, recorder: MetricsRecorder, adapter: Any) -> None:
+    """report.json and the pictures of a finished run (a RunOutcome, its recorder and its world)."""
+    out = Path(out)
+    write_json(out / "report.json", outcome.to_json())
+    title = f"{outcome.scenario} seed {outcome.seed}: {verdict(outcome)}"
+    grid = getattr(adapter, "occupancy_grid", None)
+    plot_trajectories(recorder, grid, out / "trajectories.png", title, getattr(adapter, "dock_xy", None))
+    plot_timeline(recorder, out / "timeline.png", title)
 
 
 def write_json(path: str | Path, data: Any) -> None:
@@ -36,7 +65,8 @@ def _json_default(o: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(o).__name__}")
 
 
-def _save(fig: plt.Figure, path: Path) -> None:
+def save_figure(fig: plt.Figure, path: Path) -> None:
+    """Write `fig` to `path` atomically and close it (a reader sees the old picture or the new one)."""
     try:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, bbox_inches="tight")
@@ -81,7 +111,7 @@ def plot_trajectories(
     ax.set_ylabel("y (m)")
     ax.set_title(title or "trajectories")
     ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _stretches(values: list[str], end: int) -> list[tuple[int, int, str]]:
@@ -126,14 +156,4 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
             ax_d.set_yticks([])
     ax_d.set_xlabel("sim time (s)")
     ax_s.set_title(title or "timeline")
-    _save(fig, path)
-
-
-def write_run_report(out: str | Path, outcome: Any, recorder: MetricsRecorder, adapter: Any, verdict: str) -> None:
-    """report.json, trajectories.png and timeline.png of a simulated run (`mission run` and `mission sim-robot`)."""
-    out = Path(out)
-    write_json(out / "report.json", outcome.to_json())
-    title = f"{outcome.scenario} seed {outcome.seed}: {verdict}"
-    plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), out / "trajectories.png", title,
-                      getattr(adapter, "dock_xy", None))  # fmt: skip
-    plot_timeline(recorder, out / "timeline.png", title)
+    save_figure(fig, path)

@@ -44,11 +44,13 @@ from mission.core.types import NavStatus
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
 log = logging.getLogger(__name__)
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+SETUP_TIMEOUT_S = 30.0  # the tree's setup() (py_trees raises when a behaviour's setup takes longer)
 
 
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
@@ -58,6 +60,23 @@ def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
         if candidate.is_file():
             return candidate
     return resolve_tree_path(tree)
+
+
+def checked_tree(
+    config: MissionConfig, tree: str, factory: BehaviourFactory, config_file: str | Path | None = None
+) -> Path:
+    """The tree file a run of `config` uses, every check made (the file, its nodes and ports as `factory`
+    builds them, the targets it names): what :meth:`TreeRunner.setup` does before anything heavy, and what
+    a sweep does for every cell of its grid before any run starts. Raises TreeError."""
+    try:
+        path = resolve_tree(tree, config_file)
+    except TreeError as err:
+        if config_file is None or tree != config.tree:
+            raise
+        raise TreeError(f"{config_file}: tree: {err}") from None  # say which config named it
+    validate_tree(path, factory)
+    check_targets(path, config.perception.targets, factory)
+    return path
 
 
 class Pacer(Protocol):
@@ -130,14 +149,7 @@ class TreeRunner:
     def setup(self) -> None:
         """Check the tree before anything heavy, then create sources, build the tree, connect the world."""
         if not self.perception_only:
-            try:
-                self.tree_path = resolve_tree(self.tree_name, self.config_file)
-            except TreeError as err:
-                if self.config_file is None or self.tree_name != self.config.tree:
-                    raise
-                raise TreeError(f"{self.config_file}: tree: {err}") from None  # say which config named it
-            validate_tree(self.tree_path, self.factory)
-            check_targets(self.tree_path, self.config.perception.targets, self.factory)
+            self.tree_path = checked_tree(self.config, self.tree_name, self.factory, self.config_file)
         if self._own_sources:
             file = None if self.config_file is None else str(self.config_file)
             self.sources = registry.create_all(self.config.perception.sources, file=file)
@@ -147,7 +159,11 @@ class TreeRunner:
         if self.tree_path is not None:
             root = load_tree(self.tree_path, self.factory)
             self.tree = py_trees.trees.BehaviourTree(root)
-            self.tree.setup(timeout=30.0)
+            # py_trees arms its set-up timeout with a signal, which only the main thread may do; in another
+            # thread (a Dask worker runs each sweep run in one) the tree is set up without it: the shipped
+            # behaviours' setup() is light wiring that never waits.
+            in_main = threading.current_thread() is threading.main_thread()
+            self.tree.setup(timeout=SETUP_TIMEOUT_S if in_main else py_trees.common.Duration.INFINITE)
         self.world.setup()
         self._started = True
         for o in self.observers:

@@ -20,15 +20,19 @@ import py_trees
 
 from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.observers import RunObserver
+from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
-from mission.app.runner import Pacer, TreeRunner
+from mission.app.runner import Pacer, TreeRunner, checked_tree
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
+from mission.core.errors import ConfigError
 from mission.sim.adapter import SimAdapter
 from mission.sim.config import apply_overrides
 from mission.sim.faults import fault_summary, wrap_sources
 from mission.sim.scenario import Scenario, load_scenario
+from mission.trees.factory import shipped_factory
+from mission.trees.loader import describe_tree
 
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
 
@@ -124,6 +128,54 @@ def evaluate(
     return False, f"time out after {duration:.0f} s in state {final_state or '?'}"
 
 
+@dataclass
+class PreparedRun:
+    """What one run is made of, read and checked: the config and scenario with every override applied."""
+
+    config: MissionConfig
+    config_path: Path
+    scenario: Scenario
+    tree: str  # as choose_tree picked it (a name or path; resolved by the runner)
+    overrides: RunOverrides
+
+
+def prepare_run(
+    scenario_name: str,
+    *,
+    config_file: str | Path | None = None,
+    tree: str | None = None,
+    overrides: RunOverrides | None = None,
+) -> PreparedRun:
+    """Read the scenario and config and lay the overrides on them: the config file's ``sim:`` over the
+    scenario, then ``--set`` config keys over the config and scenario keys over the scenario. Raises
+    ConfigError naming the file (or ``--set``) and key."""
+    overrides = overrides or RunOverrides()
+    scenario = load_scenario(scenario_name)
+    config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
+    config = overrides.apply_to_config(load_config(config_path))
+    scenario = apply_overrides(scenario, config.sim, file=str(config_path))
+    scenario = overrides.apply_to_scenario(scenario)
+    return PreparedRun(config, config_path, scenario, choose_tree(tree, config, scenario), overrides)
+
+
+def check_prepared(run: PreparedRun) -> set[str]:
+    """Every check the run's set-up makes on its tree, with the port overrides applied (nothing is built);
+    returns the node types the tree uses (for :func:`unused_ports`)."""
+    factory = shipped_factory()
+    run.overrides.apply_to_factory(factory)
+    path = checked_tree(run.config, run.tree, factory, run.config_path)
+    return {node.tag for node in describe_tree(path, factory).walk()}
+
+
+def unused_ports(overrides: RunOverrides, tags: set[str], trees: str) -> None:
+    """A ``Tag.port`` override whose node type none of the run's trees uses would change nothing: a
+    ConfigError naming it (a misread tree, or a sweep axis that measures nothing)."""
+    for s in overrides.settings:
+        tag = s.key.split(".", 1)[0]
+        if s.kind == "port" and tag not in tags:
+            raise ConfigError(f"no {tag} node in {trees}; the setting would change nothing", file="--set", key=s.key)
+
+
 def run_scenario(
     scenario_name: str,
     *,
@@ -134,26 +186,27 @@ def run_scenario(
     observers: list[RunObserver] | None = None,
     pacer: Pacer | None = None,
     robot: Callable[[SimAdapter], Any] | None = None,
+    overrides: RunOverrides | None = None,
 ) -> tuple[RunOutcome, MetricsRecorder, SimAdapter]:
     """Run one scenario headless and measure it. Raises MissionError on config/tree problems.
 
     With `robot`, the world is ``robot(sim_adapter)`` — the simulation behind ROS topics — and no tree runs
     here: the remote tree's state, reason and status come back through that world (``tree_status()``,
     ``finished``), and the run ends at the scenario's duration or when the remote tree finishes.
+    `overrides` are ``--set`` keys (mission/app/overrides.py): tree ports, config and scenario keys.
 
     SIGINT/SIGTERM end the run early: the outcome covers what ran, with ``interrupted`` set."""
-    scenario = load_scenario(scenario_name)
-    config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
-    config = load_config(config_path)
-    scenario = apply_overrides(scenario, config.sim, file=str(config_path))
+    prepared = prepare_run(scenario_name, config_file=config_file, tree=tree, overrides=overrides)
+    config, config_path, scenario = prepared.config, prepared.config_path, prepared.scenario
     adapter = SimAdapter(scenario, seed=seed)
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
     recorder = MetricsRecorder(dock_standoff_m=float(getattr(success_spec, "standoff_m", 0.30) or 0.30))
     world = adapter if robot is None else robot(adapter)
-    runner = TreeRunner(config, world, choose_tree(tree, config, scenario) if robot is None else None,
+    runner = TreeRunner(config, world, prepared.tree if robot is None else None,
                         config_file=config_path, observers=[recorder, *(observers or [])],
                         perception_only=robot is not None, sources=[] if robot is not None else None)  # fmt: skip
+    prepared.overrides.apply_to_factory(runner.factory)
     duration = float(max_duration or scenario.duration_s)
     until: Any = duration
     if robot is not None:
@@ -164,6 +217,7 @@ def run_scenario(
         wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
         provenance = run_provenance(config, tree_file=runner.tree_path or "", seed=seed, config_file=config_path,
                                     scenario=scenario.name)  # fmt: skip
+        provenance["set"] = prepared.overrides.as_dict()  # the --set keys that made this run (empty: none)
         status = runner.run(until=until, pacer=pacer)
         if robot is not None:
             status = world.tree_status()

@@ -8,10 +8,11 @@ import sys
 from pathlib import Path
 
 from mission.app.observers import RunObserver
-from mission.app.report import write_run_report
+from mission.app.overrides import RunOverrides, run_overrides
+from mission.app.report import report_observers, verdict, write_report
 from mission.app.runner import WallClockPacer
-from mission.app.sim_run import RunOutcome, run_scenario
-from mission.core.errors import MissionError
+from mission.app.sim_run import RunOutcome, check_prepared, prepare_run, run_scenario, unused_ports
+from mission.core.errors import ConfigError, MissionError
 from mission.core.files import ensure_dir, unwritable
 
 DEFAULT_SCENARIO = "mission_full"
@@ -37,9 +38,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
 
         observers.append(Recorder(args.record))
     if getattr(args, "report", None):
-        from mission.viz.report_trees import TransitionTrees
-
-        observers.append(TransitionTrees(args.report))
+        observers += report_observers(args.report)
     if getattr(args, "btlog", None):
         from mission.groot.btlog import BtLogWriter
 
@@ -67,10 +66,26 @@ def _check_report_dir(args: argparse.Namespace) -> None:
             raise MissionError(f"--report {args.report}: {unwritable(err, args.report, directory=True)}") from None
 
 
+def checked_overrides(args: argparse.Namespace, scenario: str) -> RunOverrides:
+    """--set KEY=VALUE …, every key and value checked against this run's files before anything runs.
+
+    A port of a node type the tree does not use is a warning, not an error: it changes nothing, and a
+    sweep's reproduce command for a scenario whose tree lacks that node must still run."""
+    overrides = run_overrides(getattr(args, "set", None) or [])
+    if overrides:
+        prepared = prepare_run(scenario, config_file=args.config, tree=args.tree, overrides=overrides)
+        try:
+            unused_ports(overrides, check_prepared(prepared), Path(prepared.tree).name)
+        except ConfigError as err:
+            print(f"mission: warning: {err}", file=sys.stderr)
+    return overrides
+
+
 def main(args: argparse.Namespace) -> int:
-    _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
     scenario = args.scenario or DEFAULT_SCENARIO
-    label = f"{Path(scenario).stem} seed {args.seed}"
+    overrides = checked_overrides(args, scenario)
+    _check_report_dir(args)  # the other outputs are checked as their observers are made, also before the run
+    label = f"{Path(scenario).stem} seed {args.seed}" + (f" ({overrides.label})" if overrides else "")
     # --serve, --groot: simulated time at wall-clock speed, so the run can be watched
     watched = getattr(args, "serve", False) or getattr(args, "groot", None) is not None
     pacer = WallClockPacer(1.0) if watched else None
@@ -82,19 +97,18 @@ def main(args: argparse.Namespace) -> int:
         max_duration=args.max_duration,
         observers=_observers(args, label),
         pacer=pacer,
+        overrides=overrides,
     )
-    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     if args.report:
-        write_run_report(args.report, outcome, recorder, adapter, verdict)
+        write_report(args.report, outcome, recorder, adapter)
     return result_line(outcome, label, args.report)
 
 
 def result_line(outcome: RunOutcome, label: str, report: str | None) -> int:
     """Print the one-line verdict of a simulated run; its exit code (0 success, 1 failure, 128 + signal)."""
-    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     m = outcome.metrics
     print(
-        f"{verdict}: {label}: {outcome.reason} "
+        f"{verdict(outcome)}: {label}: {outcome.reason} "
         f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
         f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']})"
         + (f"; report in {report}/" if report else "")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mission.app.report import write_run_report
+from mission.app.report import write_report
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import run_scenario
 from mission.commands.run import DEFAULT_SCENARIO, _check_report_dir, result_line
@@ -31,7 +31,6 @@ def main(args: argparse.Namespace) -> int:
         scenario, config_file=args.config, seed=args.seed, max_duration=args.max_duration, pacer=pacer,
         robot=lambda sim: SimRobot(sim, faults),
     )  # fmt: skip
-    verdict = "INTERRUPTED" if outcome.interrupted else ("SUCCESS" if outcome.success else "FAILURE")
     if args.report:
-        write_run_report(args.report, outcome, recorder, adapter, verdict)
+        write_report(args.report, outcome, recorder, adapter)
     return result_line(outcome, label, args.report)

@@ -159,6 +159,20 @@ def read_yaml(path: str | Path) -> Any:
         raise ConfigError(f"cannot read: {err}", file=str(path)) from None
 
 
+def merge_mappings(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    """`over` laid on `base` key by key: mappings merge, everything else (lists too) replaces.
+
+    How an override reads (a config's ``sim:`` over a scenario, ``--set`` keys over a config): the keys it
+    names change and the rest of each section stays as it was."""
+    out = dict(base)
+    for key, value in over.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), Mapping):
+            out[key] = merge_mappings(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
 def load_model(model: type[M], path: str | Path) -> M:
     """Read and validate a YAML file into `model`."""
     return validate_model(model, read_yaml(path), file=str(path))

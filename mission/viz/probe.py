@@ -37,18 +37,26 @@ def preorder(root: py_trees.behaviour.Behaviour) -> list[py_trees.behaviour.Beha
     return out
 
 
-def static_tree(root: py_trees.behaviour.Behaviour, tree_path: Any = None) -> VizNode:
-    """The live tree's structure, with XML tags, ports and subtree names when its file is known."""
+def static_tree(root: py_trees.behaviour.Behaviour, tree_path: Any = None, factory: Any = None) -> VizNode:
+    """The live tree's structure, with XML tags, ports and subtree names when its file is known.
+
+    `factory` is the one the tree was built by (the runner's): its node types, and the port values a run
+    set on it (``--set Tag.port=…``, BehaviourFactory.set_port), which the drawing shows as the node has
+    them rather than as the file writes them."""
     live = from_snapshot(snapshot(root))
     if tree_path:
         try:
             from mission.trees.loader import describe_tree
 
-            merge_static(live, flatten_subtrees(from_description(describe_tree(tree_path))))
+            merge_static(live, flatten_subtrees(from_description(describe_tree(tree_path, factory))))
         except Exception:  # a tree we cannot describe is still drawn, with py_trees class names
             pass
+    values = factory.port_values() if factory is not None and hasattr(factory, "port_values") else {}
     for n in live.walk():
         n.status, n.feedback = "INVALID", ""
+        for port, value in values.get(n.type, {}).items():
+            n.ports[port] = str(value).lower() if isinstance(value, bool) else str(value)
+            n.defaults.pop(port, None)
     return live
 
 
@@ -93,11 +101,11 @@ class _TreeTick:
 class TickProbe:
     """Instrumentation of one py_trees BehaviourTree; use :func:`probe_for` to get the shared one."""
 
-    def __init__(self, tree: py_trees.trees.BehaviourTree, tree_path: Any = None) -> None:
+    def __init__(self, tree: py_trees.trees.BehaviourTree, tree_path: Any = None, factory: Any = None) -> None:
         self.tree = tree
         self.nodes = preorder(tree.root)
         self.ids = {n.id: i for i, n in enumerate(self.nodes)}
-        self.static = static_tree(tree.root, tree_path)
+        self.static = static_tree(tree.root, tree_path, factory)
         self._clients: dict[Any, int] = {}
         for i, n in enumerate(self.nodes):
             for client in getattr(n, "blackboards", []):
@@ -236,7 +244,7 @@ def probe_for(runner: Any) -> TickProbe:
     tree = runner.tree
     probe = _PROBES.get(tree)
     if probe is None:
-        probe = TickProbe(tree, getattr(runner, "tree_path", None))
+        probe = TickProbe(tree, getattr(runner, "tree_path", None), getattr(runner, "factory", None))
         _PROBES[tree] = probe
     probe.users += 1
     return probe
