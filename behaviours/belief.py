@@ -1,0 +1,153 @@
+"""Where a lost target can be: its last position plus its maximum speed × time, minus what the camera has seen.
+
+One :class:`TargetBelief` per loss (per target, on the blackboard at ``/target/beliefs``), started by the
+first LOST or SEARCH leaf that ticks after the target was last seen and kept up to date by whichever of
+them ticks (every tick, exactly one does), so the search rungs know what LOST and the turn before them
+already looked at.
+
+On the coarse search grid (behaviours/search_grid.py):
+
+* ``reach`` — how far each cell is from the last position along paths the target can walk (it does not
+  walk through walls): at time t the target can be in the cells with reach ≤ r0 + ``speed_mps`` · (t −
+  last seen);
+* ``seen`` — every cell the camera has seen since the loss (in its horizontal field of view, within
+  ``view_range_m`` — a marker farther than that is too small to read — and not hidden by the map's
+  obstacles or what the lidar sees);
+* ``possible`` = within reach and not seen: where the target can be now.
+
+A cell once seen stays cleared: a target does not walk back into a place just looked at (it may, and then
+the camera will likely meet it on the way; re-growing cleared cells at walking speed was tried and makes the
+belief refill the room within seconds, so every look is worth the same and the search stops moving).
+Viewpoints are ranked on :meth:`weights`: ``possible`` times a prior that favours the target having walked
+on the way it was going (a band round its last position carried on along its last velocity), never zero
+elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mission.behaviours.search_grid import TARGET_RADIUS_M, SearchGrid, travel_distances, view_cells
+
+DEFAULT_SPEED_MPS = 1.0  # how fast the target may walk unseen (a brisk walk), until SearchBelief sets its own
+DEFAULT_VIEW_RANGE_M = 4.0  # how far the camera can read the target's marker
+SEED_RADIUS_M = 0.3  # the belief starts as the cells this close to the last position
+PRIOR_FLOOR = 0.25  # prior weight far from the predicted walk (never zero: the target may turn)
+PRIOR_SIGMA_M = 1.0  # width of the band round the predicted walk
+PRIOR_HORIZON_S = 4.0  # how far along its last velocity the predicted walk goes
+
+
+@dataclass
+class TargetBelief:
+    """One loss's belief of where the target can be, and what the camera has seen since."""
+
+    target: str
+    episode: float  # the track's last_seen this belief is about (one belief per loss)
+    last_xy: tuple[float, float]
+    velocity: tuple[float, float] | None
+    grid: SearchGrid = field(repr=False)
+    reach: np.ndarray = field(repr=False)  # float H×W: metres from the last position along walkable paths
+    seen: np.ndarray = field(repr=False)  # bool H×W: seen by the camera since the loss
+    prior: np.ndarray = field(repr=False)  # float32 H×W: weight of each cell (the predicted walk)
+    started: float  # when the belief was made (the first LOST / SEARCH tick)
+    updated: float  # the time `possible` is for
+    speed_mps: float = DEFAULT_SPEED_MPS
+    view_range_m: float = DEFAULT_VIEW_RANGE_M
+    initial_mass: float = 0.0
+    looks: int = 0  # camera views applied
+    log: list[str] = field(default_factory=list)  # what each rung did, for the reason the search gives
+
+    @property
+    def radius_m(self) -> float:
+        """How far from its last position the target can be by now."""
+        return SEED_RADIUS_M + self.speed_mps * max(0.0, self.updated - self.episode)
+
+    @property
+    def reachable(self) -> np.ndarray:
+        """Bool H×W: where the target could walk to at all from where it was lost."""
+        return np.isfinite(self.reach)
+
+    @property
+    def possible(self) -> np.ndarray:
+        """Bool H×W: within reach by now and not seen since the loss."""
+        return (self.reach <= self.radius_m) & ~self.seen
+
+    @classmethod
+    def start(
+        cls,
+        target: str,
+        episode: float,
+        last_xy: tuple[float, float],
+        velocity: tuple[float, float] | None,
+        sg: SearchGrid,
+        now: float,
+        speed_mps: float = DEFAULT_SPEED_MPS,
+        view_range_m: float = DEFAULT_VIEW_RANGE_M,
+    ) -> TargetBelief:
+        """The belief at `now` for a target last seen at `last_xy` at time `episode`."""
+        free = sg.target_free(TARGET_RADIUS_M)
+        xs, ys = sg.centres()
+        d = np.where(free, np.hypot(xs - last_xy[0], ys - last_xy[1]), np.inf)
+        if np.isfinite(d).any():  # last seen against a wall or in clutter: from the nearest place it can stand
+            start_cell = tuple(int(v) for v in np.unravel_index(int(np.argmin(d)), d.shape))
+            reach = travel_distances(free, start_cell, sg.resolution)  # type: ignore[arg-type]
+            reach = np.where(free, reach + float(d[start_cell]), np.inf)
+        else:
+            reach = np.full(sg.shape, np.inf)
+        belief = cls(
+            target=target, episode=episode, last_xy=last_xy, velocity=velocity, grid=sg, reach=reach,
+            seen=np.zeros(sg.shape, dtype=bool), prior=_prior(xs, ys, last_xy, velocity), started=now,
+            updated=now, speed_mps=speed_mps, view_range_m=view_range_m,
+        )  # fmt: skip
+        belief.initial_mass = belief.mass()
+        return belief
+
+    # -- time and views ---------------------------------------------------------------------------
+    def grow(self, now: float) -> None:
+        """Let the target walk on to `now` (the reach grows at speed_mps)."""
+        self.updated = max(self.updated, now)
+
+    def observe(self, view: np.ndarray) -> None:
+        """The camera saw the cells of `view` (bool H×W) and the target was not there."""
+        self.seen |= view
+        self.looks += 1
+
+    def look(self, now: float, camera: tuple[float, float], yaw: float, hfov: float, blocked: np.ndarray) -> None:
+        """Grow to `now`, then clear what a camera at `camera` facing `yaw` sees (`blocked`: what hides)."""
+        self.grow(now)
+        self.observe(view_cells(self.grid, blocked, camera, yaw, hfov, self.view_range_m))
+
+    # -- what is left -----------------------------------------------------------------------------
+    def weights(self) -> np.ndarray:
+        """Float H×W: how much each cell is worth looking at (0 where the target cannot be)."""
+        return self.possible * self.prior
+
+    def mass(self) -> float:
+        return float(self.weights().sum())
+
+    def unseen(self) -> np.ndarray:
+        """Bool H×W: places the target could reach from where it was lost that the camera has not seen."""
+        return self.reachable & ~self.seen
+
+    def seen_fraction(self) -> float:
+        """Of the places reachable from where the target was lost, the fraction the camera has seen."""
+        reachable = self.reachable
+        total = int(reachable.sum())
+        return 1.0 if total == 0 else float((reachable & self.seen).sum()) / total
+
+
+def _prior(
+    xs: np.ndarray, ys: np.ndarray, last: tuple[float, float], velocity: tuple[float, float] | None
+) -> np.ndarray:
+    """PRIOR_FLOOR everywhere, up to 1 + PRIOR_FLOOR on the target's predicted walk (last velocity)."""
+    if velocity is None or math.hypot(*velocity) < 0.05:
+        d = np.hypot(xs - last[0], ys - last[1])
+    else:
+        ex, ey = last[0] + velocity[0] * PRIOR_HORIZON_S, last[1] + velocity[1] * PRIOR_HORIZON_S
+        vx, vy = ex - last[0], ey - last[1]
+        t = np.clip(((xs - last[0]) * vx + (ys - last[1]) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
+        d = np.hypot(xs - (last[0] + t * vx), ys - (last[1] + t * vy))
+    return (PRIOR_FLOOR + np.exp(-(d**2) / (2 * PRIOR_SIGMA_M**2))).astype(np.float32)
