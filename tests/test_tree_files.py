@@ -43,13 +43,13 @@ CATALOGUE = {
     "dock.xml": "BehaviorTree[RetryUntilSuccessful(num_attempts=3)["
     "Sequence:approach[GoToStaging(target=dock),VisualServoDock(target=dock)]]]",
     "follow.xml": f"BehaviorTree[{FOLLOW}]",
-    "mission.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]",
-    "explore_dock.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]",
+    "mission.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SubTree(FollowTree)]]",
+    "explore_dock.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SetMissionState(state=DONE)]]",
 }
-MAIN_TREE = {
-    "explore.xml": "Explore",
-    "dock.xml": "Dock",
-    "follow.xml": "Follow",
+MAIN_TREE = {  # no tree ID is the name of a node (BT.CPP 4.6.2+ refuses a tree called Explore next to the action)
+    "explore.xml": "ExploreTree",
+    "dock.xml": "DockTree",
+    "follow.xml": "FollowTree",
     "mission.xml": "Mission",
     "explore_dock.xml": "ExploreDock",
 }
@@ -67,7 +67,7 @@ def test_a_shipped_tree_has_the_shape_the_catalogue_describes(name):
 
 
 def test_the_follow_subtree_of_the_mission_is_the_target_coordinator_from_the_catalogue():
-    follow = next(d for d in describe_tree("mission.xml").walk() if d.tag == "SubTree" and d.name == "Follow")
+    follow = next(d for d in describe_tree("mission.xml").walk() if d.tag == "SubTree" and d.name == "FollowTree")
     assert shape(follow.children[0]) == FOLLOW
 
 
@@ -100,7 +100,7 @@ def test_shipped_trees_use_only_the_declared_readable_blackboard_keys(name):
 def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_phase():
     root = load_tree("mission.xml")
     assert root.name == "Mission"
-    assert [c.name for c in root.children] == ["Explore", "Dock", "Follow"]
+    assert [c.name for c in root.children] == ["ExploreTree", "DockTree", "FollowTree"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -123,7 +123,7 @@ def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_p
         </Timeout>
         <SetMissionState name="give up" state="FAILED"/>
       </Fallback>
-      <SubTree ID="Dock"/>
+      <SubTree ID="DockTree"/>
       <Parallel success_count="1">
         <SearchSweep target="target" duration_s="15" angular_speed="0.3"/>
         <Inverter><IsTargetVisible target="target"/></Inverter>
