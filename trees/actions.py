@@ -8,19 +8,15 @@ decorators do (trees/decorators.py).
 
 from __future__ import annotations
 
-from collections.abc import Generator
 from typing import Any
 
 import py_trees
-from py_trees.behaviour import Behaviour
 
 from mission.behaviours.ports import is_pointer
 from mission.trees import scopes
 from mission.trees.decorators import Clock
 from mission.trees.execution import FAILURE, IDLE, RUNNING, SUCCESS, BuiltinNode, PortError, Result, runtime
 from mission.trees.script import Script, ScriptError, to_bool
-
-Tick = Generator[Behaviour, None, Result]
 
 
 class _Leaf(BuiltinNode, py_trees.behaviour.Behaviour):
@@ -34,19 +30,17 @@ class _Leaf(BuiltinNode, py_trees.behaviour.Behaviour):
 class AlwaysSuccess(_Leaf):
     """Returns SUCCESS."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.feedback_message = "SUCCESS"
         return SUCCESS
-        yield  # a generator, like every bt_tick
 
 
 class AlwaysFailure(_Leaf):
     """Returns FAILURE."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.feedback_message = "FAILURE"
         return FAILURE
-        yield
 
 
 class _Scripted(_Leaf):
@@ -64,24 +58,22 @@ class _Scripted(_Leaf):
 class ScriptNode(_Scripted):
     """BT.CPP ``Script``: runs `code` (assignments, usually) and returns SUCCESS."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         value = self.evaluate()
         self.feedback_message = f"{self.script.source} → {value!r}"
         return SUCCESS
-        yield
 
 
 class ScriptCondition(_Scripted):
     """BT.CPP ``ScriptCondition``: SUCCESS when `code` is true, else FAILURE."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         try:
             holds = to_bool(self.evaluate())
         except ScriptError as err:
             raise PortError(f"script {self.script.source!r}: {err}") from None
         self.feedback_message = f"{self.script.source} is {'true' if holds else 'false'}"
         return SUCCESS if holds else FAILURE
-        yield
 
 
 def _simple(value: Any) -> type | None:
@@ -95,7 +87,7 @@ class SetBlackboard(_Leaf):
     """BT.CPP ``SetBlackboard``: writes `value` (text, or another entry's value when written ``{key}``) into the
     entry named by `output_key`; text written over a number becomes a number."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         rt = runtime(self)
         scope = rt.own.conditions.env.scope
         target_key = str(self.input("output_key"))
@@ -124,14 +116,13 @@ class SetBlackboard(_Leaf):
         scopes.write(target, value)
         self.feedback_message = f"{target_key} ← {value!r}"
         return SUCCESS
-        yield
 
 
 class UnsetBlackboard(_Leaf):
     """BT.CPP ``UnsetBlackboard``: removes the entry named by `key` from this blackboard (a remapped key, the
     parent's entry, is left alone, as in BT.CPP)."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         env = runtime(self).own.conditions.env
         key = str(self.input("key"))
         path = env.scope.entry_path(key)
@@ -140,7 +131,6 @@ class UnsetBlackboard(_Leaf):
             env.declared.discard(path)
         self.feedback_message = f"unset {key}"
         return SUCCESS
-        yield
 
 
 class Sleep(_Leaf):
@@ -155,7 +145,7 @@ class Sleep(_Leaf):
         self.until = None
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         own = self.bt_own_status
         if own is IDLE:  # StatefulActionNode: onStart
             msec = int(self.input("msec"))
@@ -174,7 +164,6 @@ class Sleep(_Leaf):
             self.feedback_message = "slept"
             return SUCCESS
         return own  # finished and not reset: BT.CPP's StatefulActionNode returns the same status
-        yield
 
 
 class WasEntryUpdated(_Leaf):
@@ -185,7 +174,7 @@ class WasEntryUpdated(_Leaf):
         self.path = path
         self.seen: Any = None
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         current = scopes.version(self.path)
         if current is None:
             self.feedback_message = "no such entry"
@@ -194,4 +183,3 @@ class WasEntryUpdated(_Leaf):
         updated = previous != current
         self.feedback_message = "updated" if updated else "not updated"
         return SUCCESS if updated else FAILURE
-        yield

@@ -2,7 +2,7 @@
 
 Each is a py_trees composite (the matching py_trees class where there is one, so viewers draw a sequence
 as a sequence) whose tick is BT.CPP's, written on trees/execution.py's protocol: children are ticked with
-``yield from self.run(child)``, a finished child is reset to IDLE the way BT.CPP resets it, halts go to
+``self.run(child)``, a finished child is reset to IDLE the way BT.CPP resets it, halts go to
 RUNNING children only, in child order. The golden traces (tests/golden/btcpp/) replay every one of them
 against the real BT.CPP.
 
@@ -12,8 +12,6 @@ SKIPPED is stepped over, and a control whose children were all skipped is itself
 """
 
 from __future__ import annotations
-
-from collections.abc import Generator
 
 import py_trees
 from py_trees.behaviour import Behaviour
@@ -32,8 +30,6 @@ from mission.trees.execution import (
     halt_child,
     runtime,
 )
-
-Tick = Generator[Behaviour, None, Result]
 
 
 def _active(status: Status) -> bool:
@@ -69,7 +65,7 @@ class Sequence(_Control, py_trees.composites.Sequence):
         self.index, self.skipped = 0, 0
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         n = len(self.children)
         if not _active(self.bt_own_status):
             self.skipped = 0
@@ -77,7 +73,7 @@ class Sequence(_Control, py_trees.composites.Sequence):
         while self.index < n:
             child = self.children[self.index]
             before = bt_status(child)
-            result = yield from self.run(child)
+            result = self.run(child)
             if result is RUNNING:
                 return RUNNING
             if result is FAILURE:
@@ -106,7 +102,7 @@ class SequenceWithMemory(_Control, py_trees.composites.Sequence):
         self.index = 0
         self.skipped = 0
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         n = len(self.children)
         if not _active(self.bt_own_status):
             self.skipped = 0
@@ -114,7 +110,7 @@ class SequenceWithMemory(_Control, py_trees.composites.Sequence):
         while self.index < n:
             child = self.children[self.index]
             before = bt_status(child)
-            result = yield from self.run(child)
+            result = self.run(child)
             if result is RUNNING:
                 return RUNNING
             if result is FAILURE:
@@ -147,7 +143,7 @@ class Fallback(_Control, py_trees.composites.Selector):
         self.index, self.skipped = 0, 0
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         n = len(self.children)
         if not _active(self.bt_own_status):
             self.skipped = 0
@@ -155,7 +151,7 @@ class Fallback(_Control, py_trees.composites.Selector):
         while self.index < n:
             child = self.children[self.index]
             before = bt_status(child)
-            result = yield from self.run(child)
+            result = self.run(child)
             if result is RUNNING:
                 return RUNNING
             if result is SUCCESS:
@@ -181,11 +177,11 @@ class _Reactive(_Control):
     stop_on: Status  # the child status that ends the tick (FAILURE for a sequence, SUCCESS for a fallback)
     otherwise: Status
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         all_skipped = True
         self.set_running()
         for index, child in enumerate(self.children):
-            result = yield from self.run(child)
+            result = self.run(child)
             all_skipped = all_skipped and result is SKIPPED
             if result is RUNNING:
                 for i, other in enumerate(self.children):
@@ -244,7 +240,7 @@ class Parallel(_Control, py_trees.composites.Parallel):
         self.clear()
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         success_count = self.input("success_count", -1)
         failure_count = self.input("failure_count", 1)
         n = len(self.children)
@@ -253,7 +249,7 @@ class Parallel(_Control, py_trees.composites.Parallel):
         skipped = 0
         for i, child in enumerate(self.children):
             if i not in self.done:
-                result = yield from self.run(child)
+                result = self.run(child)
                 if result is SKIPPED:
                     skipped += 1
                 elif result is SUCCESS:
@@ -288,7 +284,7 @@ class ParallelAll(_Control, py_trees.composites.Parallel):
         self.failures = 0
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         n = len(self.children)
         need_failure = threshold(self.input("max_failures", 1), n)
         skipped = 0
@@ -296,7 +292,7 @@ class ParallelAll(_Control, py_trees.composites.Parallel):
         for i, child in enumerate(self.children):
             if i in self.done:
                 continue
-            result = yield from self.run(child)
+            result = self.run(child)
             if result is SUCCESS:
                 self.done.add(i)
             elif result is FAILURE:
@@ -327,10 +323,10 @@ class IfThenElse(_Control, py_trees.composites.Composite):
         self.branch = 0
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.set_running()
         if self.branch == 0:
-            condition = yield from self.run(self.children[0])
+            condition = self.run(self.children[0])
             if condition is RUNNING:
                 return RUNNING
             if condition is SUCCESS:
@@ -341,7 +337,7 @@ class IfThenElse(_Control, py_trees.composites.Composite):
                 self.branch = 2
             else:
                 return condition  # a SKIPPED condition: BT.CPP throws here; the control is skipped instead
-        result = yield from self.run(self.children[self.branch])
+        result = self.run(self.children[self.branch])
         if result is RUNNING:
             return RUNNING
         self.reset_children()
@@ -352,20 +348,20 @@ class IfThenElse(_Control, py_trees.composites.Composite):
 class WhileDoElse(_Control, py_trees.composites.Composite):
     """BT.CPP ``WhileDoElse``: the condition is re-checked every tick; a change of answer halts the other branch."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.set_running()
-        condition = yield from self.run(self.children[0])
+        condition = self.run(self.children[0])
         if condition is RUNNING:
             return RUNNING
         result: Result = IDLE
         if condition is SUCCESS:
             if len(self.children) == 3:
                 halt_child(self.children[2])
-            result = yield from self.run(self.children[1])
+            result = self.run(self.children[1])
         elif condition is FAILURE:
             if len(self.children) == 3:
                 halt_child(self.children[1])
-                result = yield from self.run(self.children[2])
+                result = self.run(self.children[2])
             else:
                 result = FAILURE
         else:
@@ -391,14 +387,13 @@ class TryCatch(_Control, py_trees.composites.Composite):
         if catch_on_halt and not self.in_catch and _active(self.bt_own_status) and len(self.children) >= 2:
             for child in self.children[:-1]:
                 halt_child(child)
-            for _ in self.run(self.children[-1]):  # BT.CPP ticks the catch child once, inside halt()
-                pass
+            self.run(self.children[-1])  # BT.CPP ticks the catch child once, inside halt()
             if bt_status(self.children[-1]) is RUNNING:
                 halt_child(self.children[-1])
         self.index, self.skipped, self.in_catch = 0, 0, False
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         n = len(self.children)
         if not _active(self.bt_own_status):
             self.skipped = 0
@@ -406,7 +401,7 @@ class TryCatch(_Control, py_trees.composites.Composite):
         self.set_running()
         while True:
             if self.in_catch:
-                result = yield from self.run(self.children[-1])
+                result = self.run(self.children[-1])
                 if result is RUNNING:
                     return RUNNING
                 self.reset_children()
@@ -414,7 +409,7 @@ class TryCatch(_Control, py_trees.composites.Composite):
                 return FAILURE
             tries = n - 1
             while self.index < tries:
-                result = yield from self.run(self.children[self.index])
+                result = self.run(self.children[self.index])
                 if result is RUNNING:
                     return RUNNING
                 if result is FAILURE:
@@ -462,7 +457,7 @@ class Switch(_Control, py_trees.composites.Composite):
         self.running = -1
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         match = self.cases
         try:
             variable: str | None = str(self.input("variable"))
@@ -479,7 +474,7 @@ class Switch(_Control, py_trees.composites.Composite):
                     break
         if self.running != -1 and self.running != match:
             halt_child(self.children[self.running])
-        result = yield from self.run(self.children[match])
+        result = self.run(self.children[match])
         if result is SKIPPED:
             self.running = -1
             return SKIPPED

@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import time
 from collections import deque
-from collections.abc import Generator
 from typing import Any
 
 import py_trees
@@ -41,8 +40,6 @@ from mission.trees.execution import (
     runtime,
 )
 from mission.trees.script import Script, ScriptError, ScriptSyntaxError, parse, to_bool
-
-Tick = Generator[Behaviour, None, Result]
 
 #: statuses a port such as Precondition's ``else`` or a loop's ``if_empty`` may name
 STATUS_NAMES: dict[str, Result] = {"SUCCESS": SUCCESS, "FAILURE": FAILURE, "RUNNING": RUNNING, "SKIPPED": SKIPPED}
@@ -79,10 +76,11 @@ class _Decorator(BuiltinNode, py_trees.decorators.Decorator):
         """DecoratorNode::resetChild: halt the child if RUNNING, then IDLE."""
         halt_child(self.decorated)
 
-    def tick(self):  # type: ignore[no-untyped-def]  # the same generator as BuiltinNode.tick
-        yield from super().tick()
-        if completed(bt_status(self.decorated)):  # DecoratorNode::executeTick
+    def bt_execute(self) -> Result:
+        result = super().bt_execute()
+        if completed(bt_status(self.decorated)):  # DecoratorNode::executeTick resets a finished child
             reset_status(self.decorated)
+        return result
 
     def wake_up(self) -> None:
         runtime(self).tree.wake_up()  # type: ignore[arg-type]
@@ -91,9 +89,9 @@ class _Decorator(BuiltinNode, py_trees.decorators.Decorator):
 class Inverter(_Decorator):
     """BT.CPP ``Inverter``: SUCCESS ↔ FAILURE; RUNNING and SKIPPED pass through."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.set_running()
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.reset_child()
             return FAILURE if result is SUCCESS else SUCCESS
@@ -105,9 +103,9 @@ class ForceSuccess(_Decorator):
 
     forced: Status = SUCCESS
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.set_running()
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.reset_child()
             return self.forced
@@ -123,9 +121,9 @@ class ForceFailure(ForceSuccess):
 class KeepRunningUntilFailure(_Decorator):
     """BT.CPP ``KeepRunningUntilFailure``: RUNNING while the child succeeds (it is restarted), FAILURE when it fails."""
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         self.set_running()
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if result is FAILURE:
             self.reset_child()
             return FAILURE
@@ -151,13 +149,13 @@ class RetryUntilSuccessful(_Decorator):
     def _limit(self) -> int:
         return int(self.input("num_attempts"))
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         limit = self._limit()
         more = self.count < limit or limit == -1
         self.set_running()
         while more:
             before = bt_status(self.child)
-            result = yield from self.run(self.child)
+            result = self.run(self.child)
             if result is RUNNING:
                 return RUNNING
             if result is SKIPPED:
@@ -202,7 +200,7 @@ class Timeout(_Decorator):
         self.started = None
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         msec = int(self.input("msec"))
         if self.started is None:
             self.started = self.clock.start()
@@ -213,7 +211,7 @@ class Timeout(_Decorator):
             self.started = None
             self.feedback_message = f"timed out after {msec / 1000.0:g} s"
             return FAILURE
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.started = None
             self.reset_child()
@@ -235,7 +233,7 @@ class Delay(_Decorator):
         self.started = None
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         msec = int(self.input("delay_msec"))
         if self.started is None:
             self.started = self.clock.start()
@@ -244,7 +242,7 @@ class Delay(_Decorator):
         if elapsed * 1000.0 < msec:
             self.feedback_message = f"delaying: {max(msec / 1000.0 - elapsed, 0.0):.1f} s left"
             return RUNNING
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.started = None
             self.reset_child()
@@ -259,12 +257,12 @@ class RunOnce(_Decorator):
         super().__init__(name, child)
         self.finished: Result | None = None
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         then_skip = bool(self.input("then_skip", True))
         if self.finished is not None:
             return SKIPPED if then_skip else self.finished
         self.set_running()
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.finished = result
             self.reset_child()
@@ -296,7 +294,7 @@ class Precondition(_Decorator):
                 raise PortError(f"port if: {err.message} (line {err.line}, column {err.column})") from None
         return self.script
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         script = self._script()
         otherwise = status_port(self.input("else", "FAILURE"), "else")
         if not self.child_running:
@@ -307,7 +305,7 @@ class Precondition(_Decorator):
         if not self.child_running:
             self.feedback_message = f"{script.source!r} is false"
             return otherwise
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         if completed(result):
             self.reset_child()
             self.child_running = False
@@ -333,7 +331,7 @@ class Loop(_Decorator):
         except ValueError as err:
             raise PortError(f"port queue: {text!r} is not a ';'-separated list of {err}") from None
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         ports = runtime(self).ports
         popped = False
         static = "queue" not in ports.inputs
@@ -362,7 +360,7 @@ class Loop(_Decorator):
             return status_port(self.input("if_empty", "SUCCESS"), "if_empty")
         if self.bt_own_status is IDLE:
             self.set_running()
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         self.child_running = result is RUNNING
         if completed(result):
             self.reset_child()
@@ -384,9 +382,9 @@ class EntryUpdated(_Decorator):
         self.child_running = False
         super().bt_halt()
 
-    def bt_tick(self) -> Tick:
+    def bt_tick(self) -> Result:
         if self.child_running:
-            result = yield from self.run(self.child)
+            result = self.run(self.child)
             self.child_running = result is RUNNING
             return result
         current = scopes.version(self.path)
@@ -395,6 +393,6 @@ class EntryUpdated(_Decorator):
         previous, self.seen = self.seen, current
         if previous == current:
             return self.if_not_updated
-        result = yield from self.run(self.child)
+        result = self.run(self.child)
         self.child_running = result is RUNNING
         return result

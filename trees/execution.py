@@ -11,7 +11,8 @@ children were all skipped) returns :data:`SKIPPED` to its parent through :attr:`
 BT.CPP status stays what it was (IDLE, as in BT.CPP) and py_trees shows it INVALID (not ticked). Our
 controls and decorators treat SKIPPED as BT.CPP's do; a py_trees composite that is not ours sees INVALID.
 
-**One tick.** :func:`install` replaces each node's ``tick`` with BT.CPP's ``executeTick``: preconditions,
+**One tick.** :func:`execute` is BT.CPP's ``executeTick`` (plain calls; :func:`install` keeps py_trees'
+generator ``tick`` at the edge, yielding the nodes ticked, in py_trees' order): preconditions,
 the node's own tick (py_trees' for a leaf: initialise when not RUNNING, update, terminate when it
 finishes), postconditions. The root's tick is BT.CPP's ``tickOnce``: when a node asked to be woken up
 (RetryUntilSuccessful / Repeat restarting a child that finished at once, SequenceWithMemory, the async
@@ -26,7 +27,7 @@ is a :class:`Layer` of that root's runtime, outside the root's own layer.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -73,6 +74,8 @@ class TreeRuntime:
 
     observer: Callable[[Event], None] | None = None
     woken: bool = False
+    #: the nodes ticked so far in this tick, in the order py_trees' generators would have yielded them
+    visited: list[Behaviour] = field(default_factory=list)
 
     def wake_up(self) -> None:
         """BT.CPP's emitWakeUpSignal: tick the root again at once if it is still RUNNING."""
@@ -142,10 +145,9 @@ def bt_status(node: Behaviour) -> Status:
     return runtime(node).layers[0].status
 
 
-def tick_child(child: Behaviour) -> Generator[Behaviour, None, Result]:
-    """``child->executeTick()``: tick it (yielding what py_trees visits) and return what it returned."""
-    yield from child.tick()
-    return runtime(child).result
+def tick_child(child: Behaviour) -> Result:
+    """``child->executeTick()``: tick it and return what it returned (SKIPPED included)."""
+    return execute(child)
 
 
 def reset_status(child: Behaviour) -> None:
@@ -173,9 +175,8 @@ def _halt_layer(node: Behaviour, rt: NodeRuntime, i: int) -> None:
             _halt_layer(node, rt, i + 1)
         inner.status = IDLE
     else:
-        halt_own = getattr(node, "bt_halt", None)
-        if halt_own is not None:
-            halt_own()
+        if isinstance(node, BuiltinNode):
+            node.bt_halt()
         elif node.status is RUNNING:
             node.stop(Status.INVALID)  # a py_trees leaf: terminate(INVALID), shown INVALID
         else:
@@ -195,51 +196,76 @@ def _run_quietly(node: Behaviour, conditions: Conditions, script: Script) -> Non
 
 # --------------------------------------------------------------------------------- executeTick
 def install(node: Behaviour, rt: NodeRuntime, *, root: bool = False) -> None:
-    """Give `node` BT.CPP's executeTick (``tickOnce`` for the root) as its py_trees ``tick``."""
+    """Give `node` BT.CPP's executeTick (``tickOnce`` for the root) as its py_trees ``tick``.
+
+    Inside a tree the ticks are plain calls (:func:`execute`); py_trees' generator protocol is kept at the
+    edge: the installed ``tick`` yields the nodes it ticked, in the order py_trees' own ticks would, for
+    BehaviourTree's visitors and for a py_trees composite that is not one of ours."""
     node.bt = rt  # type: ignore[attr-defined]
-    node.tick = (lambda: _tick_root(node)) if root else (lambda: _execute(node))  # type: ignore[method-assign]
+    node.tick = (lambda: _tick_root(node)) if root else (lambda: _tick(node))  # type: ignore[method-assign]
+
+
+def _visited_since(tree: TreeRuntime, start: int) -> list[Behaviour]:
+    batch = tree.visited[start:]
+    del tree.visited[start:]
+    return batch
+
+
+def _tick(node: Behaviour) -> Iterator[Behaviour]:
+    tree = runtime(node).tree
+    start = len(tree.visited)
+    execute(node)
+    yield from _visited_since(tree, start)
 
 
 def _tick_root(node: Behaviour) -> Iterator[Behaviour]:
+    """BT.CPP's Tree::tickOnce: tick the root again at once while it is RUNNING and a node woke the tree up."""
     rt = runtime(node)
+    start = len(rt.tree.visited)
     while True:
-        yield from _execute(node)
+        execute(node)
         if not (rt.result is RUNNING and rt.tree.consume_wake_up()):
             break
     if completed(rt.result):
         rt.layers[0].status = IDLE
+    yield from _visited_since(rt.tree, start)
 
 
-def _execute(node: Behaviour) -> Iterator[Behaviour]:
+def execute(node: Behaviour) -> Result:
+    """BT.CPP's executeTick on `node` (and the SubTrees flattened onto it); what it returns to its parent."""
     rt = runtime(node)
-    rt.result = yield from _execute_layer(node, rt, 0)
+    rt.result = _execute_layer(node, rt, 0)
+    return rt.result
 
 
-def _execute_layer(node: Behaviour, rt: NodeRuntime, i: int) -> Generator[Behaviour, None, Result]:
+def _execute_layer(node: Behaviour, rt: NodeRuntime, i: int) -> Result:
     layer = rt.layers[i]
     own = i == len(rt.layers) - 1
-    try:
-        result = _check_preconditions(node, rt, i)
-    except ScriptError as err:
-        result = _fail(node, rt, i, f"precondition: {err}")
+    result = None
+    if layer.conditions.pre:
+        try:
+            result = _check_preconditions(node, rt, i)
+        except ScriptError as err:
+            result = _fail(node, rt, i, f"precondition: {err}")
     if result is not None:
         if own:
             node.status = result if completed(result) else Status.INVALID
-        yield node
+            rt.tree.visited.append(node)
     elif not own:  # SubTreeNode::tick: RUNNING while its tree runs; its finished child is reset
         if layer.status is IDLE:
             layer.status = RUNNING
-        result = yield from _execute_layer(node, rt, i + 1)
+        result = _execute_layer(node, rt, i + 1)
         if completed(result):
             rt.layers[i + 1].status = IDLE
     else:
-        result = yield from _tick_own(node, rt)
-    if completed(result):
-        post = layer.conditions.post
+        result = _tick_own(node, rt)
+    post = layer.conditions.post
+    if post and completed(result):
         for name in ("_onSuccess" if result is SUCCESS else "_onFailure", "_post"):
             if name in post:
                 _run_quietly(node, layer.conditions, post[name])
-    rt.tree.emit("exec", layer.uid, result_name(result))
+    if rt.tree.observer is not None:
+        rt.tree.emit("exec", layer.uid, result_name(result))
     if result is not SKIPPED:
         layer.status = result
     return result
@@ -272,26 +298,29 @@ def _fail(node: Behaviour, rt: NodeRuntime, i: int, message: str) -> Result:
     return FAILURE
 
 
-def _tick_own(node: Behaviour, rt: NodeRuntime) -> Generator[Behaviour, None, Result]:
+def _tick_own(node: Behaviour, rt: NodeRuntime) -> Result:
+    visited = rt.tree.visited
     if rt.refresh is not None:
         try:
             rt.refresh(node)
         except PortError as err:
             result = _fail(node, rt, len(rt.layers) - 1, str(err))
             node.status = Status.FAILURE
-            yield node
+            visited.append(node)
             return result
-    yield from type(node).tick(node)
-    returned = getattr(node, "returned", None) if hasattr(node, "bt_halt") else node.status
-    if returned is None or returned is IDLE:
+    if isinstance(node, BuiltinNode):
+        return node.bt_execute()
+    for visit in type(node).tick(node):  # a py_trees behaviour: initialise when not RUNNING, update, terminate
+        visited.append(visit)
+    returned = node.status
+    if returned is IDLE:
         node.feedback_message = f"{node.feedback_message} (returned no status; counted as FAILURE)".strip()
         node.status = Status.FAILURE
         return FAILURE
-    if not hasattr(node, "bt_halt"):
-        for child in node.children:  # a py_trees composite that is not ours: reset what finished below it
-            child_rt = getattr(child, "bt", None)
-            if child_rt is not None and completed(child_rt.layers[0].status):
-                child_rt.layers[0].status = IDLE
+    for child in node.children:  # a py_trees composite that is not ours: reset what finished below it
+        child_rt = getattr(child, "bt", None)
+        if child_rt is not None and completed(child_rt.layers[0].status):
+            child_rt.layers[0].status = IDLE
     return returned
 
 
@@ -299,9 +328,9 @@ def _tick_own(node: Behaviour, rt: NodeRuntime) -> Generator[Behaviour, None, Re
 class BuiltinNode:
     """Mixin for the BT.CPP built-ins implemented here (trees/controls.py, decorators.py, actions.py).
 
-    A subclass writes BT.CPP's ``tick()`` as :meth:`bt_tick`, a generator that ticks children with
-    ``yield from self.run(child)`` and returns the status (possibly SKIPPED), and BT.CPP's ``halt()`` as
-    :meth:`bt_halt`. ``self.bt_own_status`` is BT.CPP's ``status()``; ports are read with :meth:`input`.
+    A subclass writes BT.CPP's ``tick()`` as :meth:`bt_tick`, which ticks children with ``self.run(child)``
+    and returns the status (possibly SKIPPED), and BT.CPP's ``halt()`` as :meth:`bt_halt`.
+    ``self.bt_own_status`` is BT.CPP's ``status()``; ports are read with :meth:`input`.
     """
 
     returned: Result = IDLE
@@ -309,7 +338,7 @@ class BuiltinNode:
     status: Status
     feedback_message: str
 
-    def bt_tick(self) -> Generator[Behaviour, None, Result]:
+    def bt_tick(self) -> Result:
         raise NotImplementedError
 
     def bt_halt(self) -> None:
@@ -333,15 +362,16 @@ class BuiltinNode:
             raise PortError(f"port {name} is not set")
         return ports.get(name) if default is ... else ports.get(name, default)
 
-    def run(self, child: Behaviour) -> Generator[Behaviour, None, Result]:
+    def run(self, child: Behaviour) -> Result:
         """``child->executeTick()`` (py_trees' current_child follows it for viewers)."""
         if hasattr(self, "current_child"):
             self.current_child = child
-        return (yield from tick_child(child))
+        return execute(child)
 
-    def tick(self) -> Iterator[Behaviour]:
+    def bt_execute(self) -> Result:
+        """This node's own tick within executeTick: bt_tick, what py_trees shows, the visit."""
         try:
-            result = yield from self.bt_tick()
+            result = self.bt_tick()
         except PortError as err:
             for child in self.children:
                 halt_child(child)
@@ -349,7 +379,15 @@ class BuiltinNode:
             result = FAILURE
         self.returned = result
         self.status = result if isinstance(result, Status) else Status.INVALID
-        yield self  # type: ignore[misc]
+        runtime(self).tree.visited.append(self)  # type: ignore[arg-type]
+        return result
+
+    def tick(self) -> Iterator[Behaviour]:
+        """py_trees' tick, for a caller that is not a tree of ours (install() replaces it on built nodes)."""
+        tree = runtime(self).tree  # type: ignore[arg-type]
+        start = len(tree.visited)
+        self.bt_execute()
+        yield from _visited_since(tree, start)
 
     def stop(self, new_status: Status = Status.INVALID) -> None:
         """py_trees' stop (BehaviourTree.interrupt, a py_trees parent): INVALID means BT.CPP's halt."""
