@@ -358,6 +358,32 @@ def test_timeout_of_zero_msec_means_no_timeout(tmp_path):
     assert root.status == Status.RUNNING and root.decorated.halted == 0
 
 
+def test_delay_and_sleep_count_milliseconds_on_the_blackboard_clock(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Sequence><Sleep msec="300"/>'
+        '<Delay delay_msec="200"><TestScripted name="late" script="S"/></Delay></Sequence></BehaviorTree>',
+    )
+    clock = bbk.writer("test clock")
+    root = load(path)
+    sleep, delay = root.children
+    tree = py_trees.trees.BehaviourTree(root)
+    seen = []
+    for t in (10.0, 10.2, 10.3, 10.4, 10.5):  # sim seconds: nothing waits for the wall clock
+        bbk.set_(clock, bbk.CLOCK, t)
+        tree.tick()
+        seen.append((sleep.status, delay.status, root.status))
+    assert seen == [
+        (Status.RUNNING, Status.INVALID, Status.RUNNING),  # asleep for 0.3 s
+        (Status.RUNNING, Status.INVALID, Status.RUNNING),
+        (Status.SUCCESS, Status.RUNNING, Status.RUNNING),  # awake at 10.3; the delay starts
+        (Status.SUCCESS, Status.RUNNING, Status.RUNNING),
+        (Status.SUCCESS, Status.SUCCESS, Status.SUCCESS),  # 0.2 s later the child runs
+    ]
+    assert delay.decorated.updates == 1
+
+
 @pytest.mark.parametrize(
     ("attrs", "scripts", "expected"),
     [

@@ -183,6 +183,17 @@ def test_a_value_the_declaration_refuses_fails_the_node_with_the_reason_and_the_
     assert root.children[1].feedback_message == "speed: expected ≥ 0, got -1.0"
 
 
+def test_a_port_whose_entry_was_never_written_fails_its_node_and_says_so(tmp_path):
+    body = '<BehaviorTree ID="T"><ReactiveFallback><Reader speed="{v}"/><AlwaysSuccess/></ReactiveFallback></BehaviorTree>'
+    path = write(tmp_path, body)
+    root = load_tree(path, reader_factory())
+    tick(root)
+    reader = root.children[0]
+    assert reader.status == Status.FAILURE and reader.seen == []  # not ticked: BT.CPP would have thrown
+    assert reader.feedback_message == "port speed: blackboard entry {v} was never written"
+    assert root.status == Status.SUCCESS  # the failure is an ordinary one: the tree goes on
+
+
 def test_mission_keys_are_entries_of_the_root_blackboard_under_their_bt_cpp_names(tmp_path):
     path = write(
         tmp_path,

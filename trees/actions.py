@@ -14,7 +14,7 @@ import py_trees
 
 from mission.behaviours.ports import is_pointer
 from mission.trees import scopes
-from mission.trees.decorators import Clock
+from mission.trees.decorators import EPSILON_MS, Clock
 from mission.trees.execution import FAILURE, IDLE, RUNNING, SUCCESS, BuiltinNode, PortError, Result, runtime
 from mission.trees.script import Script, ScriptError, to_bool
 
@@ -157,7 +157,7 @@ class Sleep(_Leaf):
         if own is RUNNING:  # onRunning
             assert self.until is not None
             left = self.until - self.clock.now()
-            if left > 0:
+            if left * 1000.0 > EPSILON_MS:
                 self.feedback_message = f"sleeping, {left:.1f} s left"
                 return RUNNING
             self.until = None

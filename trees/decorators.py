@@ -41,6 +41,9 @@ from mission.trees.execution import (
 )
 from mission.trees.script import Script, ScriptError, ScriptSyntaxError, parse, to_bool
 
+#: clock readings are sums of float steps (0.3 + 0.2 s): a timer is due this close to its time
+EPSILON_MS = 1e-6
+
 #: statuses a port such as Precondition's ``else`` or a loop's ``if_empty`` may name
 STATUS_NAMES: dict[str, Result] = {"SUCCESS": SUCCESS, "FAILURE": FAILURE, "RUNNING": RUNNING, "SKIPPED": SKIPPED}
 
@@ -206,7 +209,7 @@ class Timeout(_Decorator):
             self.started = self.clock.start()
             self.set_running()
         elapsed = self.clock.now() - self.started
-        if msec > 0 and elapsed * 1000.0 >= msec and bt_status(self.child) is RUNNING:
+        if msec > 0 and elapsed * 1000.0 >= msec - EPSILON_MS and bt_status(self.child) is RUNNING:
             self.reset_child()
             self.started = None
             self.feedback_message = f"timed out after {msec / 1000.0:g} s"
@@ -239,7 +242,7 @@ class Delay(_Decorator):
             self.started = self.clock.start()
             self.set_running()
         elapsed = self.clock.now() - self.started
-        if elapsed * 1000.0 < msec:
+        if elapsed * 1000.0 < msec - EPSILON_MS:
             self.feedback_message = f"delaying: {max(msec / 1000.0 - elapsed, 0.0):.1f} s left"
             return RUNNING
         result = self.run(self.child)
