@@ -184,7 +184,8 @@ def test_a_value_the_declaration_refuses_fails_the_node_with_the_reason_and_the_
 
 
 def test_a_port_whose_entry_was_never_written_fails_its_node_and_says_so(tmp_path):
-    body = '<BehaviorTree ID="T"><ReactiveFallback><Reader speed="{v}"/><AlwaysSuccess/></ReactiveFallback></BehaviorTree>'
+    body = '<BehaviorTree ID="T"><ReactiveFallback><Reader speed="{v}"/><AlwaysSuccess/></ReactiveFallback>'
+    body += "</BehaviorTree>"
     path = write(tmp_path, body)
     root = load_tree(path, reader_factory())
     tick(root)
