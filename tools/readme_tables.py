@@ -205,7 +205,10 @@ def blackboard_block() -> str:
     from mission.core import blackboard as bbk
     from mission.trees.scopes import bt_name
 
-    rows = [(f"`{k.path}`", f"`{bt_name(k)}`", k.type.replace("|", "\\|"), k.doc) for k in bbk.ALL_KEYS]
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    rows = [(f"`{k.path}`", f"`{bt_name(k)}`", cell(k.type), cell(k.doc)) for k in bbk.ALL_KEYS]
     return _table(("py_trees key", "in a tree file", "holds", "meaning"), rows)
 
 

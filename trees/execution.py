@@ -221,7 +221,8 @@ def _tick(node: Behaviour) -> Iterator[Behaviour]:
 def _tick_root(node: Behaviour) -> Iterator[Behaviour]:
     """BT.CPP's Tree::tickOnce: tick the root again at once while it is RUNNING and a node woke the tree up."""
     rt = runtime(node)
-    start = len(rt.tree.visited)
+    rt.tree.visited.clear()  # a tick that raised half-way leaves nothing behind for this one
+    start = 0
     while True:
         execute(node)
         if not (rt.result is RUNNING and rt.tree.consume_wake_up()):
