@@ -322,6 +322,18 @@ def test_retry_until_successful_starts_a_failed_attempt_again_within_the_same_ti
     assert root.feedback_message == "1 of 3"
 
 
+def test_a_repeat_for_ever_over_a_child_that_succeeds_at_once_hands_control_back_each_tick(tmp_path, caplog):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Repeat num_cycles="-1"><TestScripted script="S"/></Repeat></BehaviorTree>',
+    )
+    root = load(path)
+    assert tick(root) == Status.RUNNING  # BT.CPP's tickOnce would never return here
+    assert root.decorated.updates == 1001
+    assert "woken up 1000 times within one tick" in caplog.text
+
+
 def test_timeout_counts_msec_on_the_blackboard_clock_and_halts_its_child(tmp_path):
     path = write(
         tmp_path,

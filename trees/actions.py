@@ -12,7 +12,7 @@ from typing import Any
 
 import py_trees
 
-from mission.behaviours.ports import is_pointer
+from mission.behaviours.ports import Port, is_pointer
 from mission.trees import scopes
 from mission.trees.decorators import EPSILON_MS, Clock
 from mission.trees.execution import FAILURE, IDLE, RUNNING, SUCCESS, BuiltinNode, PortError, Result, runtime
@@ -107,8 +107,6 @@ class SetBlackboard(_Leaf):
                 previous = None
             kind = _simple(previous)
             if kind is not None and kind is not str and isinstance(value, str):
-                from mission.behaviours.ports import Port
-
                 try:
                     value = Port(kind).parse(value)
                 except ValueError as err:

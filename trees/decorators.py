@@ -22,6 +22,7 @@ import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
+from mission.behaviours.ports import Port
 from mission.core import blackboard as bbk
 from mission.trees import scopes
 from mission.trees.execution import (
@@ -326,8 +327,6 @@ class Loop(_Decorator):
         self.child_running = False
 
     def _parse(self, text: str) -> deque[Any]:
-        from mission.behaviours.ports import Port
-
         port = Port(self.item)
         try:
             return deque(port.parse(part) for part in text.split(";") if part != "" or self.item is str)

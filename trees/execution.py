@@ -27,6 +27,7 @@ is a :class:`Layer` of that root's runtime, outside the root's own layer.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -52,6 +53,12 @@ class Skipped:
 SKIPPED: Any = Skipped()
 Result = Any  # Status | Skipped
 
+log = logging.getLogger(__name__)
+
+#: re-ticks of the root within one tick at most (BT.CPP has no limit: a child that always finishes at once under
+#: a Repeat or Retry without a limit would spin the mission's loop for ever)
+MAX_WAKE_UPS = 1000
+
 #: precondition attributes in the order BT.CPP checks them, and post-condition attributes
 PRECONDITIONS = ("_failureIf", "_successIf", "_skipIf", "_while")
 POSTCONDITIONS = ("_onSuccess", "_onFailure", "_post", "_onHalted")
@@ -74,6 +81,7 @@ class TreeRuntime:
 
     observer: Callable[[Event], None] | None = None
     woken: bool = False
+    warned_wake_ups: bool = False
     #: the nodes ticked so far in this tick, in the order py_trees' generators would have yielded them
     visited: list[Behaviour] = field(default_factory=list)
 
@@ -223,10 +231,15 @@ def _tick_root(node: Behaviour) -> Iterator[Behaviour]:
     rt = runtime(node)
     rt.tree.visited.clear()  # a tick that raised half-way leaves nothing behind for this one
     start = 0
-    while True:
+    for _ in range(MAX_WAKE_UPS + 1):
         execute(node)
         if not (rt.result is RUNNING and rt.tree.consume_wake_up()):
             break
+    else:  # BT.CPP would loop for ever (Repeat num_cycles="-1" over a child that succeeds at once)
+        if not rt.tree.warned_wake_ups:
+            rt.tree.warned_wake_ups = True
+            log.warning("%s: woken up %d times within one tick; the rest of this tick waits for the next one",
+                        node.name, MAX_WAKE_UPS)
     if completed(rt.result):
         rt.layers[0].status = IDLE
     yield from _visited_since(rt.tree, start)
