@@ -14,7 +14,15 @@ from py_trees.common import Status
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
 from mission.trees.factory import shipped_factory
-from mission.trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
+from mission.trees.loader import (
+    TREES_DIR,
+    TreeDescription,
+    describe_tree,
+    example_trees,
+    load_tree,
+    shipped_trees,
+    validate_tree,
+)
 from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
 SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml"]
@@ -108,6 +116,18 @@ def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_shipped_behaviours
     text = (TREES_DIR / name).read_text()
     assert nodes_model_section(text) is not None
     assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+
+
+@pytest.mark.parametrize("name", example_trees())
+def test_an_example_files_nodes_model_is_current_and_keeps_the_subtree_models_written_by_hand(name):
+    text = (TREES_DIR / name).read_text()
+    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+    section = nodes_model_section(text)
+    assert section is not None and '<SubTree ID="FindMarkerTree">' in section
+    stale = text.replace(section, '  <TreeNodesModel>\n    <SubTree ID="FindMarkerTree"/>\n  </TreeNodesModel>\n')
+    regenerated = nodes_model_section(with_nodes_model(stale, shipped_factory()))
+    assert regenerated is not None and '<Action ID="Explore">' in regenerated  # the behaviours, written anew
+    assert '<SubTree ID="FindMarkerTree"/>' in regenerated  # and the file's own SubTree model, kept
 
 
 def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_path):
