@@ -34,7 +34,13 @@ def _leaf(cls: type) -> Build:
 
 
 def _script(cls: type, port: str = "code") -> Build:
-    return lambda name, _ch, _p, ctx: cls(name, ctx.scripts[port])
+    def build(name: str, _children: list[Behaviour], ports: dict[str, Any], ctx: BuildContext) -> Behaviour:
+        if port not in ctx.scripts:
+            raise ValueError(f"port {port}={ports.get(port)}: write the script in the tree file (it is parsed when "
+                             "the tree loads), not in a blackboard entry")
+        return cls(name, ctx.scripts[port])
+
+    return build
 
 
 def _entry(key_text: str, ctx: BuildContext) -> str:
