@@ -70,7 +70,9 @@ def test_both_backends_agree_on_rendered_perspective_tags(family):
         truth = sv.random_pose(1.0 + i % 3 * 0.5, 35.0, rng, k, 0.2)
         view = sv.render_marker_view(truth, marker_id=7, marker_size_m=0.2, dictionary=OPENCV_DICT[family],
                                      intrinsics=k, rng=rng)  # fmt: skip
-        (da,), (do,) = detect(a3, view.image, k), detect(cv, view.image, k)
+        # tag16h5's codes are 5 bits apart: texture decodes as a tag at hamming 2 now and then (AprilTag's docs
+        # warn of it), in either backend; the rendered tag is the one compared
+        (da,), (do,) = ([d for d in detect(b, view.image, k) if d.marker_id == 7] for b in (a3, cv))
         assert np.linalg.norm(da.corners - do.corners, axis=1).max() <= 0.5
         rng_m = np.linalg.norm(da.position)
         assert np.linalg.norm(da.position - do.position) <= 0.01 * rng_m
