@@ -37,13 +37,15 @@ SIZE = 0.12
 TARGET = 1.10
 
 
-def raw_aruco_poses(dictionary: int, size_m: float = SIZE) -> Any:
-    """The raw OpenCV baseline: detectMarkers with the detector parameters our sources use, then one
-    solvePnP(IPPE_SQUARE) per marker. Returns ``run(image, K, D) -> [(id, rvec, tvec), ...]``."""
+def raw_aruco_poses(dictionary: int | cv2.aruco.Dictionary, size_m: float = SIZE) -> Any:
+    """The raw OpenCV baseline: detectMarkers (SUBPIX, the minMarkerDistanceRate our sources use), then one
+    solvePnP(IPPE_SQUARE) per marker. `dictionary`: a cv2.aruco.DICT_* id or a Dictionary. Returns
+    ``run(image, K, D) -> [(id, rvec, tvec), ...]``."""
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
     params.minMarkerDistanceRate = 0.025
-    det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary), params)
+    d = cv2.aruco.getPredefinedDictionary(dictionary) if isinstance(dictionary, int) else dictionary
+    det = cv2.aruco.ArucoDetector(d, params)
     obj = object_points(size_m).reshape(4, 1, 3)
 
     def run(image: np.ndarray, K: np.ndarray, D: np.ndarray) -> list[tuple[int, np.ndarray, np.ndarray]]:

@@ -15,11 +15,13 @@ Small tags at the default settings. AprilTag's usual speed-up, ``quad_decimate``
 subsampled 2×: on real photos it missed 39 of 102 tags of 14–41 px that full resolution finds (BENCHMARKS.md,
 real images), for a quarter of the time. Most of full resolution's extra time goes into the many small,
 faint clusters of texture (gravel, carpet, sensor noise) that cannot be tags; AprilTag has two public
-thresholds for them in its detector's ``qtp`` (apriltag.h), which pupil-apriltags does not expose:
+thresholds for them in its detector's ``qtp`` (apriltag.h), which pupil-apriltags does not expose (nor,
+through a truncation, its decode sharpening: :data:`DECODE_SHARPENING`):
 ``min_white_black_diff`` (a region whose grey levels span less is not thresholded at all) and
 ``min_cluster_pixels``. :class:`Apriltag3Backend` runs at full resolution by default with both raised
 (:data:`MIN_CLUSTER_PIXELS`, and a contrast floor of :data:`CONTRAST_FRACTION` of the frame's grey-level spread,
-at most :data:`MAX_MIN_CONTRAST`), which finds what full resolution finds at about the time of decimate 2.
+at most :data:`MAX_MIN_CONTRAST`), which finds what full resolution finds (with the sharpening, a little
+more) at about the time of decimate 2.
 The thresholds are set through a ctypes view of the C struct that is checked against the values
 pupil-apriltags set before anything is written; a library whose struct differs is left at its defaults,
 with a warning.
@@ -58,9 +60,13 @@ SUPPORTED_FAMILIES = {"apriltag3": APRILTAG3_FAMILIES, "opencv": tuple(OPENCV_DI
 APRILTAG3_MAX_HAMMING = 2  # pupil-apriltags registers every family with 2 correctable bits
 
 MIN_CLUSTER_PIXELS = 30  # AprilTag's default 5; a 10 px tag's border already gives ~80
-CONTRAST_FRACTION = 0.25  # min_white_black_diff = this × the frame's grey-level spread (1st–99th percentile) …
+CONTRAST_FRACTION = 0.4  # min_white_black_diff = this × the frame's grey-level spread (1st–99th percentile) …
 MAX_MIN_CONTRAST = 60  # … at most this (real photos lose tags above ~65) …
 MIN_MIN_CONTRAST = 5  # … and never below AprilTag's own default
+# AprilTag's default decode sharpening. pupil-apriltags 1.0.4 passes int(decode_sharpening), i.e. 0: the
+# 0.25 it documents never reaches the C detector. With it, full resolution decodes the small tags that
+# refine_edges had been needed for (2 of 23 rendered 20 px tags) and loses none (BENCHMARKS.md, real images).
+DECODE_SHARPENING = 0.25
 
 
 class _QuadThreshParams(ctypes.Structure):
@@ -91,10 +97,10 @@ class _DetectorHead(ctypes.Structure):
     ]
 
 
-def quad_thresholds(detector: pupil_apriltags.Detector) -> _QuadThreshParams | None:
-    """The detector's quad-threshold params, writable; None when the C struct is not laid out as
-    apriltag.h says (then nothing is written): its head must hold what pupil-apriltags was given and
-    AprilTag's documented defaults."""
+def detector_head(detector: pupil_apriltags.Detector) -> _DetectorHead | None:
+    """The detector's C struct up to its quad-threshold params, writable; None when it is not laid out as
+    apriltag.h says (then nothing is written): its head must hold what pupil-apriltags was given and its
+    ``qtp`` AprilTag's documented defaults."""
     ptr = getattr(detector, "tag_detector_ptr", None)
     if ptr is None:
         return None
@@ -112,7 +118,7 @@ def quad_thresholds(detector: pupil_apriltags.Detector) -> _QuadThreshParams | N
         and abs(q.cos_critical_rad - math.cos(math.radians(10.0))) < 1e-4  # AprilTag's 10° corner limit
         and 0 < q.min_cluster_pixels < 1000
     )
-    return q if same_head and defaults else None
+    return head if same_head and defaults else None
 
 
 def min_contrast_for(gray: np.ndarray) -> int:
@@ -216,14 +222,17 @@ class Apriltag3Backend:
         )
         self._cells = int(self._detector.tag_families[family].contents.width_at_border)  # the black square, in cells
         self.min_contrast = min_contrast
-        self._qtp = quad_thresholds(self._detector)
-        if self._qtp is None:
+        head = detector_head(self._detector)
+        self._qtp = None if head is None else head.qtp
+        if head is None:
             log.warning(
                 "apriltag3: this pupil-apriltags' detector struct is not AprilTag 3's; its quad thresholds stay at "
                 "the library's defaults (full resolution is then ~3× slower than decimate 2)"
             )
-        elif min_cluster_pixels is not None:
-            self._qtp.min_cluster_pixels = int(min_cluster_pixels)
+        else:
+            head.decode_sharpening = DECODE_SHARPENING
+            if min_cluster_pixels is not None:
+                head.qtp.min_cluster_pixels = int(min_cluster_pixels)
         self.last_min_contrast: int | None = None  # what the last frame used (for reports and tests)
 
     def detect(self, gray: np.ndarray) -> list[RawTag]:
@@ -353,13 +362,16 @@ def sample_bits(gray: np.ndarray, corners: Any, n: int, ppc: int = 8) -> tuple[n
     Each tag plus one quiet-zone cell around it is warped to a grid of (n + 4) cells of `ppc` px; each
     cell's grey level is the mean of its central half. The threshold is midway between the black border
     and the white quiet zone (the medians of their cells: what AprilTag's decoder models); white = 1, as
-    OpenCV's dictionaries store it. The margin is the smaller of the mean distance of the white and of the
-    black data cells from the threshold.
+    OpenCV's dictionaries store it. The data cells' distances from the threshold are then sharpened as
+    AprilTag's decoder sharpens them (``v + DECODE_SHARPENING · (4v − its four neighbours)``, on a grid
+    where every cell but the data cells is 0), so the margins compare with the apriltag3 backend's. A bit
+    is white where its sharpened value is > 0; the margin is the smaller of the mean sharpened distance of
+    the white and of the black data cells.
 
     Batched because it runs for every tag of every frame (bench: perception): one warp per tag in C, then
     all the tags' cell means, medians and margins as whole-array operations. With the default ppc the
     cell means are multiples of 1/16, so every sum here is exact and the result does not depend on the
-    order numpy adds in.
+    order numpy adds in (the sharpening keeps them multiples of 1/128).
     """
     g = _grid(n, ppc)
     count = len(corners)
@@ -375,12 +387,15 @@ def sample_bits(gray: np.ndarray, corners: Any, n: int, ppc: int = 8) -> tuple[n
     means = sums.astype(np.float64) / g.area  # count × cells × cells
     flat = means.reshape(count, cells * cells)
     threshold = (_median(flat[:, g.ring]) + _median(flat[:, g.border])) / 2.0
-    data = means[:, 2:-2, 2:-2].reshape(count, n * n)
-    t = threshold[:, None]
-    bits = data > t
+    values = np.zeros((count, n + 2, n + 2))  # the data cells and a ring of zeros round them
+    values[:, 1:-1, 1:-1] = means[:, 2:-2, 2:-2] - threshold[:, None, None]
+    neighbours = values[:, :-2, 1:-1] + values[:, 2:, 1:-1] + values[:, 1:-1, :-2] + values[:, 1:-1, 2:]
+    inner = values[:, 1:-1, 1:-1]
+    data = (inner + DECODE_SHARPENING * (4.0 * inner - neighbours)).reshape(count, n * n)
+    bits = data > 0.0
     n_white = np.count_nonzero(bits, axis=1)
     n_black = n * n - n_white
-    white = np.where(bits, data - t, 0.0).sum(axis=1) / np.maximum(n_white, 1)
-    black = np.where(bits, 0.0, t - data).sum(axis=1) / np.maximum(n_black, 1)
+    white = np.where(bits, data, 0.0).sum(axis=1) / np.maximum(n_white, 1)
+    black = np.where(bits, 0.0, -data).sum(axis=1) / np.maximum(n_black, 1)
     margins = np.minimum(np.where(n_white > 0, white, np.inf), np.where(n_black > 0, black, np.inf))
     return bits.reshape(count, n, n), margins

@@ -165,9 +165,14 @@ def test_confidence_drops_with_corrected_bits_and_weak_contrast():
 def test_min_decision_margin_drops_weak_decodes():
     cells, _, wab = tag_cells("tag36h11", 7)
     dull = place_tag(cells, wab, black=115, white=150)[0]
-    assert AprilTagSource({}).process(Frame(dull, 0.0, intrinsics=K))
-    src = AprilTagSource({"min_decision_margin": 30.0})
+    clean = place_tag(cells, wab)[0]
+    (weak,) = AprilTagSource({}).process(Frame(dull, 0.0, intrinsics=K))
+    (strong,) = AprilTagSource({}).process(Frame(clean, 0.0, intrinsics=K))
+    floor = weak.extra["decision_margin"] + 1.0
+    assert strong.extra["decision_margin"] > floor
+    src = AprilTagSource({"min_decision_margin": floor})
     assert src.process(Frame(dull, 0.0, intrinsics=K)) == [] and src.counters["rejected_margin"] == 1
+    assert src.process(Frame(clean, 0.0, intrinsics=K))
 
 
 # -- the detector params -----------------------------------------------------------------------------
