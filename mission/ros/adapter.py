@@ -7,6 +7,10 @@ so a bag and a robot reach the tree through the same code.
 QoS: camera, depth, camera info, odometry and scan use the sensor-data profile (best effort, as
 drivers publish; it also accepts reliable publishers); ``/map`` is reliable and transient-local (the
 map server latches it); commands are reliable.
+
+Images are also taken from ``<image_topic>/compressed`` (sensor_msgs/CompressedImage), where
+image_transport's ``compressed`` plugin publishes them; a camera that publishes both gives one frame per
+stamp (the cache skips the second copy).
 """
 
 from __future__ import annotations
@@ -37,8 +41,10 @@ class RosAdapter(CachedWorld):
         t, n, m, c = self.topics, self.node, self.msgs, self.cache
         sensor = qos_profile_sensor_data
         image, pose = m.cls("sensor_msgs/msg/Image"), m.cls("geometry_msgs/msg/PoseStamped")
+        compressed, compressed_topic = m.cls("sensor_msgs/msg/CompressedImage"), f"{t.image_topic}/compressed"
         self._subs = [
             n.create_subscription(image, t.image_topic, lambda msg: c.on_image(msg, t.image_topic), sensor),
+            n.create_subscription(compressed, compressed_topic, lambda msg: c.on_image(msg, compressed_topic), sensor),
             n.create_subscription(image, t.depth_topic, lambda msg: c.on_depth(msg, t.depth_topic), sensor),
             n.create_subscription(m.cls("sensor_msgs/msg/CameraInfo"), t.camera_info_topic,
                                   lambda msg: c.on_camera_info(msg, t.camera_info_topic), sensor),
