@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, PositiveFloat, field_validator, model_validator
@@ -104,10 +104,17 @@ class AprilTagParams(StrictModel):
     decimate: float = Field(1.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate; 1 = full resolution (opencv: not used)
     threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)
     refine_edges: bool = True  # corners refined on their fitted edges (both backends)
-    min_contrast: Literal["auto"] | Annotated[int, Field(ge=0, le=255)] = "auto"  # apriltag3 min_white_black_diff
+    min_contrast: Literal["auto"] | int = "auto"  # apriltag3 min_white_black_diff, 0–255; auto: 0.4 × frame spread
     max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
     min_decision_margin: float = Field(0.0, ge=0.0)  # drop weaker decodes (grey levels)
     disambiguation: Literal["temporal", "naive"] = "temporal"  # flip choice, as the aruco source
+
+    @field_validator("min_contrast")
+    @classmethod
+    def _grey_levels(cls, v: Any) -> Any:
+        if isinstance(v, int) and not 0 <= v <= 255:
+            raise ValueError("expected 'auto' or grey levels 0–255")
+        return v
 
     @field_validator("tags", mode="before")
     @classmethod

@@ -207,9 +207,10 @@ class RunConfig(StrictModel):
 
 
 class TopicsConfig(StrictModel):
-    """Topic names of a recording (`mission replay`; flags of the same names override them). The ROS node
-    takes the same names as its `-p` parameters. Unset: the node's defaults, and for the camera the bag's
-    only image topic when the default is not there."""
+    """Topic names in a recording, for `mission replay` (its `--…-topic` flags override them).
+
+    The ROS node takes the same names as its `-p` parameters. Unset: the node's defaults, and for the
+    camera the bag's only image topic when the default is not there."""
 
     image_topic: str | None = None  # camera images, raw or compressed (default /camera/image_raw)
     camera_info_topic: str | None = None  # sensor_msgs/CameraInfo (default /camera/camera_info)
