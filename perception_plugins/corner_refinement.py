@@ -16,7 +16,8 @@ symmetric blur, so this refiner uses the four edges instead (AprilTag's ``refine
    AprilTag's ``refine_edges`` places it; profiles whose steepest step is weak, or at either end of the
    profile, are left out;
 3. one line per side through its edge points (total least squares, refitted once without the points
-   more than 3 robust standard deviations off the first line), and each corner where its two lines meet.
+   more than 3 standard deviations off the first line, σ from their mean absolute deviation), and each
+   corner where its two lines meet.
 
 A corner moves at most as far as the unrefined corner can be wrong: ``max(1.5 px, half a module)``.
 The unrefined corner is a contour pixel, rarely more than a pixel or so from the true corner; a
@@ -45,6 +46,7 @@ MIN_SIDE_FRACTION = 1 / 3  # of a side's profiles must find its edge
 
 _T = np.linspace(0.1, 0.9, SAMPLES)  # where the profiles cross a side: away from the corners
 _S = np.linspace(-1.0, 1.0, STEPS)  # along a profile, in units of its reach
+_CENTRES = np.arange(STEPS - 1, dtype=np.float32) + 0.5  # where each gradient sample sits on the profile
 _NEXT = np.array([1, 2, 3, 0])
 _PREV = np.array([3, 0, 1, 2])
 
@@ -55,71 +57,68 @@ def module_size(quads: np.ndarray, cells: int) -> np.ndarray:
     return np.sqrt((d * d).sum(axis=2)).mean(axis=1) / float(cells)
 
 
-def _fit_lines(points: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted total-least-squares lines through ``points`` (M×4×K×2): (centroids, unit directions), M×4×2."""
-    total = np.maximum(weights.sum(axis=2), 1e-9)
-    centre = np.einsum("msk,mskc->msc", weights, points) / total[..., None]
-    d = points - centre[:, :, None, :]
-    wd = weights[..., None] * d
-    sxx = (wd[..., 0] * d[..., 0]).sum(axis=2)
-    syy = (wd[..., 1] * d[..., 1]).sum(axis=2)
-    sxy = (wd[..., 0] * d[..., 1]).sum(axis=2)
-    angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the principal axis of the 2×2 scatter matrix
-    return centre, np.stack([np.cos(angle), np.sin(angle)], axis=-1)
+def _fit_lines(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Weighted total-least-squares lines through the points (`x`, `y`), M×4×K with weights `w`:
+    (centroid x, centroid y, direction x, direction y), each M×4."""
+    total = np.maximum(w.sum(axis=2), 1e-9)
+    mx, my = (w * x).sum(axis=2) / total, (w * y).sum(axis=2) / total
+    dx, dy = x - mx[..., None], y - my[..., None]
+    wdx = w * dx
+    angle = 0.5 * np.arctan2(2.0 * (wdx * dy).sum(axis=2), (wdx * dx).sum(axis=2) - (w * dy * dy).sum(axis=2))
+    return mx, my, np.cos(angle), np.sin(angle)  # the principal axis of the 2×2 scatter matrix
 
 
 def refine_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
     """Refined corners (M×4×2 float64) of the M quads (M×4×2, corners in order round the quad) found in
     `grey` (H×W uint8) for markers `cells` modules across; a corner that cannot be refined within its
-    uncertainty is returned unrefined."""
+    uncertainty is returned unrefined.
+
+    Written as few whole-array operations as it can be (x and y kept apart): it runs for every marker
+    of every frame, and its cost is numpy's per-call overhead more than arithmetic (bench: perception)."""
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     m_count = len(quads)
     if m_count == 0:
         return quads.copy()
     along = quads[:, _NEXT] - quads
-    length = np.sqrt((along * along).sum(axis=2))
+    length = np.maximum(np.hypot(along[..., 0], along[..., 1]), 1e-9)  # (M, 4)
     module = length.mean(axis=1) / float(cells)  # as module_size(), from the sides computed here anyway
     reach = np.clip(REACH_MODULES * module, MIN_REACH_PX, MAX_REACH_PX)  # (M,)
-    normal = np.stack([along[..., 1], -along[..., 0]], axis=-1) / np.maximum(length, 1e-9)[..., None]
-    outward = ((quads + 0.5 * along - quads.mean(axis=1, keepdims=True)) * normal).sum(axis=2)
-    normal[outward < 0] *= -1.0  # from the black border out into the quiet zone
+    nx, ny = along[..., 1] / length, -along[..., 0] / length
+    centre = quads.mean(axis=1, keepdims=True)
+    mid = quads + 0.5 * along - centre
+    flip = np.where(mid[..., 0] * nx + mid[..., 1] * ny < 0, -1.0, 1.0)  # outward: into the quiet zone
+    nx, ny = nx * flip, ny * flip
 
-    base = quads[:, :, None, :] + _T[None, None, :, None] * along[:, :, None, :]  # (M, 4, K, 2)
-    offsets = (_S[None, :] * reach[:, None])[:, None, None, :, None] * normal[:, :, None, None, :]
-    pts = (base[:, :, :, None, :] + offsets).astype(np.float32).reshape(-1, STEPS, 2)  # (M·4·K, S, 2)
-    profiles = cv2.remap(grey, pts[..., 0], pts[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    bx = quads[:, :, None, 0] + _T * along[:, :, None, 0]  # (M, 4, K): where the profiles cross the sides
+    by = quads[:, :, None, 1] + _T * along[:, :, None, 1]
+    step = _S * reach[:, None]  # (M, S)
+    mapx = (bx[..., None] + step[:, None, None, :] * nx[..., None, None]).astype(np.float32).reshape(-1, STEPS)
+    mapy = (by[..., None] + step[:, None, None, :] * ny[..., None, None]).astype(np.float32).reshape(-1, STEPS)
+    profiles = cv2.remap(grey, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     grad = np.diff(profiles.astype(np.float32), axis=1)  # (N, S−1), positive on a dark → bright edge
     peak = grad.argmax(axis=1)
-    interior = (peak > 0) & (peak < STEPS - 2)
-    g1 = grad[np.arange(len(grad)), peak]
+    strong = (peak > 0) & (peak < STEPS - 2) & (grad.max(axis=1) >= MIN_EDGE_STEP)
     # The edge is the gradient's centroid over the profile (only its rising part counts), as AprilTag's
     # refine_edges takes it: steadier under noise than the peak alone.
-    weight = np.maximum(grad, 0.0)
-    weight = weight * weight
-    centres = (np.arange(STEPS - 1, dtype=np.float32) + 0.5)[None, :]
-    where = (weight * centres).sum(axis=1) / np.maximum(weight.sum(axis=1), 1e-9)
-    reach_n = np.repeat(reach, 4 * SAMPLES)
-    position = reach_n * (where * (2.0 / (STEPS - 1)) - 1.0)  # px along the normal
-    edges = base + position.reshape(m_count, 4, SAMPLES, 1) * normal[:, :, None, :]
-    weights = (interior & (g1 >= MIN_EDGE_STEP)).reshape(m_count, 4, SAMPLES).astype(np.float64)
+    weight = np.square(np.maximum(grad, 0.0))
+    where = (weight @ _CENTRES) / np.maximum(weight.sum(axis=1), 1e-9)
+    position = (np.repeat(reach, 4 * SAMPLES) * (where * (2.0 / (STEPS - 1)) - 1.0)).reshape(m_count, 4, SAMPLES)
+    ex, ey = bx + position * nx[..., None], by + position * ny[..., None]
+    w = strong.reshape(m_count, 4, SAMPLES).astype(np.float64)
 
-    centre, direction = _fit_lines(edges, weights)
-    across = np.stack([-direction[..., 1], direction[..., 0]], axis=-1)
-    residual = np.abs(((edges - centre[:, :, None, :]) * across[:, :, None, :]).sum(axis=3))
-    count = weights.sum(axis=2).astype(int)
-    ranked = np.sort(np.where(weights > 0, residual, np.inf), axis=2)
-    median = np.take_along_axis(ranked, np.clip(count // 2, 0, SAMPLES - 1)[..., None], axis=2)[..., 0]
-    sigma = np.maximum(0.25, 1.4826 * np.where(count > 0, median, 0.0))
-    weights = weights * (residual <= 3.0 * sigma[..., None])
-    centre, direction = _fit_lines(edges, weights)
-    enough = weights.sum(axis=2) >= MIN_SIDE_FRACTION * SAMPLES  # (M, 4), per side
+    mx, my, ux, uy = _fit_lines(ex, ey, w)
+    residual = np.abs((ex - mx[..., None]) * uy[..., None] - (ey - my[..., None]) * ux[..., None])
+    count = np.maximum(w.sum(axis=2), 1.0)
+    sigma = np.maximum(0.25, 1.25 * (w * residual).sum(axis=2) / count)  # mean absolute deviation → σ
+    w = w * (residual <= 3.0 * sigma[..., None])
+    mx, my, ux, uy = _fit_lines(ex, ey, w)
+    enough = w.sum(axis=2) >= MIN_SIDE_FRACTION * SAMPLES  # (M, 4), per side
 
     # Corner i is where side i−1 (which ends at it) meets side i (which starts at it).
-    p1, v1 = centre[:, _PREV], direction[:, _PREV]
-    cross = v1[..., 0] * direction[..., 1] - v1[..., 1] * direction[..., 0]
-    d = centre - p1
-    safe = np.where(np.abs(cross) > 1e-3, cross, 1.0)
-    meet = p1 + ((d[..., 0] * direction[..., 1] - d[..., 1] * direction[..., 0]) / safe)[..., None] * v1
+    px, py, vx, vy = mx[:, _PREV], my[:, _PREV], ux[:, _PREV], uy[:, _PREV]
+    cross = vx * uy - vy * ux
+    t = ((mx - px) * uy - (my - py) * ux) / np.where(np.abs(cross) > 1e-3, cross, 1.0)
+    meet = np.stack([px + t * vx, py + t * vy], axis=-1)
     ok = enough & enough[:, _PREV] & (np.abs(cross) > 0.05)
     return within_uncertainty(np.where(ok[..., None], meet, quads), quads, module)
 
