@@ -53,8 +53,10 @@ def record(path: Path, frames: list[tuple[Frame, RobotState]], **kw) -> Path:
 def renamed(src: Path, dst: Path, names: dict[str, str]) -> Path:
     """The bag at `src` rewritten with topics renamed (a robot's own camera names), as mcap."""
     store = get_typestore(Stores.ROS2_JAZZY)
-    with AnyReader([src], default_typestore=store) as reader, Writer(dst, version=9,
-                                                                     storage_plugin=StoragePlugin.MCAP) as writer:
+    with (
+        AnyReader([src], default_typestore=store) as reader,
+        Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer,
+    ):
         conns = {c.id: writer.add_connection(names.get(c.topic, c.topic), c.msgtype, typestore=store)
                  for c in reader.connections}  # fmt: skip
         for c, t, raw in reader.messages():
@@ -163,8 +165,10 @@ def test_two_cameras_and_no_choice_is_an_error_naming_them(bags, tmp_path):
     src = renamed(bags["raw"], tmp_path / "left", {"/camera/image_raw": "/left/image_raw"})
     two = tmp_path / "two"
     store = get_typestore(Stores.ROS2_JAZZY)
-    with AnyReader([src], default_typestore=store) as reader, Writer(two, version=9,
-                                                                     storage_plugin=StoragePlugin.MCAP) as writer:
+    with (
+        AnyReader([src], default_typestore=store) as reader,
+        Writer(two, version=9, storage_plugin=StoragePlugin.MCAP) as writer,
+    ):
         conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store) for c in reader.connections}
         right = writer.add_connection("/right/image_raw", "sensor_msgs/msg/Image", typestore=store)
         for c, t, raw in reader.messages():
