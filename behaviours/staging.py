@@ -21,7 +21,7 @@ from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
-from mission.core.docking import staging_pose
+from mission.core.docking import floor_pose, staging_pose
 from mission.core.types import NavGoal, NavStatus, Pose2D
 
 REFINE_CLOSER_M = 0.2
@@ -37,6 +37,9 @@ class GoToStaging(MissionLeaf):
         target: str = port("dock", "name of the dock target (a key of perception.targets)")
         offset_m: float = port(0.7, "staging distance in front of the tag, along its normal (base pose)")
         timeout_s: float = port(40.0, "give up after this long")
+        dock_pose: Pose2D = port(doc="the dock marker on the floor (map frame; heading = its face normal)",
+                                 direction="output")
+        staging_pose: Pose2D = port(doc="the staging pose it navigates to (map frame)", direction="output")
 
     NODE_TYPE = "Action"
     READS = (bbk.TRACKS,)
@@ -51,6 +54,7 @@ class GoToStaging(MissionLeaf):
         self.refinements = 0
         self._staged_from: np.ndarray | None = None
         self._staged: Pose2D | None = None
+        self._staged_offset = math.nan
         self._where_for: Pose2D | None = None
         self._where_text = ""
 
@@ -62,11 +66,13 @@ class GoToStaging(MissionLeaf):
         self.feedback_message = f"DOCK: going to the staging pose of {self.params.target}"
 
     def _staging(self, pose_map: np.ndarray) -> Pose2D:
-        """The staging pose of the tag at `pose_map`, computed once per new tag pose (the track replaces
-        its pose_map with a new array on each detection; between detections it is the same object)."""
-        if pose_map is not self._staged_from:
-            self._staged = staging_pose(pose_map, self.params.offset_m)
-            self._staged_from = pose_map
+        """The staging pose for the tag at `pose_map`, computed once per new tag pose (the track replaces its
+        pose_map with a new array on each detection; between detections it is the same object, and every
+        tick reads it)."""
+        offset = self.params.offset_m  # a port the tree may connect to the blackboard: part of the key
+        if pose_map is not self._staged_from or offset != self._staged_offset:
+            self._staged = staging_pose(pose_map, offset)
+            self._staged_from, self._staged_offset = pose_map, offset
         assert self._staged is not None
         return self._staged
 
@@ -101,6 +107,9 @@ class GoToStaging(MissionLeaf):
             pose = self._staging(tr.pose_map)
         except ValueError as err:
             return self.fail(f"DOCK: {self.params.target}: {err}")
+        if self.output_connected("dock_pose"):
+            self.set_output("dock_pose", floor_pose(tr.pose_map))
+        self.set_output("staging_pose", pose)
         distance = tr.detection.distance if tr.detection is not None else math.inf
         if self._wanted(pose, distance):
             if self._goal is not None:

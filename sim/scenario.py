@@ -213,10 +213,12 @@ class RandomSpec(StrictModel):
 
 
 class Success(StrictModel):
-    """What the runner checks at the end: follow (keep following), dock (docked within tolerance), mission (both),
-    give_up (the target leaves the map: the search must end, with a reason)."""
+    """What the runner checks at the end: follow, dock, mission (both), give_up (the search ends, with a reason).
 
-    kind: Literal["follow", "dock", "mission", "give_up", "tree"] = "tree"  # or tree: the tree's SUCCESS
+    give_up is for a target that leaves the map (target.leave_at_end): the run succeeds when the tree fails
+    with the search's reason within give_up_within_s of the target leaving — it never searches for ever."""
+
+    kind: Literal["follow", "dock", "mission", "give_up", "tree"] = "tree"  # …, or tree: the tree's SUCCESS
     standoff_m: float = Field(0.30, gt=0)  # docking: camera-to-tag distance the dock means
     min_tracking_fraction: float = Field(0.7, ge=0, le=1)  # follow: time in FOLLOW seeing it / the follow phase
     give_up_within_s: float = Field(120.0, gt=0)  # give_up: the search must end with a reason this soon after

@@ -5,13 +5,18 @@ from __future__ import annotations
 import py_trees
 
 from mission.behaviours.ports import REQUIRED
+from mission.core.types import Pose2D
 from mission.trees.factory import shipped_factory
+from mission.trees.manifest import BuildContext
 
 # tag → (node type, {port: (type, default)}) — what tree files rely on (the README's table shows the same)
 CATALOGUE = {
     "PerceiveTargets": ("Action", {}),
     "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0)}),
-    "IsLineOfSightBlocked": ("Condition", {"target": (str, "target"), "min_misses": (int, 5)}),
+    "IsLineOfSightBlocked": (
+        "Condition",
+        {"target": (str, "target"), "min_misses": (int, 5), "target_radius_m": (float, 0.3)},
+    ),
     "FollowTarget": (
         "Action",
         {"target": (str, "target"), "offset_m": (float, 0.5), "window": (int, 5), "rate_hz": (float, 10.0)},
@@ -20,6 +25,73 @@ CATALOGUE = {
     "SearchSweep": (
         "Action",
         {"target": (str, "target"), "duration_s": (float, 20.0), "angular_speed": (float, 0.6)},
+    ),
+    "PursueLastSeen": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "horizon_s": (float, 2.0),
+            "speed_mps": (float, 0.35),
+            "look_s": (float, 1.0),
+            "min_timeout_s": (float, 2.0),
+            "max_timeout_s": (float, 12.0),
+            "max_standoff_m": (float, 3.0),
+            "clearance_m": (float, 0.35),
+        },
+    ),
+    "TurnToBearing": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "angular_speed": (float, 1.0),
+            "overshoot_deg": (float, 30.0),
+            "back_deg": (float, 180.0),
+            "horizon_s": (float, 2.0),
+        },
+    ),
+    "SearchBelief": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "timeout_s": (float, 25.0),
+            "target_speed_mps": (float, 1.0),
+            "view_range_m": (float, 4.0),
+            "min_mass": (float, 0.03),
+            "speed_mps": (float, 0.35),
+            "angular_speed": (float, 0.8),
+            "sweep_deg": (float, 90.0),
+            "spacing_m": (float, 0.4),
+            "max_travel_m": (float, 8.0),
+            "clearance_m": (float, 0.35),
+            "replan_s": (float, 1.0),
+        },
+    ),
+    "CoverUnseen": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "timeout_s": (float, 40.0),
+            "done_fraction": (float, 0.95),
+            "speed_mps": (float, 0.35),
+            "angular_speed": (float, 0.8),
+            "sweep_deg": (float, 90.0),
+            "spacing_m": (float, 0.4),
+            "max_travel_m": (float, 12.0),
+            "clearance_m": (float, 0.35),
+            "replan_s": (float, 1.0),
+        },
+    ),
+    "GiveUpSearch": ("Action", {"target": (str, "target")}),
+    "RotateSearch": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "angle_deg": (float, 90.0),
+            "angular_speed": (float, 1.0),
+            "angular_tolerance": (float, 0.15),
+            "rounds": (int, 3),
+            "timeout_s": (float, 10.0),
+        },
     ),
     "Explore": (
         "Action",
@@ -42,6 +114,13 @@ CATALOGUE = {
     ),
     "SetMissionState": ("Action", {"state": (str, REQUIRED)}),
 }
+# tag → {output port: type}: what a tree can connect to the blackboard ({key}) to read in other nodes or scripts
+OUTPUTS = {
+    "IsTargetVisible": {"visible": bool, "last_seen_pose": Pose2D},
+    "FollowTarget": {"goal": Pose2D},
+    "HoldLastGoal": {"goal": Pose2D},
+    "GoToStaging": {"dock_pose": Pose2D, "staging_pose": Pose2D},
+}
 
 
 def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_defaults():
@@ -50,7 +129,8 @@ def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_
     for tag, (node_type, ports) in CATALOGUE.items():
         node = behaviours[tag]
         assert node.kind == node_type, tag
-        assert {k: (p.type, p.default) for k, p in node.ports.items()} == ports, tag
+        assert {k: (p.type, p.default) for k, p in node.ports.items() if p.reads} == ports, tag
+        assert {k: p.type for k, p in node.ports.items() if p.direction == "output"} == OUTPUTS.get(tag, {}), tag
         assert all(p.doc for p in node.ports.values()), f"{tag}: every port says what it means"
         assert node.doc, f"{tag}: says what it does"
 
@@ -58,6 +138,6 @@ def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_
 def test_constructing_every_leaf_is_light_and_touches_no_blackboard_value():
     for node in shipped_factory().behaviours():
         required = {n: "DONE" for n, p in node.ports.items() if p.required}
-        built = node.build(f"my {node.tag}", [], required)
+        built = node.build(f"my {node.tag}", [], required, BuildContext())
         assert isinstance(built, py_trees.behaviour.Behaviour) and built.name == f"my {node.tag}"
     assert py_trees.blackboard.Blackboard.storage == {}

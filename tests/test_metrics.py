@@ -156,7 +156,8 @@ def test_a_run_is_judged_by_the_design_criteria_a_user_reads_in_the_report():
     running = py_trees.common.Status.RUNNING
     quick = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
                             (4.4, False, "SEARCH"), (6.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
-    assert evaluate("follow", running, "FOLLOW", "", quick, 30.0) == (True, "followed the target to the end")
+    assert evaluate("follow", running, "FOLLOW", "", quick, 30.0) == (
+        True, "followed the target to the end, in view 83 % of the follow phase")
     slow_find = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
                                 (4.4, False, "SEARCH"), (13.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
     assert evaluate("follow", running, "FOLLOW", "", slow_find, 30.0) == (

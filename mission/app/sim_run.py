@@ -30,7 +30,7 @@ from mission.core.errors import ConfigError
 from mission.sim.adapter import SimAdapter
 from mission.sim.config import apply_overrides
 from mission.sim.faults import fault_summary, wrap_sources
-from mission.sim.scenario import Scenario, load_scenario
+from mission.sim.scenario import Scenario, Success, load_scenario
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import describe_tree
 
@@ -76,8 +76,10 @@ def choose_tree(cli_tree: str | None, config: MissionConfig, scenario: Scenario)
 
 OCCLUSION_LATENCY_S = 0.5  # design notes: detect occlusion within 0.5 s
 REACQUISITION_S = 10.0  # design notes: re-acquire the target within 10 s
-MIN_TRACKING_FRACTION = 0.7  # issue 15: a follow run tracks the target (FOLLOW, in view) ≥ 70 % of the follow phase
-GIVE_UP_WITHIN_S = 120.0  # a search for a target that has gone ends this soon after it went
+# issue 15: a follow run tracks the target (FOLLOW, in view) at least this fraction of the follow phase, and a
+# search for a target that has gone ends this soon after it went — the scenario's success keys, their defaults
+MIN_TRACKING_FRACTION: float = Success.model_fields["min_tracking_fraction"].default
+GIVE_UP_WITHIN_S: float = Success.model_fields["give_up_within_s"].default
 
 
 def evaluate(
