@@ -10,7 +10,8 @@
 * :class:`RotateSearch` is opennav_following's ``rotateToObject`` (Nav2, Kilted), the baseline the ladder
   is measured against: from the heading it starts at, turn to +``angle_deg`` then to −``angle_deg`` (within
   ``angular_tolerance``), up to ``rounds`` times (its ``max_retries``), each within ``timeout_s``
-  (``rotate_to_object_timeout``); then fail.
+  (``rotate_to_object_timeout``); then fail. Every round turns about the heading the search started at,
+  so it never looks more than ``angle_deg`` away from it (it "only rotates ±π/2", as issue 15 puts it).
 
 Both integrate the rotation from odometry (the robot's yaw), so a slow base still turns its full angle.
 One loss, one search: re-entered before the target is seen again, they go on where they were.
@@ -246,7 +247,7 @@ class RotateSearch(MissionLeaf):
             elif rot.round >= p.rounds:
                 return self.fail(f"SEARCH (rotate ±{p.angle_deg:g}°): {p.target} not found after {p.rounds} round(s)")
             else:
-                rot.round, rot.heading, rot.start_yaw, rot.round_started = rot.round + 1, 0, state.pose.yaw, now
+                rot.round, rot.heading, rot.round_started = rot.round + 1, 0, now  # ±angle of the same heading
             goal = rot.start_yaw + (a if rot.heading == 0 else -a)
             error = se3.wrap_angle(goal - state.pose.yaw)
         self.drive(0.0, turn_rate(error, p.angular_speed, 0.2))
