@@ -4,6 +4,7 @@ where a lost target can be, SEARCH b (SearchBelief: viewpoints by belief per sec
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import py_trees
@@ -233,8 +234,8 @@ def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_f
     assert statuses[-1] == S.FAILURE
     assert read(bbk.REASON) == "SEARCH (rotate ±90°): target not found after 3 round(s)"
     assert 80 < math.degrees(max(yaws)) < 95 and -95 < math.degrees(min(yaws)) < -80  # ±90° within 0.15 rad
-    rates = [b - a for a, b in zip(yaws, yaws[1:], strict=False)]
-    assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds (each round starts where the last ended)
+    rates = [b - a for a, b in itertools.pairwise(yaws)]
+    assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds about the start heading
 
 
 # ------------------------------------------------------------------------------------ no false occlusion
