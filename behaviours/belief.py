@@ -35,7 +35,7 @@ from mission.behaviours.search_grid import TARGET_RADIUS_M, SearchGrid, travel_d
 DEFAULT_SPEED_MPS = 1.0  # how fast the target may walk unseen (a brisk walk), until SearchBelief sets its own
 DEFAULT_VIEW_RANGE_M = 4.0  # how far the camera can read the target's marker
 SEED_RADIUS_M = 0.3  # the belief starts as the cells this close to the last position
-PRIOR_FLOOR = 0.25  # prior weight far from the predicted walk (never zero: the target may turn)
+PRIOR_FLOOR = 0.05  # prior weight far from the predicted walk (never zero: the target may turn)
 PRIOR_SIGMA_M = 1.0  # width of the band round the predicted walk
 PRIOR_HORIZON_S = 4.0  # how far along its last velocity the predicted walk goes
 

@@ -65,7 +65,7 @@ class Hunt:
 
     episode: float
     started: float
-    phase: str = "plan"  # plan | drive | sweep
+    phase: str = "plan"  # plan | drive (to the place) | face (at it: turn to the window) | sweep
     visit: Visit | None = None
     goal: NavGoal | None = None
     planned_at: float = -math.inf
@@ -106,7 +106,7 @@ class ViewpointSearch(SearchLeaf):
         track = self.track(self.params.target)
         episode = None if track is None else track.last_seen
         if self.hunt is not None and self.hunt.episode == episode:
-            self.hunt.phase = "plan" if self.hunt.phase == "drive" else self.hunt.phase
+            self.hunt.phase = "plan" if self.hunt.phase in ("drive", "face") else self.hunt.phase
             self.hunt.goal = None
             self.hunt.yaw_prev = None
             return
@@ -140,6 +140,8 @@ class ViewpointSearch(SearchLeaf):
         robot = state.pose
         if hunt.phase == "drive" and hunt.visit is not None:
             self._drive(hunt, belief, robot, now)
+        if hunt.phase == "face" and hunt.visit is not None and self._face(hunt, robot):
+            return py_trees.common.Status.RUNNING
         if hunt.phase == "sweep" and hunt.visit is not None:
             if self._sweep(hunt, belief, robot):
                 return py_trees.common.Status.RUNNING
@@ -161,10 +163,29 @@ class ViewpointSearch(SearchLeaf):
     # -- phases -----------------------------------------------------------------------------------
     def _go(self, hunt: Hunt, visit: Visit, now: float) -> None:
         hunt.visit = visit
-        hunt.phase = "drive"
         hunt.planned_at = now
         hunt.visits += 1
+        state = self.robot()
+        here = state is not None and math.hypot(visit.pose.x - state.pose.x, visit.pose.y - state.pose.y) <= ARRIVED_M
+        if here:  # the best place is where it stands: turn to the window on the spot, no trip to the navigator
+            hunt.phase, hunt.goal = "face", None
+            return
+        hunt.phase = "drive"
         hunt.goal = self.navigate(visit.pose)
+
+    def _face(self, hunt: Hunt, robot: Pose2D) -> bool:
+        """Turn on the spot to the window's first edge; False when facing it (the sweep starts)."""
+        visit = hunt.visit
+        assert visit is not None
+        error = se3.wrap_angle(visit.pose.yaw - robot.yaw)
+        if abs(error) <= FACING_RAD:
+            hunt.phase, hunt.sweep_turned, hunt.yaw_prev = "sweep", 0.0, robot.yaw
+            return False
+        self.drive(0.0, turn_rate(error, self.params.angular_speed, 0.3))
+        self.feedback_message = (
+            f"SEARCH {self.RUNG}: turning to look at {self.WHAT} from here, {math.degrees(abs(error)):.0f}° to go"
+        )
+        return True
 
     def _drive(self, hunt: Hunt, belief: TargetBelief, robot: Pose2D, now: float) -> None:
         visit = hunt.visit

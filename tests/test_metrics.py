@@ -219,3 +219,23 @@ def test_a_search_for_a_target_that_left_the_map_must_end_with_its_reason_within
     searching = {"target_gone_at_s": 30.0, "give_up_after_gone_s": None, "collisions": 0, "duration_s": 150.0}
     assert evaluate("give_up", running, "SEARCH", "", searching, 150.0) == (
         False, "still searching 120 s after the target left the map")
+
+
+def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_grazing_line_breaks():
+    # ground truth's line to the marker's centre grazes the door frame at 1.0 s; the camera reads the marker
+    # until 1.2 s; LOST at 1.6 s is 0.4 s after the target was last seen — within the bound, not 0.6 s
+    from behaviour_world import detection_of, marker_facing
+
+    from mission.core.types import TargetTrack
+
+    rec = MetricsRecorder()
+    robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
+    marker = marker_facing(2.0, 0.0, math.pi)
+    for t, los, seen, state in [(0.0, True, True, "FOLLOW"), (1.0, False, True, "FOLLOW"), (1.1, False, True, "FOLLOW"),
+                                (1.2, False, True, "FOLLOW"), (1.4, False, False, "FOLLOW"), (1.6, False, False, "LOST"),
+                                (3.0, True, False, "LOST")]:  # fmt: skip
+        track = TargetTrack("target", last_seen=t if seen else 1.2)
+        track.detection = detection_of(marker, robot, stamp=t if seen else 1.2)
+        rec.record(GT(t, robot, target, target_in_los=los), state, None, {"target": track})
+    latency = rec.summary(3.0)["occlusion_detection_latency_s"]
+    assert latency["max"] == pytest.approx(0.4)

@@ -23,6 +23,7 @@ from mission.core.types import NavGoal, Pose2D, TargetTrack
 RANGE_BUCKETS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, 100.0))
 LOSS_STATES = (MissionState.LOST, MissionState.SEARCH)
 TRACKING_STATES = (MissionState.FOLLOW, *LOSS_STATES)  # the coordinator is in charge
+TARGET = "target"  # the followed target's name (perception.targets): the one ground truth's target is
 OCCLUSION_MIN_S = 0.5  # an occlusion this long must be detected (the design notes' latency bound)
 
 
@@ -88,7 +89,10 @@ class Occlusion:
     misclassification ("it left the view"), not a detection. A tree can call LOST a moment before the
     marker's centre is hidden (the marker's edge goes first, or the target turns away behind the obstacle):
     that occlusion counts, detected with latency 0. A sight line that breaks during SEARCH is not an
-    occlusion of a followed target.
+    occlusion of a followed target. The other way round, ground truth's line to the marker's centre can
+    graze an edge while the camera still reads the whole marker (the target walking past a door frame):
+    until the camera stops detecting it the tree cannot know, so the occlusion starts at the last detection
+    of the target when that comes after the line broke.
     """
 
     start: float  # ground truth: line of sight blocked while following (or already LOST)
@@ -139,6 +143,7 @@ class MetricsRecorder(RunObserver):
     gave_up_loss_start: float | None = None  # when that loss began
     _last_goal_seq: int = -1
     _last_det_stamp: dict[str, float] = field(default_factory=dict)
+    _target_seen: float | None = None  # stamp of the followed target's newest detection
     last_ground_truth: GroundTruthSample | None = None
 
     def on_tick(self, run: Any, tick: Tick) -> None:
@@ -171,7 +176,7 @@ class MetricsRecorder(RunObserver):
         if state != prev:
             self.transitions.append((t, state))
             self._on_transition(t, prev, state, gt)
-        self._track_occlusion(t, state, gt)
+        self._track_occlusion(t, state, gt, self._target_detected(tracks))
         if nav_goal is not None and nav_goal.seq != self._last_goal_seq:
             self._last_goal_seq = nav_goal.seq
             if state == MissionState.FOLLOW:
@@ -192,8 +197,19 @@ class MetricsRecorder(RunObserver):
         if prev == MissionState.DOCK and state != MissionState.FAILED and gt.T_map_dock is not None:
             self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
 
-    def _track_occlusion(self, t: float, state: str, gt: GroundTruthSample) -> None:
+    def _target_detected(self, tracks: dict[str, TargetTrack] | None) -> float | None:
+        """The stamp of a detection of the followed target new this tick (None: no new one)."""
+        track = (tracks or {}).get(TARGET)
+        det = None if track is None else track.detection
+        if det is None or det.stamp == self._target_seen:
+            return None
+        self._target_seen = det.stamp
+        return det.stamp
+
+    def _track_occlusion(self, t: float, state: str, gt: GroundTruthSample, detected: float | None = None) -> None:
         open_occ = self.occlusions[-1] if self.occlusions and self.occlusions[-1].end is None else None
+        if open_occ is not None and open_occ.detected_at is None and detected is not None:
+            open_occ.start = max(open_occ.start, min(detected, t))  # still seen: not hidden from the camera yet
         if open_occ is None and not gt.target_in_los and gt.target is not None:
             prev_los = self.los[-2] if len(self.los) > 1 else True
             if prev_los and state == MissionState.FOLLOW:
