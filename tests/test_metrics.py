@@ -231,9 +231,10 @@ def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
     marker = marker_facing(2.0, 0.0, math.pi)
-    for t, los, seen, state in [(0.0, True, True, "FOLLOW"), (1.0, False, True, "FOLLOW"), (1.1, False, True, "FOLLOW"),
-                                (1.2, False, True, "FOLLOW"), (1.4, False, False, "FOLLOW"), (1.6, False, False, "LOST"),
-                                (3.0, True, False, "LOST")]:  # fmt: skip
+    script = [(0.0, True, True, "FOLLOW"), (1.0, False, True, "FOLLOW"), (1.1, False, True, "FOLLOW"),
+              (1.2, False, True, "FOLLOW"), (1.4, False, False, "FOLLOW"), (1.6, False, False, "LOST"),
+              (3.0, True, False, "LOST")]  # fmt: skip
+    for t, los, seen, state in script:
         track = TargetTrack("target", last_seen=t if seen else 1.2)
         track.detection = detection_of(marker, robot, stamp=t if seen else 1.2)
         rec.record(GT(t, robot, target, target_in_los=los), state, None, {"target": track})
