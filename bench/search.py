@@ -24,7 +24,7 @@ Knobs (environment): ``MISSION_BENCH_SEEDS`` (ladder seeds per scenario, default
 ``MISSION_BENCH_BASELINE_SEEDS`` (the baselines', default the same), ``MISSION_BENCH_SCENARIOS``
 (comma-separated; default all ten), ``MISSION_BENCH_SEARCHES`` (default ``ladder,sweep,rotate``),
 ``MISSION_BENCH_WORKERS`` (default one per core), ``MISSION_BENCH_BUDGET_S`` (stop starting runs after this
-many wall seconds, per sweep). The full acceptance run is ``mission bench --only search``.
+many wall seconds in all; what finished is reported). The full acceptance run is ``mission bench --only search``.
 """
 
 from __future__ import annotations
@@ -107,8 +107,10 @@ def sweeps(
     docks = [s for s in scenarios if s in DOCK_ONLY]
     if docks:
         jobs.append(("ladder", "explore_dock.xml", docks, 1))  # once: the search is not in this tree
+    t0 = time.perf_counter()
     for search, tree, group, n in jobs:
-        if n <= 0:
+        left = None if budget_s is None else budget_s - (time.perf_counter() - t0)
+        if n <= 0 or (left is not None and left <= 0):
             continue
         trees = variant_trees(search, out)
         tree_path = None if search == "ladder" else str(trees / tree)
@@ -116,7 +118,7 @@ def sweeps(
         shutil.rmtree(sweep_dir, ignore_errors=True)  # a benchmark measures, it never resumes
         plan = SweepPlan(tuple(group), tuple(range(n)), tree=tree_path, max_duration=max_duration, pictures="all")
         progress(f"search: {search} on {', '.join(group)} × {n} seeds ({tree})")
-        outcome = run_sweep(plan, sweep_dir, workers=workers, progress=True, budget_s=budget_s)
+        outcome = run_sweep(plan, sweep_dir, workers=workers, progress=True, budget_s=left)
         dirs.append(sweep_dir.relative_to(out).as_posix())
         for r in outcome.rows:
             rows.append({**r, "search": search, "sweep_dir": sweep_dir.relative_to(out).as_posix()})
