@@ -177,6 +177,10 @@ class RemoteCaller:
             text = text.replace(secret, "***")
         return text
 
+    def _error(self, kind: str, text: str, *, status: int | None = None, permanent: bool = False) -> ModelCallError:
+        """An error whose message has had the key taken out, whatever echoed it (a server, a URL)."""
+        return ModelCallError(kind, self.redact(text), status=status, permanent=permanent)
+
     def close(self) -> None:
         self._closed.set()
         self._http.close()
@@ -206,14 +210,13 @@ class RemoteCaller:
                     if err.kind == "rate_limited" and self.budget is not None:
                         self.budget.defer(delay)  # the source waits it out between calls instead
                     why = f"{err.args[0]}; asked to wait {delay:.0f} s (> remote.max_backoff_s {s.max_backoff_s:g})"
-                    raise ModelCallError(err.kind, why, status=err.status)
+                    raise self._error(err.kind, why, status=err.status)
                 log.debug("%s failed (%s); retry %d in %.2f s", what, err, attempt + 1, delay)
                 self._sleep(delay, what)
                 attempt += 1
                 self.usage.retries += 1
         except ModelCallError as err:
             self.usage.failures[err.kind] += 1
-            err.args = (self.redact(str(err.args[0])),)
             raise
 
     # -- internals -----------------------------------------------------------------------------------
@@ -223,7 +226,7 @@ class RemoteCaller:
 
     def _sleep(self, seconds: float, what: str) -> None:
         if self._closed.wait(seconds):
-            raise ModelCallError("closed", f"{what}: the client was closed during the call")
+            raise self._error("closed", f"{what}: the client was closed during the call")
 
     def _take_retry(self, what: str) -> None:
         """Wait for the budget to grant a retry (recorded before it is sent), or end the call."""
@@ -235,7 +238,7 @@ class RemoteCaller:
                 return
             if wait > self.settings.max_backoff_s:
                 why = "the daily quota is spent" if wait == float("inf") else f"the next request is {wait:.0f} s away"
-                raise ModelCallError("budget", f"{what}: no retry within the request budget ({why})")
+                raise self._error("budget", f"{what}: no retry within the request budget ({why})")
             self._sleep(wait, what)
 
     def _send(
@@ -243,18 +246,18 @@ class RemoteCaller:
     ) -> dict[str, Any] | tuple[ModelCallError, float | None]:
         """One request: the answer's JSON, or the error and the wait the service asked for (None: none)."""
         if self._closed.is_set():
-            raise ModelCallError("closed", f"{what}: the client was closed")
+            raise self._error("closed", f"{what}: the client was closed")
         t0 = time.monotonic()
         try:
             resp = self._http.post(url, json=body, headers=headers)
         except httpx.TimeoutException:
             limit = self.settings.timeout_s
-            return ModelCallError("timeout", f"{what}: no answer within remote.timeout_s {limit:g} s"), None
+            return self._error("timeout", f"{what}: no answer within remote.timeout_s {limit:g} s"), None
         except httpx.TransportError as err:
             if self._closed.is_set():
-                raise ModelCallError("closed", f"{what}: the client was closed during the call") from None
+                raise self._error("closed", f"{what}: the client was closed during the call") from None
             why = one_line(str(err)) or type(err).__name__
-            return ModelCallError("connection", f"{what}: {why}"), None
+            return self._error("connection", f"{what}: {why}"), None
         finally:
             self.usage.request_seconds += time.monotonic() - t0
         status = resp.status_code
@@ -265,7 +268,7 @@ class RemoteCaller:
                 data = None
             if not isinstance(data, dict):
                 snippet = one_line(resp.text, 80)
-                return ModelCallError("bad_response", f"{what}: HTTP {status} but not a JSON object: {snippet!r}",
+                return self._error("bad_response", f"{what}: HTTP {status} but not a JSON object: {snippet!r}",
                                       status=status), None  # fmt: skip
             self.usage.answers += 1
             return data
@@ -276,14 +279,14 @@ class RemoteCaller:
         if status == 429 and details.daily_quota_spent:
             if self.budget is not None:
                 self.budget.spend_day()
-            return ModelCallError("quota", f"{text} (the service's daily quota is spent)", status=status), None
+            return self._error("quota", f"{text} (the service's daily quota is spent)", status=status), None
         if status in RETRIED_STATUS or status >= 500:
             wait = retry_after_header(resp.headers.get("retry-after"), time.time())
             if wait is None:
                 wait = details.retry_after_s
             kind = "rate_limited" if status == 429 else "server"
-            return ModelCallError(kind, text, status=status), wait
-        return ModelCallError("rejected", text, status=status, permanent=True), None
+            return self._error(kind, text, status=status), wait
+        return self._error("rejected", text, status=status, permanent=True), None
 
     def _details(self, resp: httpx.Response) -> ErrorDetails:
         try:

@@ -408,7 +408,9 @@ class VlmSource:
             answer = fut.result()
         except Exception as err:  # a failing client must not take the tick down
             self._call_failed(err)
+            self.state = "breaker_open" if self.latch.breaker_open else "idle"
             return
+        self.state = "idle"  # until the next frame says what the source waits for
         self.latch.attempt_ok()  # the model answered (even with nothing): failures must be consecutive
         if answer.outcome != "ok" or answer.pose is None:
             self.counters["misses" if answer.outcome == "miss" else "answers_without_depth"] += 1
@@ -422,6 +424,7 @@ class VlmSource:
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
                               req.stamp)
         if self.latch.add(candidate):
+            self.state = "latched"
             self.counters["latches"] += 1
             self._stale_frames = 0
             self._next_emit = None
