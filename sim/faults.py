@@ -239,6 +239,8 @@ class FaultyVlmClient:
         self.inner.close()
 
     def __getattr__(self, item: str) -> Any:  # usage (the cost accounting), last_note … of the wrapped client
+        if item == "inner":
+            raise AttributeError(item)
         return getattr(self.inner, item)
 
 

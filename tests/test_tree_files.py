@@ -17,7 +17,7 @@ from mission.trees.factory import shipped_factory
 from mission.trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
 from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
-SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml"]
+SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml", "discover_follow.xml"]
 
 
 def shape(desc: TreeDescription) -> str:
@@ -45,6 +45,8 @@ CATALOGUE = {
     "follow.xml": f"BehaviorTree[{FOLLOW}]",
     "mission.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]",
     "explore_dock.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]",
+    "discover_follow.xml": "BehaviorTree[Sequence[Explore:discover(target=target,angular_speed=0.1,timeout_s=90.0),"
+    "SubTree(Follow)]]",
 }
 MAIN_TREE = {
     "explore.xml": "Explore",
@@ -52,6 +54,7 @@ MAIN_TREE = {
     "follow.xml": "Follow",
     "mission.xml": "Mission",
     "explore_dock.xml": "ExploreDock",
+    "discover_follow.xml": "DiscoverFollow",
 }
 
 
