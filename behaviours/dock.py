@@ -108,11 +108,21 @@ class VisualServoDock(MissionLeaf):
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
         super().__init__(name, **ports)
-        self.skew_tol_rad = math.radians(self.params.skew_tol_deg)
-        self.speed_limit = abs(self.params.max_v)  # limits: the sign of what was written does not matter
-        self.turn_limit = abs(self.params.max_w)
         self.gains = ServoGains()
         self._reset()
+
+    # Derived from the ports when used: a port read from the blackboard may change between ticks.
+    @property
+    def skew_tol_rad(self) -> float:
+        return math.radians(self.params.skew_tol_deg)
+
+    @property
+    def speed_limit(self) -> float:
+        return abs(self.params.max_v)  # limits: the sign of what was written does not matter
+
+    @property
+    def turn_limit(self) -> float:
+        return abs(self.params.max_w)
 
     def _reset(self) -> None:
         self.filter = FloorTagFilter()

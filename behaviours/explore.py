@@ -63,11 +63,16 @@ class Explore(MissionLeaf):
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
         super().__init__(name, **ports)
-        self.route = parse_waypoints(self.params.waypoints)  # [(x, y), …] in the map frame
-        self.turn_rate = abs(self.params.angular_speed)
+        self.route: list[tuple[float, float]] = []  # [(x, y), …] in the map frame, from the waypoints port
         self._reset()
 
+    @property
+    def turn_rate(self) -> float:
+        return abs(self.params.angular_speed)
+
     def _reset(self) -> None:
+        if isinstance(self.params.waypoints, str):  # not yet read when the port is a blackboard entry
+            self.route = parse_waypoints(self.params.waypoints)
         self._t0 = 0.0
         self.index = 0
         self.unreachable = 0

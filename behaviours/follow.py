@@ -19,7 +19,7 @@ from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
-from mission.core.types import NavGoal
+from mission.core.types import NavGoal, Pose2D
 
 
 class FollowTarget(MissionLeaf):
@@ -31,6 +31,7 @@ class FollowTarget(MissionLeaf):
         offset_m: float = port(0.5, "stop this far before the target, on the robot's side")
         window: int = port(5, "moving average over the last N detections (map frame)")
         rate_hz: float = port(10.0, "maximum goal rate")
+        goal: Pose2D = port(doc="the approach goal last sent (map frame)", direction="output")
 
         def __post_init__(self) -> None:
             if self.window < 1 or self.rate_hz <= 0 or self.offset_m < 0:
@@ -46,9 +47,13 @@ class FollowTarget(MissionLeaf):
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
         super().__init__(name, **ports)
-        self.period = 1.0 / self.params.rate_hz
         self._goal: NavGoal | None = None
         self._sent_at: float | None = None
+
+    @property
+    def period(self) -> float:
+        """Seconds between goals (from rate_hz, which a tree may read from the blackboard)."""
+        return 1.0 / self.params.rate_hz
 
     def initialise(self) -> None:
         self._goal = None
@@ -83,6 +88,7 @@ class FollowTarget(MissionLeaf):
         robot_xy = (state.pose.x, state.pose.y)
         goal = approach_goal(robot_xy, target_xy, self.params.offset_m)
         self._goal = self.navigate(goal)
+        self.set_output("goal", goal)
         self._sent_at = now
         dist = math.hypot(target_xy[0] - robot_xy[0], target_xy[1] - robot_xy[1])
         self.feedback_message = (

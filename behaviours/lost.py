@@ -18,7 +18,7 @@ from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
-from mission.core.types import NavGoal
+from mission.core.types import NavGoal, Pose2D
 
 
 class HoldLastGoal(MissionLeaf):
@@ -29,6 +29,7 @@ class HoldLastGoal(MissionLeaf):
         target: str = port("target", "name of the target (a key of perception.targets)")
         timeout_s: float = port(3.0, "give up holding this long after the target was last seen")
         offset_m: float = port(0.5, "approach offset before the last known position (as FollowTarget)")
+        goal: Pose2D = port(doc="the frozen goal it holds (map frame)", direction="output")
 
     NODE_TYPE = "Action"
     READS = (bbk.TRACKS,)
@@ -63,6 +64,7 @@ class HoldLastGoal(MissionLeaf):
                 seen_from = state.pose
             robot_xy = (seen_from.x, seen_from.y) if seen_from is not None else target_xy
             self._goal = self.navigate(approach_goal(robot_xy, target_xy, self.params.offset_m))
+            self.set_output("goal", self._goal.pose)
             self._goal_for = tr.last_seen
         else:
             self.resend_goal(self._goal)

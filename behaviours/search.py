@@ -46,7 +46,6 @@ class SearchSweep(MissionLeaf):
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
         super().__init__(name, **ports)
-        self.turn_rate = abs(self.params.angular_speed)  # the sign of a turn is chosen per search
         self.direction = 1.0
         self.first_turn = 0.0  # rad to turn toward the last-seen bearing before the full circle
         self._t0 = 0.0
@@ -54,6 +53,10 @@ class SearchSweep(MissionLeaf):
         self._yaw_prev: float | None = None
         self.turned = 0.0  # rad turned so far in `direction`
         self._episode: float | None = None  # the track's last_seen this search is about (one search per loss)
+
+    @property
+    def turn_rate(self) -> float:
+        return abs(self.params.angular_speed)  # the sign of a turn is chosen per search
 
     def initialise(self) -> None:
         now = self.now()

@@ -21,7 +21,7 @@ from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
-from mission.core.docking import staging_pose
+from mission.core.docking import floor_pose, staging_pose
 from mission.core.types import NavGoal, NavStatus, Pose2D
 
 REFINE_CLOSER_M = 0.2
@@ -37,6 +37,9 @@ class GoToStaging(MissionLeaf):
         target: str = port("dock", "name of the dock target (a key of perception.targets)")
         offset_m: float = port(0.7, "staging distance in front of the tag, along its normal (base pose)")
         timeout_s: float = port(40.0, "give up after this long")
+        dock_pose: Pose2D = port(doc="the dock marker on the floor (map frame; heading = its face normal)",
+                                 direction="output")
+        staging_pose: Pose2D = port(doc="the staging pose it navigates to (map frame)", direction="output")
 
     NODE_TYPE = "Action"
     READS = (bbk.TRACKS,)
@@ -101,6 +104,8 @@ class GoToStaging(MissionLeaf):
             pose = self._staging(tr.pose_map)
         except ValueError as err:
             return self.fail(f"DOCK: {self.params.target}: {err}")
+        self.set_output("dock_pose", floor_pose(tr.pose_map))
+        self.set_output("staging_pose", pose)
         distance = tr.detection.distance if tr.detection is not None else math.inf
         if self._wanted(pose, distance):
             if self._goal is not None:

@@ -9,6 +9,8 @@ import py_trees
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
+from mission.core.docking import floor_pose
+from mission.core.types import Pose2D
 
 
 class IsTargetVisible(MissionLeaf):
@@ -22,6 +24,10 @@ class IsTargetVisible(MissionLeaf):
     class Params:
         target: str = port("target", "name of the target (a key of perception.targets)")
         max_misses: int = port(0, "consecutive missed frames still counted as visible")
+        visible: bool = port(doc="the answer, as true/false (for scripts and other nodes)", direction="output")
+        last_seen_pose: Pose2D = port(
+            doc="where the target was last seen (map frame; heading = its face normal's)", direction="output"
+        )
 
     NODE_TYPE = "Condition"
     READS = (bbk.TRACKS,)
@@ -31,9 +37,13 @@ class IsTargetVisible(MissionLeaf):
         target, max_misses = self.params.target, self.params.max_misses
         tr = self.track(target)
         if tr is None or tr.last_seen is None:
+            self.set_output("visible", False)
             self.feedback_message = f"{target} never seen"
             return py_trees.common.Status.FAILURE
+        if tr.pose_map is not None:
+            self.set_output("last_seen_pose", floor_pose(tr.pose_map))
         age = self.now() - tr.last_seen
+        self.set_output("visible", tr.misses <= max_misses)
         if tr.misses <= max_misses:
             self.feedback_message = f"{target} visible (seen {age:.1f} s ago, {tr.misses} miss(es) ≤ {max_misses})"
             return py_trees.common.Status.SUCCESS

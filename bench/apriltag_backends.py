@@ -33,9 +33,9 @@ from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 
 CONFIGS = {
-    "apriltag3 (decimate 2)": {"backend": "apriltag3", "decimate": 2.0},
-    "apriltag3 (decimate 1)": {"backend": "apriltag3", "decimate": 1.0},
-    "opencv (subpix)": {"backend": "opencv"},
+    "apriltag3 (defaults: full resolution)": {"backend": "apriltag3"},
+    "apriltag3 (decimate 2)": {"backend": "apriltag3", "decimate": 2.0, "min_contrast": 5},
+    "opencv (fitted edges)": {"backend": "opencv"},
 }
 
 
@@ -81,8 +81,8 @@ def measure(quick: bool = False, seed: int = 0) -> dict[str, Any]:
     return {"image": "640x480", "tag": f"tag36h11 {size} m", "views_per_range": n, "results": results}
 
 
-DEFAULT = "apriltag3 (decimate 2)"
-OTHER = "opencv (subpix)"
+DEFAULT = "apriltag3 (defaults: full resolution)"
+OTHER = "opencv (fitted edges)"
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:

@@ -6,8 +6,10 @@ frame so both sides see the same machine load:
 * ``aruco`` source (DICT_4X4_250, defaults: sub-pixel corners, both IPPE poses, temporal flip choice)
   vs raw OpenCV: ``ArucoDetector.detectMarkers`` (same detector parameters) + ``solvePnP(IPPE_SQUARE)``
   per marker;
-* ``apriltag`` source, backend apriltag3 (decimate 2, 1 thread) vs raw ``pupil_apriltags.Detector.detect``
-  with the same settings and ``estimate_tag_pose=True`` (plus the BGR → grey conversion it needs);
+* ``apriltag`` source, backend apriltag3 (its defaults: full resolution, 1 thread) vs raw
+  ``pupil_apriltags.Detector.detect`` with the same settings (decimate 1 and the thresholds the source
+  sets in the C detector: perception_plugins/apriltag_backends.py) and ``estimate_tag_pose=True`` (plus the
+  BGR → grey conversion it needs);
 * ``apriltag`` source, backend opencv vs raw ``ArucoDetector.detectMarkers`` (DICT_APRILTAG_36h11, same
   parameters) + ``solvePnP(IPPE_SQUARE)``.
 
@@ -27,7 +29,13 @@ from bench.common import Figure, progress, ratio, save_figure
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT, Scene, render_scene
 from mission.core.types import Frame
 from mission.perception_plugins.apriltag import AprilTagSource
-from mission.perception_plugins.apriltag_backends import SafeDetector
+from mission.perception_plugins.apriltag_backends import (
+    DECODE_SHARPENING,
+    MIN_CLUSTER_PIXELS,
+    SafeDetector,
+    detector_head,
+    min_contrast_for,
+)
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.square_pose import object_points
 
@@ -37,13 +45,15 @@ SIZE = 0.12
 TARGET = 1.10
 
 
-def raw_aruco_poses(dictionary: int, size_m: float = SIZE) -> Any:
-    """The raw OpenCV baseline: detectMarkers with the detector parameters our sources use, then one
-    solvePnP(IPPE_SQUARE) per marker. Returns ``run(image, K, D) -> [(id, rvec, tvec), ...]``."""
+def raw_aruco_poses(dictionary: int | cv2.aruco.Dictionary, size_m: float = SIZE) -> Any:
+    """The raw OpenCV baseline: detectMarkers (SUBPIX, the minMarkerDistanceRate our sources use), then one
+    solvePnP(IPPE_SQUARE) per marker. `dictionary`: a cv2.aruco.DICT_* id or a Dictionary. Returns
+    ``run(image, K, D) -> [(id, rvec, tvec), ...]``."""
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
     params.minMarkerDistanceRate = 0.025
-    det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary), params)
+    d = cv2.aruco.getPredefinedDictionary(dictionary) if isinstance(dictionary, int) else dictionary
+    det = cv2.aruco.ArucoDetector(d, params)
     obj = object_points(size_m).reshape(4, 1, 3)
 
     def run(image: np.ndarray, K: np.ndarray, D: np.ndarray) -> list[tuple[int, np.ndarray, np.ndarray]]:
@@ -68,10 +78,15 @@ def _raw_aruco(dictionary: int) -> Any:
 def _raw_pupil() -> Any:
     # SafeDetector: pupil_apriltags.Detector with a destructor that does not free its families first (the
     # plain one corrupts the heap and a later detector aborts the process); detection is the same C call.
-    det = SafeDetector(families="tag36h11", nthreads=1, quad_decimate=2.0, refine_edges=1)
+    det = SafeDetector(families="tag36h11", nthreads=1, quad_decimate=1.0, refine_edges=0)
+    head = detector_head(det)
+    assert head is not None, "pupil-apriltags' detector struct is not AprilTag 3's"
+    head.decode_sharpening = DECODE_SHARPENING
+    head.qtp.min_cluster_pixels = MIN_CLUSTER_PIXELS
 
     def run(image: np.ndarray, K: np.ndarray, D: np.ndarray) -> int:
         grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        head.qtp.min_white_black_diff = min_contrast_for(grey)
         cam = (K[0, 0], K[1, 1], K[0, 2], K[1, 2])
         return len(det.detect(grey, estimate_tag_pose=True, camera_params=cam, tag_size=SIZE))
 
@@ -83,8 +98,8 @@ def _cases() -> list[tuple[str, str, int, Any, Any]]:
     return [
         ("aruco", "cv2 ArucoDetector.detectMarkers + solvePnP(IPPE_SQUARE)", ARUCO_DICT,
          lambda: ArucoSource({"marker_size_m": SIZE}), lambda: _raw_aruco(ARUCO_DICT)),
-        ("apriltag (apriltag3)", "pupil_apriltags.Detector.detect(estimate_tag_pose=True)", APRILTAG_DICT,
-         lambda: AprilTagSource({"tag_size_m": SIZE}), _raw_pupil),
+        ("apriltag (apriltag3)", "pupil_apriltags.Detector.detect(estimate_tag_pose=True), same settings",
+         APRILTAG_DICT, lambda: AprilTagSource({"tag_size_m": SIZE}), _raw_pupil),
         ("apriltag (opencv)", "cv2 ArucoDetector.detectMarkers(APRILTAG_36h11) + solvePnP(IPPE_SQUARE)", APRILTAG_DICT,
          lambda: AprilTagSource({"tag_size_m": SIZE, "backend": "opencv"}), lambda: _raw_aruco(APRILTAG_DICT)),
     ]  # fmt: skip

@@ -57,6 +57,7 @@ class Benchmark:
 BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("perception", "perception", "frames/s of the aruco/apriltag sources vs the raw library calls they wrap"),
     Benchmark("pose", "pose_accuracy", "pose error by range × angle vs the raw library's naive IPPE pose"),
+    Benchmark("real_images", "real_images", "recall and corners on photographs vs the raw libraries at their settings"),
     Benchmark("apriltag_backends", "apriltag_backends", "AprilTag 3 (pupil) vs OpenCV backend: accuracy and speed"),
     Benchmark("tree", "tree_tick", "µs per tick of mission.xml on scripted inputs vs a bare py_trees tree"),
     Benchmark("groot", "groot_monitor", "µs per step with --btlog / --groot (a client polling STATUS) vs none"),

@@ -29,6 +29,7 @@ from mission.app.runner import TreeRunner
 from mission.app.sim_run import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.config import load_config
+from mission.trees import decorators
 
 TARGET = 1.2
 
@@ -134,9 +135,14 @@ def bare_mirror(node: py_trees.behaviour.Behaviour, scripts: dict[int, list[Stat
         return cls(node.name, memory=node.memory, children=children)
     if isinstance(node, deco.Decorator):
         child = bare_mirror(node.decorated, scripts, clock)
-        if isinstance(node, deco.Retry):
-            return deco.Retry(node.name, child, node.num_failures)
-        base = next(c for c in type(node).__mro__ if c.__module__ == "py_trees.decorators")
+        if isinstance(node, decorators.RetryUntilSuccessful):  # the loader's BT.CPP decorators → py_trees' own
+            limit = int(node.input("num_attempts" if not isinstance(node, decorators.Repeat) else "num_cycles"))
+            if isinstance(node, decorators.Repeat):
+                return deco.Repeat(node.name, child, limit)
+            return deco.Retry(node.name, child, limit)
+        bare = {decorators.Inverter: deco.Inverter, decorators.ForceFailure: deco.SuccessIsFailure,
+                decorators.ForceSuccess: deco.FailureIsSuccess}  # fmt: skip
+        base = next((bare[c] for c in type(node).__mro__ if c in bare), deco.PassThrough)
         return base(name=node.name, child=child)
     return ScriptedLeaf(node.name, scripts[id(node)], clock)
 

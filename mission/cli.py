@@ -25,7 +25,7 @@ VERBS = {
     "plugins": "list installed perception plugins",
     "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
     "sim-robot": "the pybullet world as a ROS 2 robot (camera, odom, scan, map, TF, /clock; navigate_to_pose)",
-    "replay": "run the tree on a recorded rosbag2",
+    "replay": "run the tree on a recorded bag (ROS 1 or rosbag2)",
     "sweep": "scenarios × seeds × --set values on Dask (local or a cluster): results table + summary",
     "bench": "run the benchmarks and write their figures",
     "nodes-model": "write the Groot2 palette (TreeNodesModel) of every registered behaviour, installed ones too",
@@ -85,6 +85,10 @@ def _add_detect(p: argparse.ArgumentParser) -> None:
                    help="plugin param, YAML value (repeatable), e.g. --set marker_size_m=0.15")
     p.add_argument("--intrinsics", default=None, metavar="FX,FY,CX,CY",
                    help="camera intrinsics; without them the fallback pinhole is used (fx=fy=0.9·W)")
+    p.add_argument("--calibration", default=None, metavar="FILE",
+                   help="camera calibration file (ROS camera_info YAML or OpenCV YAML) instead of --intrinsics")
+    p.add_argument("--depth", action="append", default=[], metavar="FILE",
+                   help="depth image for an IMAGE, in order (16-bit PNG/TIFF in mm, or .npy/float TIFF in m)")
     p.add_argument("--json", action="store_true", help="one JSON object per image on stdout")
 
 
@@ -119,10 +123,17 @@ def _add_sim_robot(p: argparse.ArgumentParser) -> None:
 
 
 def _add_replay(p: argparse.ArgumentParser) -> None:
-    p.add_argument("bag", metavar="BAG", help="a rosbag2 directory (sqlite3 or mcap)")
+    p.add_argument("bag", metavar="BAG", help="a ROS 1 .bag file or a rosbag2 directory (sqlite3 or mcap)")
     p.add_argument("--config", default=None, help="mission config YAML")
     p.add_argument("--rate", type=rate, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
+    for name, what in (("image", "camera images, raw or compressed"), ("camera-info", "sensor_msgs/CameraInfo"),
+                       ("depth", "depth images, raw or compressedDepth"), ("odom", "nav_msgs/Odometry"),
+                       ("scan", "sensor_msgs/LaserScan"), ("map", "nav_msgs/OccupancyGrid")):  # fmt: skip
+        p.add_argument(f"--{name}-topic", default=None, metavar="TOPIC",
+                       help=f"{what} (default: the config's topics section, else the node's default)")
+    p.add_argument("--calibration", default=None, metavar="FILE",
+                   help="camera calibration (ROS camera_info YAML or OpenCV YAML) for every frame")
 
 
 def _add_sweep(p: argparse.ArgumentParser) -> None:

@@ -101,12 +101,20 @@ class AprilTagParams(StrictModel):
     camera_mount: TransformSpec | None = None  # T_base_camera: robot base → camera optical frame
     report_frame: Literal["camera", "base"] = "camera"  # base: robot base → entity base (camera_mount)
     base_frame: str = Field("base_link", min_length=1)  # frame_id of detections when report_frame is base
-    decimate: float = Field(2.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate (opencv: not used)
+    decimate: float = Field(1.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate; 1 = full resolution (opencv: not used)
     threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)
-    refine_edges: bool = True  # apriltag3 refine_edges; opencv: sub-pixel corner refinement
+    refine_edges: bool = True  # corners refined on their fitted edges (both backends)
+    min_contrast: Literal["auto"] | int = "auto"  # apriltag3 min_white_black_diff, 0–255; auto: 0.4 × frame spread
     max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
     min_decision_margin: float = Field(0.0, ge=0.0)  # drop weaker decodes (grey levels)
     disambiguation: Literal["temporal", "naive"] = "temporal"  # flip choice, as the aruco source
+
+    @field_validator("min_contrast")
+    @classmethod
+    def _grey_levels(cls, v: Any) -> Any:
+        if isinstance(v, int) and not 0 <= v <= 255:
+            raise ValueError("expected 'auto' or grey levels 0–255")
+        return v
 
     @field_validator("tags", mode="before")
     @classmethod
@@ -178,8 +186,9 @@ class AprilTagSource:
         }
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
-                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.refine_edges
-            )
+                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.refine_edges,
+                min_contrast=None if p.min_contrast == "auto" else int(p.min_contrast),
+            )  # fmt: skip
         else:
             self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=p.refine_edges)
         self._disambiguator = square_pose.TemporalDisambiguator()

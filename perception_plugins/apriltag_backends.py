@@ -11,6 +11,21 @@ OpenCV-drawn textures use), pupil's permutation measured once per process
 (:func:`pupil_corner_order`), so the shared square-pose code (perception_plugins/square_pose.py) gives
 the same pose for the same tag.
 
+Small tags at the default settings. AprilTag's usual speed-up, ``quad_decimate`` 2, finds quads in an image
+subsampled 2×: on real photos it missed 39 of 102 tags of 14–41 px that full resolution finds (BENCHMARKS.md,
+real images), for a quarter of the time. Most of full resolution's extra time goes into the many small,
+faint clusters of texture (gravel, carpet, sensor noise) that cannot be tags; AprilTag has two public
+thresholds for them in its detector's ``qtp`` (apriltag.h), which pupil-apriltags does not expose (nor,
+through a truncation, its decode sharpening: :data:`DECODE_SHARPENING`):
+``min_white_black_diff`` (a region whose grey levels span less is not thresholded at all) and
+``min_cluster_pixels``. :class:`Apriltag3Backend` runs at full resolution by default with both raised
+(:data:`MIN_CLUSTER_PIXELS`, and a contrast floor of :data:`CONTRAST_FRACTION` of the frame's grey-level spread,
+at most :data:`MAX_MIN_CONTRAST`), which finds what full resolution finds (with the sharpening, a little
+more) at about the time of decimate 2.
+The thresholds are set through a ctypes view of the C struct that is checked against the values
+pupil-apriltags set before anything is written; a library whose struct differs is left at its defaults,
+with a warning.
+
 OpenCV does not report AprilTag's decode quality, so this module measures it the way AprilTag defines
 it: the tag is sampled cell by cell through its homography; the *hamming* distance is the number of
 data bits that differ from the code of the decoded id, the *decision margin* is how far the data cells'
@@ -19,13 +34,20 @@ grey levels sit from the black/white threshold (the smaller of the white and the
 
 from __future__ import annotations
 
+import ctypes
 import functools
+import logging
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import cv2
 import numpy as np
 import pupil_apriltags
+
+from mission.perception_plugins.corner_refinement import refine_corners
+
+log = logging.getLogger(__name__)
 
 # Families per backend (what each library can decode), in the order the docs list them.
 APRILTAG3_FAMILIES = ("tag36h11", "tag25h9", "tag16h5", "tagStandard41h12")
@@ -36,6 +58,80 @@ OPENCV_DICTIONARIES = {
 }
 SUPPORTED_FAMILIES = {"apriltag3": APRILTAG3_FAMILIES, "opencv": tuple(OPENCV_DICTIONARIES)}
 APRILTAG3_MAX_HAMMING = 2  # pupil-apriltags registers every family with 2 correctable bits
+
+MIN_CLUSTER_PIXELS = 30  # AprilTag's default 5; a 10 px tag's border already gives ~80
+CONTRAST_FRACTION = 0.4  # min_white_black_diff = this × the frame's grey-level spread (1st–99th percentile) …
+MAX_MIN_CONTRAST = 60  # … at most this (real photos lose tags above ~65) …
+MIN_MIN_CONTRAST = 5  # … and never below AprilTag's own default
+# AprilTag's default decode sharpening. pupil-apriltags 1.0.4 passes int(decode_sharpening), i.e. 0: the
+# 0.25 it documents never reaches the C detector. With it, full resolution decodes the small tags that
+# refine_edges had been needed for (2 of 23 rendered 20 px tags) and loses none (BENCHMARKS.md, real images).
+DECODE_SHARPENING = 0.25
+
+
+class _QuadThreshParams(ctypes.Structure):
+    """``struct apriltag_quad_thresh_params`` (apriltag.h, AprilTag 3)."""
+
+    _fields_ = [
+        ("min_cluster_pixels", ctypes.c_int),
+        ("max_nmaxima", ctypes.c_int),
+        ("critical_rad", ctypes.c_float),
+        ("cos_critical_rad", ctypes.c_float),
+        ("max_line_fit_mse", ctypes.c_float),
+        ("min_white_black_diff", ctypes.c_int),
+        ("deglitch", ctypes.c_int),
+    ]
+
+
+class _DetectorHead(ctypes.Structure):
+    """The first fields of ``struct apriltag_detector`` (apriltag.h, AprilTag 3), up to its ``qtp``."""
+
+    _fields_ = [
+        ("nthreads", ctypes.c_int),
+        ("quad_decimate", ctypes.c_float),
+        ("quad_sigma", ctypes.c_float),
+        ("refine_edges", ctypes.c_bool),
+        ("decode_sharpening", ctypes.c_double),
+        ("debug", ctypes.c_bool),
+        ("qtp", _QuadThreshParams),
+    ]
+
+
+def detector_head(detector: pupil_apriltags.Detector) -> _DetectorHead | None:
+    """The detector's C struct up to its quad-threshold params, writable; None when it is not laid out as
+    apriltag.h says (then nothing is written): its head must hold what pupil-apriltags was given and its
+    ``qtp`` AprilTag's documented defaults."""
+    ptr = getattr(detector, "tag_detector_ptr", None)
+    if ptr is None:
+        return None
+    head = ctypes.cast(ptr, ctypes.POINTER(_DetectorHead)).contents
+    q = head.qtp
+    expected = detector.params
+    same_head = (
+        head.nthreads == expected["nthreads"]
+        and abs(head.quad_decimate - expected["quad_decimate"]) < 1e-6
+        and abs(head.quad_sigma - expected["quad_sigma"]) < 1e-6
+        and bool(head.refine_edges) == bool(expected["refine_edges"])
+    )
+    defaults = (
+        (q.max_nmaxima, q.max_line_fit_mse, q.min_white_black_diff, q.deglitch) == (10, 10.0, 5, 0)
+        and abs(q.cos_critical_rad - math.cos(math.radians(10.0))) < 1e-4  # AprilTag's 10° corner limit
+        and 0 < q.min_cluster_pixels < 1000
+    )
+    return head if same_head and defaults else None
+
+
+def min_contrast_for(gray: np.ndarray) -> int:
+    """AprilTag's ``min_white_black_diff`` for this frame: :data:`CONTRAST_FRACTION` of its grey-level spread.
+
+    The spread (1st to 99th percentile, of every 8th pixel) is what a printed tag's black and white can
+    span in this exposure: a dim frame gets a low floor, so its tags are still found; a bright, contrasty
+    one a high floor, so its texture is skipped."""
+    sample = gray[::8, ::8]
+    hist = cv2.calcHist([np.ascontiguousarray(sample)], [0], None, [256], [0, 256]).ravel()
+    cdf = np.cumsum(hist) / max(1.0, float(hist.sum()))
+    lo, hi = int(np.searchsorted(cdf, 0.01)), int(np.searchsorted(cdf, 0.99))
+    return int(min(MAX_MIN_CONTRAST, max(MIN_MIN_CONTRAST, round(CONTRAST_FRACTION * (hi - lo)))))
 
 
 @dataclass(frozen=True)
@@ -103,30 +199,68 @@ class SafeDetector(pupil_apriltags.Detector):
 
 
 class Apriltag3Backend:
-    """pupil-apriltags (AprilTag 3)."""
+    """pupil-apriltags (AprilTag 3); `min_contrast` None = per frame (:func:`min_contrast_for`), 5 = AprilTag's
+    default; `min_cluster_pixels` None = AprilTag's default (5).
+
+    `refine_edges` refines the corners on their fitted edges (perception_plugins/corner_refinement.py,
+    shared with the aruco source), after the library. AprilTag's own ``refine_edges`` is used only when
+    decimating, where it is what recovers full-resolution corners: at full resolution it cost 2 of 120
+    real tags (it moves a small tag's edges until it no longer decodes), and the fitted edges are more
+    precise than it is on rendered tags (median corner error 0.04 px against 0.07).
+    """
 
     name = "apriltag3"
 
-    def __init__(self, family: str, *, decimate: float, threads: int, refine_edges: bool) -> None:
+    def __init__(
+        self, family: str, *, decimate: float, threads: int, refine_edges: bool,
+        min_contrast: int | None = None, min_cluster_pixels: int | None = MIN_CLUSTER_PIXELS,
+    ) -> None:  # fmt: skip
         self.family = family
+        self.refine_edges = refine_edges
         self._detector = SafeDetector(
-            families=family, nthreads=threads, quad_decimate=decimate, refine_edges=int(refine_edges)
+            families=family, nthreads=threads, quad_decimate=decimate, refine_edges=int(refine_edges and decimate > 1)
         )
+        self._cells = int(self._detector.tag_families[family].contents.width_at_border)  # the black square, in cells
+        self.min_contrast = min_contrast
+        head = detector_head(self._detector)
+        self._qtp = None if head is None else head.qtp
+        if head is None:
+            log.warning(
+                "apriltag3: this pupil-apriltags' detector struct is not AprilTag 3's; its quad thresholds stay at "
+                "the library's defaults (full resolution is then ~3× slower than decimate 2)"
+            )
+        else:
+            head.decode_sharpening = DECODE_SHARPENING
+            if min_cluster_pixels is not None:
+                head.qtp.min_cluster_pixels = int(min_cluster_pixels)
+        self.last_min_contrast: int | None = None  # what the last frame used (for reports and tests)
 
     def detect(self, gray: np.ndarray) -> list[RawTag]:
         out = []
         order = list(pupil_corner_order())
-        for d in self._detector.detect(np.ascontiguousarray(gray)):
-            corners = np.asarray(d.corners, dtype=np.float64)[order] - 0.5
+        gray = np.ascontiguousarray(gray)
+        if self._qtp is not None:
+            contrast = self.min_contrast if self.min_contrast is not None else min_contrast_for(gray)
+            self._qtp.min_white_black_diff = int(contrast)
+            self.last_min_contrast = int(contrast)
+        found = self._detector.detect(gray)
+        if not found:
+            return out
+        quads = np.stack([np.asarray(d.corners, dtype=np.float64)[order] - 0.5 for d in found])
+        if self.refine_edges:
+            quads = refine_corners(gray, quads, self._cells)
+        for d, corners in zip(found, quads, strict=True):
             out.append(RawTag(int(d.tag_id), corners, int(d.hamming), float(d.decision_margin)))
         return out
 
     def close(self) -> None:
+        self._qtp = None
         self._detector = None
 
 
 class OpenCvBackend:
-    """OpenCV ArUco with the matching DICT_APRILTAG_* dictionary (sub-pixel corner refinement)."""
+    """OpenCV ArUco with the matching DICT_APRILTAG_* dictionary (corners refined on their fitted edges,
+    perception_plugins/corner_refinement.py, as the aruco source does)."""
 
     name = "opencv"
 
@@ -134,7 +268,8 @@ class OpenCvBackend:
         self.family = family
         self.dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, OPENCV_DICTIONARIES[family]))
         params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX if refine_edges else cv2.aruco.CORNER_REFINE_NONE
+        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE  # refined here, when refine_edges
+        self.refine_edges = refine_edges
         # Let OpenCV correct at least `max_hamming` bits; the measured hamming then filters precisely.
         max_bits = max(1, int(self.dictionary.maxCorrectionBits))
         params.errorCorrectionRate = float(min(1.0, (max_hamming + 0.5) / max_bits))
@@ -150,10 +285,14 @@ class OpenCvBackend:
         if ids is None:
             return []
         ids = ids.reshape(-1)
+        quads = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
+        if self.refine_edges:
+            quads = refine_corners(gray, quads, self._n + 2)
+        corners = quads
         bits, margins = sample_bits(gray, corners, self._n)
         hamming = np.count_nonzero(bits != self._codes[ids], axis=(1, 2)).tolist()
         return [
-            RawTag(i, np.asarray(c, dtype=np.float64).reshape(4, 2), h, m)
+            RawTag(i, c, h, m)
             for c, i, h, m in zip(corners, ids.tolist(), hamming, margins.tolist(), strict=True)
         ]
 
@@ -223,13 +362,16 @@ def sample_bits(gray: np.ndarray, corners: Any, n: int, ppc: int = 8) -> tuple[n
     Each tag plus one quiet-zone cell around it is warped to a grid of (n + 4) cells of `ppc` px; each
     cell's grey level is the mean of its central half. The threshold is midway between the black border
     and the white quiet zone (the medians of their cells: what AprilTag's decoder models); white = 1, as
-    OpenCV's dictionaries store it. The margin is the smaller of the mean distance of the white and of the
-    black data cells from the threshold.
+    OpenCV's dictionaries store it. The data cells' distances from the threshold are then sharpened as
+    AprilTag's decoder sharpens them (``v + DECODE_SHARPENING · (4v − its four neighbours)``, on a grid
+    where every cell but the data cells is 0), so the margins compare with the apriltag3 backend's. A bit
+    is white where its sharpened value is > 0; the margin is the smaller of the mean sharpened distance of
+    the white and of the black data cells.
 
     Batched because it runs for every tag of every frame (bench: perception): one warp per tag in C, then
     all the tags' cell means, medians and margins as whole-array operations. With the default ppc the
     cell means are multiples of 1/16, so every sum here is exact and the result does not depend on the
-    order numpy adds in.
+    order numpy adds in (the sharpening keeps them multiples of 1/128).
     """
     g = _grid(n, ppc)
     count = len(corners)
@@ -245,12 +387,15 @@ def sample_bits(gray: np.ndarray, corners: Any, n: int, ppc: int = 8) -> tuple[n
     means = sums.astype(np.float64) / g.area  # count × cells × cells
     flat = means.reshape(count, cells * cells)
     threshold = (_median(flat[:, g.ring]) + _median(flat[:, g.border])) / 2.0
-    data = means[:, 2:-2, 2:-2].reshape(count, n * n)
-    t = threshold[:, None]
-    bits = data > t
+    values = np.zeros((count, n + 2, n + 2))  # the data cells and a ring of zeros round them
+    values[:, 1:-1, 1:-1] = means[:, 2:-2, 2:-2] - threshold[:, None, None]
+    neighbours = values[:, :-2, 1:-1] + values[:, 2:, 1:-1] + values[:, 1:-1, :-2] + values[:, 1:-1, 2:]
+    inner = values[:, 1:-1, 1:-1]
+    data = (inner + DECODE_SHARPENING * (4.0 * inner - neighbours)).reshape(count, n * n)
+    bits = data > 0.0
     n_white = np.count_nonzero(bits, axis=1)
     n_black = n * n - n_white
-    white = np.where(bits, data - t, 0.0).sum(axis=1) / np.maximum(n_white, 1)
-    black = np.where(bits, 0.0, t - data).sum(axis=1) / np.maximum(n_black, 1)
+    white = np.where(bits, data, 0.0).sum(axis=1) / np.maximum(n_white, 1)
+    black = np.where(bits, 0.0, -data).sum(axis=1) / np.maximum(n_black, 1)
     margins = np.minimum(np.where(n_white > 0, white, np.inf), np.where(n_black > 0, black, np.inf))
     return bits.reshape(count, n, n), margins

@@ -3,7 +3,9 @@
 Semantics of the ``aruco_pose_streamer`` design notes (seeds/000): configurable dictionary with a
 warning and DICT_4X4_250 fallback, marker size (plus per-id sizes), intrinsics from the frame with the
 fx = fy = 0.9·W fallback pinhole in degraded mode, zero distortion when none is given. Beyond them:
-optional id filter, sub-pixel corners, and both IPPE poses kept and chosen between over time
+every OpenCV predefined dictionary and custom ones from an OpenCV dictionary file
+(perception_plugins/marker_dictionaries.py), optional id filter, sub-pixel corners that stay on the
+marker (perception_plugins/corner_refinement.py), and both IPPE poses kept and chosen between over time
 (perception_plugins/square_pose.py), with a confidence computed from the fit.
 
 OpenCV 4.x (≥ 4.7, ``ArucoDetector``) and 5.x are both supported; the only API difference that matters
@@ -24,22 +26,21 @@ from pydantic import Field, PositiveFloat
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
 from mission.core.types import Detection, Frame
-from mission.perception_plugins import square_pose
+from mission.perception_plugins import marker_dictionaries, square_pose
+from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
 
 log = logging.getLogger(__name__)
 
 DEFAULT_DICTIONARY = "DICT_4X4_250"
-SUPPORTED_DICTIONARIES = (
-    "DICT_4X4_50", "DICT_4X4_100", "DICT_4X4_250", "DICT_4X4_1000",
-    "DICT_5X5_50", "DICT_5X5_100", "DICT_5X5_250",
-    "DICT_6X6_50", "DICT_6X6_100", "DICT_6X6_250", "DICT_6X6_1000",
-    "DICT_APRILTAG_36h11",
-)  # fmt: skip
+SUPPORTED_DICTIONARIES = PREDEFINED  # and any OpenCV dictionary file
 
+# What OpenCV's detector refines itself; "edges" and "subpix" are done here, on its unrefined corners.
 _REFINEMENT = {
+    "edges": "CORNER_REFINE_NONE",
+    "subpix": "CORNER_REFINE_NONE",
     "none": "CORNER_REFINE_NONE",
-    "subpix": "CORNER_REFINE_SUBPIX",
     "contour": "CORNER_REFINE_CONTOUR",
     "apriltag": "CORNER_REFINE_APRILTAG",
 }
@@ -48,18 +49,18 @@ _REFINEMENT = {
 class ArucoParams(StrictModel):
     """Params of the `aruco` source (config `perception.sources[i].params`, or `mission detect --set`)."""
 
-    dictionary: str = DEFAULT_DICTIONARY  # unsupported names warn and fall back to DICT_4X4_250
+    dictionary: str = DEFAULT_DICTIONARY  # a DICT_* name or a dictionary .yml; unknown names warn, use DICT_4X4_250
     marker_size_m: PositiveFloat = 0.049  # black square's side, metres
     marker_sizes: dict[int, PositiveFloat] = Field(default_factory=dict)  # per-id override
     allowed_ids: list[int] | None = None  # None = report every id of the dictionary
-    corner_refinement: Literal["subpix", "none", "contour", "apriltag"] = "subpix"  # OpenCV's CORNER_REFINE_* method
+    corner_refinement: Literal["edges", "subpix", "none", "contour", "apriltag"] = "edges"  # see corner_refinement.py
     disambiguation: Literal["temporal", "naive"] = "temporal"  # naive = lowest error per frame (baseline)
 
 
 Detector = Callable[[np.ndarray], tuple[Any, Any]]
 
 
-def _make_detector(dictionary_id: int, refinement: str) -> Detector:
+def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detector:
     """A function grey image → (corners, ids), over whichever ArUco API this OpenCV has.
 
     OpenCV ≥ 4.7 and 5.x: ``ArucoDetector``; older 4.x: the free ``detectMarkers`` (gone in 5.0).
@@ -68,7 +69,6 @@ def _make_detector(dictionary_id: int, refinement: str) -> Detector:
     (opencv_contrib#2913) — ~20 % of views at 0.5 m in our tests, 0 % with 0.025.
     """
     aruco = cv2.aruco
-    dictionary = aruco.getPredefinedDictionary(dictionary_id)
     params = aruco.DetectorParameters() if hasattr(aruco, "DetectorParameters") else aruco.DetectorParameters_create()
     params.cornerRefinementMethod = getattr(aruco, _REFINEMENT[refinement])
     params.minMarkerDistanceRate = 0.025
@@ -86,6 +86,19 @@ def _make_detector(dictionary_id: int, refinement: str) -> Detector:
         return corners, ids
 
     return detect_legacy
+
+
+def _dictionary(value: str, source: str) -> MarkerDictionary:
+    """The dictionary `value` names; an unknown name warns (listing the names there are) and falls back to
+    DICT_4X4_250, as the design notes say; a dictionary file that cannot be read is a config error."""
+    found = marker_dictionaries.resolve(value, key="dictionary")
+    if found is not None:
+        return found
+    log.warning(
+        "%s: unsupported dictionary %r (supported: %s, or an OpenCV dictionary file .yml); falling back to %s",
+        source, value, ", ".join(SUPPORTED_DICTIONARIES), DEFAULT_DICTIONARY,
+    )  # fmt: skip
+    return marker_dictionaries.predefined(DEFAULT_DICTIONARY)
 
 
 def to_grey(image: Any) -> np.ndarray:
@@ -113,27 +126,32 @@ class ArucoSource:
     """OpenCV ArUco markers with IPPE pose, temporal flip disambiguation and a real confidence."""
 
     description: ClassVar[str] = (
-        "OpenCV ArUco markers (DICT_4X4_*…APRILTAG_36h11): 6-DoF pose (IPPE, temporally disambiguated)"
+        "OpenCV ArUco markers (every DICT_*, or a dictionary file): 6-DoF pose (IPPE, temporally disambiguated)"
     )
 
     def __init__(self, params: dict, name: str = "aruco") -> None:
         self.name = name
         self.params = validate_model(ArucoParams, params)
         self.requested_dictionary = self.params.dictionary
-        if self.params.dictionary in SUPPORTED_DICTIONARIES:
-            self.dictionary = self.params.dictionary
-        else:
-            self.dictionary = DEFAULT_DICTIONARY
-            log.warning(
-                "%s: unsupported dictionary %r (supported: %s); falling back to %s",
-                name, self.params.dictionary, ", ".join(SUPPORTED_DICTIONARIES), DEFAULT_DICTIONARY,
-            )  # fmt: skip
-        self._detect = _make_detector(getattr(cv2.aruco, self.dictionary), self.params.corner_refinement)
+        self.marker_dictionary = _dictionary(self.params.dictionary, name)
+        self.dictionary = self.marker_dictionary.name
+        self._cells = self.marker_dictionary.marker_bits + 2  # data bits + the black border, in modules
+        self._detect = _make_detector(self.marker_dictionary.dictionary, self.params.corner_refinement)
         self._allowed = None if self.params.allowed_ids is None else set(self.params.allowed_ids)
         self._disambiguator = square_pose.TemporalDisambiguator()
         self._intrinsics = FrameIntrinsics(self.name, log)
 
     # ------------------------------------------------------------------------------------------------
+
+    def _refine(self, grey: np.ndarray, corners: Any) -> np.ndarray:
+        """The detector's corners (M×4×2 float64), refined here when the method is ours."""
+        quads = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
+        method = self.params.corner_refinement
+        if method == "edges":
+            return refine_corners(grey, quads, self._cells)
+        if method == "subpix":
+            return subpix_corners(grey, quads, self._cells)
+        return quads
 
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
@@ -144,6 +162,7 @@ class ArucoSource:
         corners_list, ids = self._detect(grey)
         if ids is None or len(ids) == 0:
             return []
+        corners_list = self._refine(grey, corners_list)
         intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs
         out: list[Detection] = []
@@ -151,7 +170,7 @@ class ArucoSource:
             marker_id = int(mid)
             if self._allowed is not None and marker_id not in self._allowed:
                 continue
-            corners = np.asarray(c, dtype=np.float64).reshape(4, 2)
+            corners = c
             size = self.marker_size(marker_id)
             hyps = square_pose.solve_square(corners, size, K, D)
             if not hyps:

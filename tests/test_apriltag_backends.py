@@ -70,7 +70,9 @@ def test_both_backends_agree_on_rendered_perspective_tags(family):
         truth = sv.random_pose(1.0 + i % 3 * 0.5, 35.0, rng, k, 0.2)
         view = sv.render_marker_view(truth, marker_id=7, marker_size_m=0.2, dictionary=OPENCV_DICT[family],
                                      intrinsics=k, rng=rng)  # fmt: skip
-        (da,), (do,) = detect(a3, view.image, k), detect(cv, view.image, k)
+        # tag16h5's codes are 5 bits apart: texture decodes as a tag at hamming 2 now and then (AprilTag's docs
+        # warn of it), in either backend; the rendered tag is the one compared
+        (da,), (do,) = ([d for d in detect(b, view.image, k) if d.marker_id == 7] for b in (a3, cv))
         assert np.linalg.norm(da.corners - do.corners, axis=1).max() <= 0.5
         rng_m = np.linalg.norm(da.position)
         assert np.linalg.norm(da.position - do.position) <= 0.01 * rng_m
@@ -142,7 +144,8 @@ def test_many_tag16h5_detectors_can_be_made_and_freed(tmp_path):
 def _cell_by_cell(gray: np.ndarray, quad: np.ndarray, code: np.ndarray, ppc: int = 8) -> tuple[int, float]:
     """The definition of hamming and decision margin, one cell at a time (what sample_bits batches):
     warp the tag plus a quiet-zone cell to (n + 4) cells of ppc px, take each cell's central-half mean,
-    threshold midway between the quiet zone's and the black border's median cells."""
+    threshold midway between the quiet zone's and the black border's median cells, and sharpen each data
+    cell's distance from it as AprilTag's decoder does (0.25 × (4·v − the data neighbours' v))."""
     n = code.shape[0]
     cells = n + 4
     lo, hi = ppc - 0.5, (cells - 1) * ppc - 0.5
@@ -156,10 +159,15 @@ def _cell_by_cell(gray: np.ndarray, quad: np.ndarray, code: np.ndarray, ppc: int
     border = [mean[r][c] for r in range(1, cells - 1) for c in range(1, cells - 1)
               if min(r, c) == 1 or max(r, c) == cells - 2]  # fmt: skip
     threshold = (float(np.median(ring)) + float(np.median(border))) / 2.0
-    data = [(mean[r + 2][c + 2], bool(code[r, c])) for r in range(n) for c in range(n)]
-    hamming = sum((v > threshold) != white for v, white in data)
-    above = [v - threshold for v, _ in data if v > threshold]
-    below = [threshold - v for v, _ in data if v <= threshold]
+
+    def v(r: int, c: int) -> float:  # a data cell's distance from the threshold; 0 outside the data
+        return mean[r + 2][c + 2] - threshold if 0 <= r < n and 0 <= c < n else 0.0
+
+    sharp = [(v(r, c) + 0.25 * (4 * v(r, c) - v(r - 1, c) - v(r + 1, c) - v(r, c - 1) - v(r, c + 1)), bool(code[r, c]))
+             for r in range(n) for c in range(n)]  # fmt: skip
+    hamming = sum((x > 0) != white for x, white in sharp)
+    above = [x for x, _ in sharp if x > 0]
+    below = [-x for x, _ in sharp if x <= 0]
     return hamming, min(float(np.mean(side)) for side in (above, below) if side)
 
 

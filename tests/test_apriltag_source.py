@@ -165,18 +165,24 @@ def test_confidence_drops_with_corrected_bits_and_weak_contrast():
 def test_min_decision_margin_drops_weak_decodes():
     cells, _, wab = tag_cells("tag36h11", 7)
     dull = place_tag(cells, wab, black=115, white=150)[0]
-    assert AprilTagSource({}).process(Frame(dull, 0.0, intrinsics=K))
-    src = AprilTagSource({"min_decision_margin": 30.0})
+    clean = place_tag(cells, wab)[0]
+    (weak,) = AprilTagSource({}).process(Frame(dull, 0.0, intrinsics=K))
+    (strong,) = AprilTagSource({}).process(Frame(clean, 0.0, intrinsics=K))
+    floor = weak.extra["decision_margin"] + 1.0
+    assert strong.extra["decision_margin"] > floor
+    src = AprilTagSource({"min_decision_margin": floor})
     assert src.process(Frame(dull, 0.0, intrinsics=K)) == [] and src.counters["rejected_margin"] == 1
+    assert src.process(Frame(clean, 0.0, intrinsics=K))
 
 
 # -- the detector params -----------------------------------------------------------------------------
 
 
-def test_decimate_trades_small_tags_for_speed():
+def test_small_tags_are_found_at_the_defaults():
+    """A 16 px tag (2 px per cell): full resolution by default; decimating 4× loses it."""
     cells, _, wab = tag_cells("tag36h11", 7)
     small = place_tag(cells, wab, cell_px=2)[0]  # a 16 px tag
-    assert AprilTagSource({"decimate": 1.0}).process(Frame(small, 0.0, intrinsics=K))
+    assert AprilTagSource({}).process(Frame(small, 0.0, intrinsics=K))
     assert AprilTagSource({"decimate": 4.0}).process(Frame(small, 0.0, intrinsics=K)) == []
 
 
@@ -257,7 +263,7 @@ def test_the_registry_builds_the_source_with_documented_defaults():
     p = src.params
     assert isinstance(src, AprilTagSource) and src.name == "apriltag"
     assert (p.family, p.backend, p.tag_size_m, p.report_frame) == ("tag36h11", "apriltag3", 0.15, "camera")
-    assert (p.decimate, p.threads, p.refine_edges, p.max_hamming) == (2.0, 1, True, 2)
+    assert (p.decimate, p.threads, p.refine_edges, p.max_hamming, p.min_contrast) == (1.0, 1, True, 2, "auto")
     src.close()
     with pytest.raises(ConfigError, match=r"perception\.sources\.params\.family"):
         registry.create(SourceConfig(plugin="apriltag", params={"family": "tag99"}))

@@ -5,7 +5,9 @@ from __future__ import annotations
 import py_trees
 
 from mission.behaviours.ports import REQUIRED
+from mission.core.types import Pose2D
 from mission.trees.factory import shipped_factory
+from mission.trees.manifest import BuildContext
 
 # tag → (node type, {port: (type, default)}) — what tree files rely on (the README's table shows the same)
 CATALOGUE = {
@@ -42,6 +44,13 @@ CATALOGUE = {
     ),
     "SetMissionState": ("Action", {"state": (str, REQUIRED)}),
 }
+# tag → {output port: type}: what a tree can connect to the blackboard ({key}) to read in other nodes or scripts
+OUTPUTS = {
+    "IsTargetVisible": {"visible": bool, "last_seen_pose": Pose2D},
+    "FollowTarget": {"goal": Pose2D},
+    "HoldLastGoal": {"goal": Pose2D},
+    "GoToStaging": {"dock_pose": Pose2D, "staging_pose": Pose2D},
+}
 
 
 def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_defaults():
@@ -50,7 +59,8 @@ def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_
     for tag, (node_type, ports) in CATALOGUE.items():
         node = behaviours[tag]
         assert node.kind == node_type, tag
-        assert {k: (p.type, p.default) for k, p in node.ports.items()} == ports, tag
+        assert {k: (p.type, p.default) for k, p in node.ports.items() if p.reads} == ports, tag
+        assert {k: p.type for k, p in node.ports.items() if p.direction == "output"} == OUTPUTS.get(tag, {}), tag
         assert all(p.doc for p in node.ports.values()), f"{tag}: every port says what it means"
         assert node.doc, f"{tag}: says what it does"
 
@@ -58,6 +68,6 @@ def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_
 def test_constructing_every_leaf_is_light_and_touches_no_blackboard_value():
     for node in shipped_factory().behaviours():
         required = {n: "DONE" for n, p in node.ports.items() if p.required}
-        built = node.build(f"my {node.tag}", [], required)
+        built = node.build(f"my {node.tag}", [], required, BuildContext())
         assert isinstance(built, py_trees.behaviour.Behaviour) and built.name == f"my {node.tag}"
     assert py_trees.blackboard.Blackboard.storage == {}

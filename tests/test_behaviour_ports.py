@@ -12,7 +12,8 @@ import pytest
 
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.mission_state import SetMissionState
-from mission.behaviours.ports import REQUIRED, Port, PortsDeclared, port
+from mission.behaviours.ports import REQUIRED, BlackboardRef, Port, PortsDeclared, port
+from mission.core.types import Pose2D
 
 
 class Camera(py_trees.behaviour.Behaviour, PortsDeclared):
@@ -24,11 +25,17 @@ class Camera(py_trees.behaviour.Behaviour, PortsDeclared):
         exposure_ms: float = port(8.0, "exposure time")
         binning: int = port(1, "pixels per output pixel")
         colour: bool = port(True, "BGR rather than mono")
-        last_stamp: float = port(0.0, "stamp of the newest image", direction="output")
+        last_stamp: float = port(doc="stamp of the newest image", direction="output")
+        frames: int = port("{frames}", "frames seen (into {frames} unless the tree says)",
+                           direction="output")
 
     def __init__(self, name: str = "Camera", **ports: Any) -> None:
         super().__init__(name)
         self.params = self.bind_params(ports)
+
+    def update(self) -> py_trees.common.Status:
+        self.feedback_message = f"watching {self.params.topic}"
+        return py_trees.common.Status.RUNNING
 
 
 def test_ports_are_the_params_fields_in_order_with_type_default_meaning_and_direction():
@@ -37,15 +44,19 @@ def test_ports_are_the_params_fields_in_order_with_type_default_meaning_and_dire
         "exposure_ms": Port(float, 8.0, "exposure time"),
         "binning": Port(int, 1, "pixels per output pixel"),
         "colour": Port(bool, True, "BGR rather than mono"),
-        "last_stamp": Port(float, 0.0, "stamp of the newest image", "output"),
+        "last_stamp": Port(float, REQUIRED, "stamp of the newest image", "output"),
+        "frames": Port(int, "{frames}", "frames seen (into {frames} unless the tree says)", "output"),
     }
     assert Camera.PORTS["topic"].required and not Camera.PORTS["binning"].required
+    assert not Camera.PORTS["last_stamp"].required  # an output need not be connected
 
 
 def test_a_shipped_behaviours_ports_are_exactly_its_params_fields():
     fields = dataclasses.fields(FollowTarget.Params)
     assert list(FollowTarget.PORTS) == [f.name for f in fields]
-    assert [p.default for p in FollowTarget.PORTS.values()] == [f.default for f in fields]
+    inputs = [(p.default, f.default) for p, f in zip(FollowTarget.PORTS.values(), fields, strict=True) if p.reads]
+    assert all(port_default == field_default for port_default, field_default in inputs)
+    assert FollowTarget.PORTS["goal"].direction == "output" and FollowTarget.Params().goal is None
 
 
 def test_the_constructor_takes_the_ports_as_keywords_and_keeps_the_checked_values():
@@ -63,7 +74,7 @@ def test_an_unknown_keyword_is_a_type_error_naming_it_and_the_ports_there_are():
         FollowTarget(ofset_m=0.7)
     assert str(err.value) == (
         "FollowTarget: unknown port 'ofset_m' (did you mean offset_m?); "
-        "FollowTarget ports: target, offset_m, window, rate_hz"
+        "FollowTarget ports: target, offset_m, window, rate_hz, goal"
     )
 
 
@@ -136,7 +147,7 @@ class _NotADataclass:
     [
         (_PlainField, "Broken.Params.gain: expected a port(default, doc) field"),
         (_Mutable, "Broken.Params: expected @dataclass(frozen=True, kw_only=True); port values never change"),
-        (_TuplePort, "Broken.Params.points: type tuple is not a port type; expected str, int, float or bool"),
+        (_TuplePort, "Broken.Params.points: type tuple is not a port type; expected str, int, float, bool or Pose2D"),
         (_IntDefaultForFloat, "Broken.Params.gain: default 1 is not float"),
         (_NotADataclass, "Broken.Params: expected a dataclass declaring the ports"),
     ],
@@ -146,3 +157,44 @@ def test_a_malformed_declaration_fails_when_the_class_is_defined(params, message
     with pytest.raises(TypeError) as err:
         _declare(params)
     assert str(err.value).startswith(message)
+
+
+def test_an_output_port_is_not_a_constructor_argument_and_set_output_writes_where_it_is_connected():
+    camera = Camera(topic="/image")
+    assert camera.params.last_stamp is None  # outputs hold no value in Params
+    with pytest.raises(TypeError, match="Camera: last_stamp is an output port: the node writes it"):
+        Camera(topic="/image", last_stamp=1.0)
+    assert camera.set_output("last_stamp", 2.5) is False  # not connected: nothing written
+    written: dict[str, object] = {}
+    camera.port_sink = lambda name, value: written.setdefault(name, value) is value
+    assert camera.set_output("last_stamp", 2.5) is True
+    assert written == {"last_stamp": 2.5}
+    with pytest.raises(TypeError, match="Camera: port last_stamp expects float, got 'late'"):
+        camera.set_output("last_stamp", "late")
+    with pytest.raises(ValueError, match="topic is not an output port; outputs: last_stamp, frames"):
+        camera.set_output("topic", "/other")
+
+
+def test_a_port_read_from_the_blackboard_waits_for_its_value_before_the_checks_run():
+    pending = BlackboardRef("w", "/tree/w")
+    node = FollowTarget(window=pending)  # the checks (window ≥ 1) wait for the real value
+    assert node.params.window == 5  # the default until the first tick reads the entry
+    required = SetMissionState(state=BlackboardRef("s", "/tree/s"))
+    assert required.params.state is REQUIRED
+
+
+@pytest.mark.parametrize(
+    ("kind", "value", "expected"),
+    [
+        (int, 3.0, 3), (int, "4", 4), (float, 2, 2.0), (bool, 1, True), (bool, "false", False),
+        (str, 2.5, "2.500000"), (str, 7, "7"), (Pose2D, "1;2;0.5", Pose2D(1.0, 2.0, 0.5)),
+    ],
+)  # fmt: skip
+def test_a_blackboard_value_is_converted_to_the_port_type_as_bt_cpp_converts_it(kind, value, expected):
+    assert Port(kind).coerce(value) == expected
+
+
+@pytest.mark.parametrize(("kind", "value"), [(int, 2.5), (bool, 2), (float, "fast"), (Pose2D, "1;2")])
+def test_a_blackboard_value_that_does_not_fit_the_port_says_what_was_expected(kind, value):
+    with pytest.raises(ValueError):
+        Port(kind).coerce(value)

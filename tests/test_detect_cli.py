@@ -109,3 +109,65 @@ def test_installed_console_script(images):
     [det] = json.loads(proc.stdout)["detections"]
     assert det["marker_id"] == 7
     assert proc.stderr == ""
+
+
+# -- calibration files, and sources that need depth ---------------------------------------------------------
+
+
+def test_a_calibration_file_gives_the_pose_the_intrinsics_would(images, tmp_path, capsys):
+    paths, views = images
+    k = views[0].intrinsics
+    fs = cv2.FileStorage(str(tmp_path / "cam.yml"), cv2.FILE_STORAGE_WRITE)  # OpenCV's own calibration format
+    fs.write("image_width", k.width)
+    fs.write("image_height", k.height)
+    fs.write("camera_matrix", k.matrix)
+    fs.write("distortion_coefficients", np.zeros((1, 5)))
+    fs.release()
+    assert main(["detect", str(paths[0]), "--calibration", str(tmp_path / "cam.yml"),
+                 "--set", f"marker_size_m={MARKER}", "--json"]) == 0  # fmt: skip
+    (det,) = json.loads(capsys.readouterr().out)["detections"]
+    assert det["extra"]["intrinsics"] == "calibrated"
+    assert np.linalg.norm(np.asarray(det["position"]) - views[0].position) < 0.02
+
+
+def test_a_calibration_for_another_image_size_is_an_error_for_that_image(images, tmp_path, capsys):
+    paths, _ = images
+    (tmp_path / "cam.yaml").write_text("image_width: 1280\nimage_height: 720\ncamera_matrix: {rows: 3, cols: 3, "
+                                       "data: [900, 0, 640, 0, 900, 360, 0, 0, 1]}\n")  # fmt: skip
+    assert main(["detect", str(paths[0]), "--calibration", str(tmp_path / "cam.yaml")]) == 1
+    err = capsys.readouterr().err
+    assert "calibrated for 1280×720, the image is 640×480" in err and str(paths[0]) in err
+
+
+def test_the_vlm_says_it_needs_depth_instead_of_finding_nothing(tmp_path):
+    from vlm_scene import Box, Scene, camera_pose, render
+
+    frame = render(Scene(boxes=[Box((3.0, 0.2, 0.3), (0.4, 0.4, 0.6), (20, 20, 200))]), camera_pose(0, 0, 0))
+    image = tmp_path / "red_box.png"
+    cv2.imwrite(str(image), frame.image)
+    for source in ("vlm", "vlm_stub"):
+        proc = subprocess.run([sys.executable, "-m", "mission", "detect", str(image), "--source", source],
+                              capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
+        assert proc.returncode == 2 and proc.stdout == ""
+        assert f"--source {source} needs a depth image" in proc.stderr and "--depth FILE" in proc.stderr
+
+    depth = tmp_path / "red_box_depth.png"
+    cv2.imwrite(str(depth), np.nan_to_num(frame.depth * 1000.0).astype(np.uint16))  # 16-bit millimetres
+    k = frame.intrinsics
+    cmd = [sys.executable, "-m", "mission", "detect", str(image), "--source", "vlm_stub", "--depth", str(depth),
+           "--intrinsics", f"{k.fx},{k.fy},{k.cx},{k.cy}", "--set", f"state_file={tmp_path / 'quota.json'}",
+           "--set", "latency_s=0.05", "--json"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    (det,) = json.loads(proc.stdout)["detections"]
+    assert det["label"] == "red box" and abs(det["position"][2] - 2.8) < 0.15  # the box's front face, 2.8 m ahead
+
+
+def test_a_depth_image_of_another_size_or_count_is_refused(images, tmp_path, capsys):
+    paths, _ = images
+    small = tmp_path / "small_depth.png"
+    cv2.imwrite(str(small), np.full((10, 10), 1500, np.uint16))
+    assert main(["detect", str(paths[0]), "--depth", str(small)]) == 1
+    assert "depth" in capsys.readouterr().err
+    assert main(["detect", str(paths[0]), str(paths[1]), "--depth", str(small)]) == 2
+    assert "--depth: 1 depth image(s) for 2 image(s)" in capsys.readouterr().err

@@ -154,3 +154,76 @@ def test_odometry_and_scan_round_trip(factory):
     scan = LaserScan(-1.0, 0.5, np.array([1.0, np.inf, 0.01, 2.0], np.float32), 0.1, 10.0, 7.0, "base_scan")
     out = scan_from_msg(scan_to_msg(factory, scan))
     assert out.ranges.tolist() == [1.0, np.inf, np.inf, 2.0] and out.angle_increment == pytest.approx(0.5)
+
+
+# -- image_transport's compressed images ---------------------------------------------------------------
+
+
+def test_a_png_compressed_image_is_the_image_and_a_jpeg_one_is_close(factory):
+    from mission.ros.conversions import array_to_compressed_image
+
+    img = _bgr(48, 64)
+    png = array_to_compressed_image(factory, img, "png", 2.5, "cam")
+    assert png.format == "bgr8; png compressed bgr8" and stamp_to_sec(png.header.stamp) == 2.5
+    assert np.array_equal(image_to_camera_array(png), img)
+    smooth = np.tile(np.linspace(0, 255, 64, dtype=np.uint8), (48, 1))
+    jpeg = array_to_compressed_image(factory, smooth, "jpeg", 2.5, "cam")
+    out = image_to_camera_array(jpeg)
+    assert out.shape == (48, 64) and np.abs(out.astype(int) - smooth).mean() < 2.0  # mono stays mono
+
+
+def test_compressed_depth_is_millimetres_with_no_return_kept(factory):
+    from mission.ros.conversions import depth_to_compressed_depth
+
+    depth = np.full((4, 5), 1.234, np.float32)
+    depth[0, 0] = np.nan
+    msg = depth_to_compressed_depth(factory, depth, 1.0, "depth")
+    assert msg.format == "16UC1; compressedDepth png"
+    out = image_to_depth_m(msg)
+    assert np.isnan(out[0, 0]) and np.allclose(out[1:], 1.234, atol=5e-4)
+
+
+def test_32fc1_compressed_depth_is_inverse_depth_as_image_transport_quantises_it(factory):
+    """image_transport's compressedDepth for 32FC1: value = A / depth + B, A = q (q + 1), B = 1 − A / depth_max."""
+    import struct
+
+    import cv2
+
+    depth = np.array([[0.5, 1.0], [2.0, np.nan]], np.float32)
+    quant, dmax = 100.0, 10.0
+    a, b = quant * (quant + 1.0), 1.0 - quant * (quant + 1.0) / dmax
+    inv = np.where(np.isfinite(depth), a / np.nan_to_num(depth, nan=1.0) + b, 0).astype(np.uint16)
+    payload = struct.pack("<iff", 0, a, b) + cv2.imencode(".png", inv)[1].tobytes()
+    msg = factory.new("sensor_msgs/msg/CompressedImage", header=array_to_image(factory, np.zeros((1, 1), np.uint8),
+                      "mono8", 0.0, "d").header, format="32FC1; compressedDepth png",
+                      data=np.frombuffer(payload, np.uint8))  # fmt: skip
+    out = image_to_depth_m(msg)
+    assert np.isnan(out[1, 1]) and np.allclose(out[np.isfinite(depth)], depth[np.isfinite(depth)], rtol=0.01)
+
+
+def test_compressed_data_that_is_not_an_image_is_a_bad_message(factory):
+    from mission.ros.conversions import array_to_compressed_image
+
+    msg = array_to_compressed_image(factory, _bgr(), "png", 0.0, "cam")
+    msg.data = np.frombuffer(b"not a png at all", np.uint8)
+    with pytest.raises(BadMessage) as err:
+        image_to_camera_array(msg)
+    assert err.value.kind == "encoding" and "not a decodable JPEG or PNG" in err.value.detail
+    msg.format = "16UC1; compressedDepth rvl"
+    with pytest.raises(BadMessage, match="RVL"):
+        image_to_depth_m(msg)
+
+
+def test_ros1_camera_info_spells_its_arrays_in_capitals():
+    """What rosbags reads from a ROS 1 bag: sensor_msgs/CameraInfo with D, K, R, P."""
+    store = get_typestore(Stores.ROS1_NOETIC)
+    intr = CameraIntrinsics(500.0, 502.0, 320.0, 240.0, 640, 480, (0.1, -0.2, 0.0, 0.0, 0.0))
+    ros2 = intrinsics_to_camera_info(FACTORIES["rosbags"], intr, 1.0, "cam")
+    roi = store.types["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+    info = store.types["sensor_msgs/msg/CameraInfo"](
+        header=store.types["std_msgs/msg/Header"](seq=0, stamp=ros2.header.stamp, frame_id="cam"),
+        height=480, width=640, distortion_model="plumb_bob", D=np.asarray(ros2.d), K=np.asarray(ros2.k),
+        R=np.asarray(ros2.r), P=np.asarray(ros2.p), binning_x=0, binning_y=0,
+        roi=roi,
+    )  # fmt: skip
+    assert camera_info_to_intrinsics(info) == intr

@@ -16,7 +16,7 @@ from mission.behaviours.explore import Explore
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.leaf import MissionLeaf
 from mission.core.errors import TreeError
-from mission.trees.controls import BUILTINS
+from mission.trees.builtins import BUILTINS
 from mission.trees.factory import BehaviourFactory, shipped_factory
 from mission.trees.loader import load_tree, validate_tree
 from mission.trees.nodes_model import GROOT_TYPES, format_default, nodes_model_xml

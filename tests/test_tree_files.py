@@ -14,7 +14,15 @@ from py_trees.common import Status
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
 from mission.trees.factory import shipped_factory
-from mission.trees.loader import TREES_DIR, TreeDescription, describe_tree, load_tree, shipped_trees, validate_tree
+from mission.trees.loader import (
+    TREES_DIR,
+    TreeDescription,
+    describe_tree,
+    example_trees,
+    load_tree,
+    shipped_trees,
+    validate_tree,
+)
 from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
 SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml", "discover_follow.xml"]
@@ -43,15 +51,15 @@ CATALOGUE = {
     "dock.xml": "BehaviorTree[RetryUntilSuccessful(num_attempts=3)["
     "Sequence:approach[GoToStaging(target=dock),VisualServoDock(target=dock)]]]",
     "follow.xml": f"BehaviorTree[{FOLLOW}]",
-    "mission.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SubTree(Follow)]]",
-    "explore_dock.xml": "BehaviorTree[Sequence[SubTree(Explore),SubTree(Dock),SetMissionState(state=DONE)]]",
+    "mission.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SubTree(FollowTree)]]",
+    "explore_dock.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SetMissionState(state=DONE)]]",
     "discover_follow.xml": "BehaviorTree[Sequence[Explore:discover(target=target,angular_speed=0.1,timeout_s=90.0),"
-    "SubTree(Follow)]]",
+    "SubTree(FollowTree)]]",
 }
-MAIN_TREE = {
-    "explore.xml": "Explore",
-    "dock.xml": "Dock",
-    "follow.xml": "Follow",
+MAIN_TREE = {  # no tree ID is the name of a node (BT.CPP 4.6.2+ refuses a tree called Explore next to the action)
+    "explore.xml": "ExploreTree",
+    "dock.xml": "DockTree",
+    "follow.xml": "FollowTree",
     "mission.xml": "Mission",
     "explore_dock.xml": "ExploreDock",
     "discover_follow.xml": "DiscoverFollow",
@@ -70,7 +78,7 @@ def test_a_shipped_tree_has_the_shape_the_catalogue_describes(name):
 
 
 def test_the_follow_subtree_of_the_mission_is_the_target_coordinator_from_the_catalogue():
-    follow = next(d for d in describe_tree("mission.xml").walk() if d.tag == "SubTree" and d.name == "Follow")
+    follow = next(d for d in describe_tree("mission.xml").walk() if d.tag == "SubTree" and d.name == "FollowTree")
     assert shape(follow.children[0]) == FOLLOW
 
 
@@ -103,7 +111,7 @@ def test_shipped_trees_use_only_the_declared_readable_blackboard_keys(name):
 def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_phase():
     root = load_tree("mission.xml")
     assert root.name == "Mission"
-    assert [c.name for c in root.children] == ["Explore", "Dock", "Follow"]
+    assert [c.name for c in root.children] == ["ExploreTree", "DockTree", "FollowTree"]
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -111,6 +119,18 @@ def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_shipped_behaviours
     text = (TREES_DIR / name).read_text()
     assert nodes_model_section(text) is not None
     assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+
+
+@pytest.mark.parametrize("name", example_trees())
+def test_an_example_files_nodes_model_is_current_and_keeps_the_subtree_models_written_by_hand(name):
+    text = (TREES_DIR / name).read_text()
+    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+    section = nodes_model_section(text)
+    assert section is not None and '<SubTree ID="FindMarkerTree">' in section
+    stale = text.replace(section, '  <TreeNodesModel>\n    <SubTree ID="FindMarkerTree"/>\n  </TreeNodesModel>\n')
+    regenerated = nodes_model_section(with_nodes_model(stale, shipped_factory()))
+    assert regenerated is not None and '<Action ID="Explore">' in regenerated  # the behaviours, written anew
+    assert '<SubTree ID="FindMarkerTree"/>' in regenerated  # and the file's own SubTree model, kept
 
 
 def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_path):
@@ -126,7 +146,7 @@ def test_a_user_composes_a_new_tree_from_shipped_behaviours_without_python(tmp_p
         </Timeout>
         <SetMissionState name="give up" state="FAILED"/>
       </Fallback>
-      <SubTree ID="Dock"/>
+      <SubTree ID="DockTree"/>
       <Parallel success_count="1">
         <SearchSweep target="target" duration_s="15" angular_speed="0.3"/>
         <Inverter><IsTargetVisible target="target"/></Inverter>

@@ -20,7 +20,8 @@ from py_trees.common import Status
 from mission.behaviours.ports import PortsDeclared, port
 from mission.core import blackboard as bbk
 from mission.core.errors import TreeError
-from mission.trees.controls import BtParallel, ClockTimeout, RetryUntilSuccessful
+from mission.trees.controls import Parallel
+from mission.trees.decorators import RetryUntilSuccessful, Timeout
 from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
 from mission.trees.nodes_model import nodes_model_xml
@@ -55,19 +56,22 @@ class Scripted(py_trees.behaviour.Behaviour, PortsDeclared):
     @dataclass(frozen=True, kw_only=True)
     class Params:
         script: str = port("S", "statuses to return: S, F or R per update")
+        ticks: int = port(doc="updates so far", direction="output")
 
     CODES: ClassVar[dict[str, Status]] = {"S": Status.SUCCESS, "F": Status.FAILURE, "R": Status.RUNNING}
 
     def __init__(self, name: str, **ports: Any) -> None:
         super().__init__(name)
         BUILT.append(name)
-        self.script = self.bind_params(ports).script
+        self.params = self.bind_params(ports)
         self.updates = 0
         self.halted = 0
 
     def update(self) -> Status:
-        status = self.CODES[self.script[min(self.updates, len(self.script) - 1)]]
+        script = self.params.script
+        status = self.CODES[script[min(self.updates, len(script) - 1)]]
         self.updates += 1
+        self.set_output("ticks", self.updates)
         self.feedback_message = f"update {self.updates}: {status.name}"
         return status
 
@@ -260,10 +264,10 @@ def test_a_tree_file_becomes_py_trees_with_typed_port_values_and_names(tmp_path)
         ("ReactiveFallback", py_trees.composites.Selector, False),
     ],
 )
-def test_bt_cpp_sequences_and_fallbacks_map_to_py_trees_with_the_matching_memory(tmp_path, tag, kind, memory):
+def test_bt_cpp_sequences_and_fallbacks_are_py_trees_composites_with_the_matching_memory(tmp_path, tag, kind, memory):
     path = write(tmp_path, "t.xml", f'<BehaviorTree ID="T"><{tag}><TestReady/><TestReady/></{tag}></BehaviorTree>')
     root = load(path)
-    assert type(root) is kind
+    assert isinstance(root, kind)  # viewers (and py_trees' own display) draw them as what they are
     assert root.memory is memory
 
 
@@ -275,12 +279,19 @@ def test_bt_cpp_sequences_and_fallbacks_map_to_py_trees_with_the_matching_memory
         ("<ForceSuccess>", "F", 1, Status.SUCCESS),
         ("<ForceSuccess>", "R", 1, Status.RUNNING),
         ("<ForceFailure>", "S", 1, Status.FAILURE),
-        ('<RetryUntilSuccessful num_attempts="3">', "FFS", 3, Status.SUCCESS),
-        ('<RetryUntilSuccessful num_attempts="3">', "FFFS", 3, Status.FAILURE),
-        ('<RetryUntilSuccessful num_attempts="-1">', "FFFFFS", 6, Status.SUCCESS),
-        ('<Repeat num_cycles="3">', "S", 2, Status.RUNNING),
-        ('<Repeat num_cycles="3">', "S", 3, Status.SUCCESS),
-        ('<Repeat num_cycles="3">', "SF", 2, Status.FAILURE),
+        # a child that finishes at once is restarted within the same tick (BT.CPP's tickOnce)
+        ('<RetryUntilSuccessful num_attempts="3">', "FFS", 1, Status.SUCCESS),
+        ('<RetryUntilSuccessful num_attempts="3">', "FFFS", 1, Status.FAILURE),
+        ('<RetryUntilSuccessful num_attempts="-1">', "FFFFFS", 1, Status.SUCCESS),
+        ('<RetryUntilSuccessful num_attempts="2">', "RFRS", 1, Status.RUNNING),
+        ('<RetryUntilSuccessful num_attempts="2">', "RFRS", 2, Status.RUNNING),  # F, then R at once
+        ('<RetryUntilSuccessful num_attempts="2">', "RFRS", 3, Status.SUCCESS),
+        ('<Repeat num_cycles="3">', "S", 1, Status.SUCCESS),
+        ('<Repeat num_cycles="3">', "SF", 1, Status.FAILURE),
+        ('<Repeat num_cycles="3">', "SRS", 1, Status.RUNNING),
+        ('<KeepRunningUntilFailure>', "SSF", 2, Status.RUNNING),
+        ('<KeepRunningUntilFailure>', "SSF", 3, Status.FAILURE),
+        ('<RunOnce then_skip="false">', "F", 3, Status.FAILURE),
     ],
 )
 def test_decorators_behave_like_bt_cpp(tmp_path, decorator, child_script, ticks, expected):
@@ -293,19 +304,34 @@ def test_decorators_behave_like_bt_cpp(tmp_path, decorator, child_script, ticks,
     assert tick(load(path), ticks) == expected
 
 
-def test_retry_until_successful_starts_a_failed_attempt_again_on_the_next_tick(tmp_path):
+def test_retry_until_successful_starts_a_failed_attempt_again_within_the_same_tick(tmp_path):
     path = write(
         tmp_path,
         "t.xml",
-        '<BehaviorTree ID="T"><RetryUntilSuccessful num_attempts="2"><TestScripted script="FS"/>'
+        '<BehaviorTree ID="T"><RetryUntilSuccessful num_attempts="3"><TestScripted script="RFS"/>'
         "</RetryUntilSuccessful></BehaviorTree>",
     )
     root = load(path)
     assert isinstance(root, RetryUntilSuccessful)
+    leaf = root.decorated
     assert tick(root) == Status.RUNNING
-    assert "failure" in root.feedback_message
-    root.tick_once()
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.tick()  # the child fails after running: the next attempt starts at once, in this tick
     assert root.status == Status.SUCCESS
+    assert leaf.updates == 3
+    assert root.feedback_message == "1 of 3"
+
+
+def test_a_repeat_for_ever_over_a_child_that_succeeds_at_once_hands_control_back_each_tick(tmp_path, caplog):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Repeat num_cycles="-1"><TestScripted script="S"/></Repeat></BehaviorTree>',
+    )
+    root = load(path)
+    assert tick(root) == Status.RUNNING  # BT.CPP's tickOnce would never return here
+    assert root.decorated.updates == 1001
+    assert "woken up 1000 times within one tick" in caplog.text
 
 
 def test_timeout_counts_msec_on_the_blackboard_clock_and_halts_its_child(tmp_path):
@@ -317,7 +343,7 @@ def test_timeout_counts_msec_on_the_blackboard_clock_and_halts_its_child(tmp_pat
     clock = bbk.writer("test clock")
     bbk.set_(clock, bbk.CLOCK, 100.0)
     root = load(path)
-    assert isinstance(root, ClockTimeout)
+    assert isinstance(root, Timeout)
     tree = py_trees.trees.BehaviourTree(root)
     tree.tick()
     bbk.set_(clock, bbk.CLOCK, 100.4)  # sim time, not wall time: no sleeping here
@@ -328,6 +354,46 @@ def test_timeout_counts_msec_on_the_blackboard_clock_and_halts_its_child(tmp_pat
     assert root.status == Status.FAILURE
     assert root.feedback_message == "timed out after 0.5 s"
     assert root.decorated.halted == 1
+    assert root.decorated.updates == 2  # as in BT.CPP, the timed-out child is halted, not ticked again
+
+
+def test_timeout_of_zero_msec_means_no_timeout(tmp_path):
+    body = '<BehaviorTree ID="T"><Timeout msec="0"><TestScripted script="R"/></Timeout></BehaviorTree>'
+    path = write(tmp_path, "t.xml", body)
+    clock = bbk.writer("test clock")
+    bbk.set_(clock, bbk.CLOCK, 0.0)
+    root = load(path)
+    tree = py_trees.trees.BehaviourTree(root)
+    for t in range(5):
+        bbk.set_(clock, bbk.CLOCK, 1000.0 * t)
+        tree.tick()
+    assert root.status == Status.RUNNING and root.decorated.halted == 0
+
+
+def test_delay_and_sleep_count_milliseconds_on_the_blackboard_clock(tmp_path):
+    path = write(
+        tmp_path,
+        "t.xml",
+        '<BehaviorTree ID="T"><Sequence><Sleep msec="300"/>'
+        '<Delay delay_msec="200"><TestScripted name="late" script="S"/></Delay></Sequence></BehaviorTree>',
+    )
+    clock = bbk.writer("test clock")
+    root = load(path)
+    sleep, delay = root.children
+    tree = py_trees.trees.BehaviourTree(root)
+    seen = []
+    for t in (10.0, 10.2, 10.3, 10.4, 10.5):  # sim seconds: nothing waits for the wall clock
+        bbk.set_(clock, bbk.CLOCK, t)
+        tree.tick()
+        seen.append((sleep.status, delay.status, root.status))
+    assert seen == [
+        (Status.RUNNING, Status.INVALID, Status.RUNNING),  # asleep for 0.3 s
+        (Status.RUNNING, Status.INVALID, Status.RUNNING),
+        (Status.SUCCESS, Status.RUNNING, Status.RUNNING),  # awake at 10.3; the delay starts
+        (Status.SUCCESS, Status.RUNNING, Status.RUNNING),
+        (Status.SUCCESS, Status.SUCCESS, Status.SUCCESS),  # 0.2 s later the child runs
+    ]
+    assert delay.decorated.updates == 1
 
 
 @pytest.mark.parametrize(
@@ -347,7 +413,7 @@ def test_parallel_uses_bt_cpp_success_and_failure_thresholds(tmp_path, attrs, sc
     children = "".join(f'<TestScripted script="{s}"/>' for s in scripts)
     path = write(tmp_path, "t.xml", f'<BehaviorTree ID="T"><Parallel {attrs}>{children}</Parallel></BehaviorTree>')
     root = load(path)
-    assert isinstance(root, BtParallel)
+    assert isinstance(root, Parallel)
     assert isinstance(root, py_trees.composites.Parallel)  # viewers draw it as a parallel
     assert tick(root) == expected
 
@@ -459,7 +525,7 @@ def test_a_users_tree_outside_trees_can_include_a_shipped_subtree_by_name(tmp_pa
         """
         <include path="follow.xml"/>
         <BehaviorTree ID="Patrol">
-          <Sequence><Explore target="target" waypoints="2,2;6,2"/><SubTree ID="Follow"/></Sequence>
+          <Sequence><Explore target="target" waypoints="2,2;6,2"/><SubTree ID="FollowTree"/></Sequence>
         </BehaviorTree>
         """,
     )
@@ -488,10 +554,17 @@ ERROR_CASES = {
         ("main.xml", ""),
         'empty file; expected <root BTCPP_format="4"> with a <BehaviorTree>',
     ),
-    "BT.CPP built-in not supported": (
-        {"main.xml": A_TREE.format(node='<Delay delay_msec="100"><TestReady/></Delay>')},
-        ("main.xml", "Delay"),
-        "<Delay>: the BT.CPP built-in Delay is not supported by this loader; supported built-ins: Sequence, ",
+    "tree ID that is a node's name": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="TestProbe"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "BehaviorTree"),
+        '<BehaviorTree ID="TestProbe">: tree ID \'TestProbe\' is also the registered action TestProbe, which '
+        'BT.CPP 4.6.2+ refuses ("must not use the name of a registered Node"); rename the tree, e.g. '
+        'TestProbeTree, and its <SubTree ID="TestProbe"> references',
+    ),
+    "tree ID that is a built-in's name": (
+        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="Sleep"><TestReady/></BehaviorTree>\n</root>'},
+        ("main.xml", "BehaviorTree"),
+        "<BehaviorTree ID=\"Sleep\">: tree ID 'Sleep' is also a BT.CPP built-in Sleep, which BT.CPP 4.6.2+ refuses",
     ),
     "wrong BTCPP_format": (
         {"main.xml": '<root BTCPP_format="3">\n  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
@@ -533,11 +606,15 @@ ERROR_CASES = {
         ("main.xml", "maybe"),
         "<TestProbe>: port enabled expects bool (true/false), got 'maybe'",
     ),
-    "blackboard remapping": (
-        {"main.xml": A_TREE.format(node='<TestProbe label="{goal}"/>')},
-        ("main.xml", "{goal}"),
-        '<TestProbe>: port label="{{goal}}" is a blackboard remapping, which is not supported yet; '
-        "expected a constant value",
+    "blackboard key with a dot": (
+        {"main.xml": A_TREE.format(node='<TestProbe label="{goal.x}"/>')},
+        ("main.xml", "{goal.x}"),
+        '<TestProbe>: port label="{{goal.x}}": \'.\' cannot be part of a key here; expected a blackboard key',
+    ),
+    "an entry used with two types": (
+        {"main.xml": A_TREE.format(node='<TestProbe gain="{g}"/>\n      <TestProbe count="{g}"/>')},
+        ("main.xml", 'count="{g}"'),
+        "<TestProbe>: port count: blackboard entry {{g}} is int here but float for port gain of <TestProbe> at ",
     ),
     "unknown subtree": (
         {"main.xml": A_TREE.format(node='<SubTree ID="Missing"/>')},
@@ -554,15 +631,21 @@ ERROR_CASES = {
         ("main.xml", '<SubTree ID="A"/>'),
         '<SubTree ID="A">: recursive subtree: A → B → A; a tree cannot contain itself',
     ),
-    "subtree port remapping": (
+    "subtree model port not remapped": (
         {
             "main.xml": '<root BTCPP_format="4" main_tree_to_execute="A">\n'
-            '  <BehaviorTree ID="A">\n    <SubTree ID="B" target="dock"/>\n  </BehaviorTree>\n'
-            '  <BehaviorTree ID="B"><TestReady/></BehaviorTree>\n</root>'
+            '  <BehaviorTree ID="A">\n    <SubTree ID="B"/>\n  </BehaviorTree>\n'
+            '  <BehaviorTree ID="B"><TestProbe label="{who}"/></BehaviorTree>\n'
+            '  <TreeNodesModel><SubTree ID="B"><input_port name="who"/></SubTree></TreeNodesModel>\n</root>'
         },
-        ("main.xml", 'target="dock"'),
-        "<SubTree ID=\"B\">: SubTree port 'target': remapping into subtrees is not supported yet; "
-        "set constant ports on the nodes inside the subtree",
+        ("main.xml", '<SubTree ID="B"/>'),
+        '<SubTree ID="B">: the <SubTree ID="B"> model ({dir}/main.xml:6) has a mandatory port who, which this '
+        'SubTree does not remap; add who="{{key}}" or a value',
+    ),
+    "output port given a constant": (
+        {"main.xml": A_TREE.format(node='<TestScripted ticks="3"/>')},
+        ("main.xml", "ticks"),
+        '<TestScripted>: port ticks="3" is an output: it takes a blackboard entry to write, such as ticks="{{ticks}}"',
     ),
     "missing include file": (
         {"main.xml": '<root BTCPP_format="4">\n  <include path="nowhere.xml"/>\n'
@@ -610,10 +693,10 @@ ERROR_CASES = {
         ("main.xml", "Parallel"),
         "<Parallel>: port success_count=3 means 3 of 2 children; expected 1..2 (or -1 for all)",
     ),
-    "scripting pre-condition": (
-        {"main.xml": A_TREE.format(node='<TestReady _skipIf="done"/>')},
-        ("main.xml", "_skipIf"),
-        "<TestReady>: _skipIf (BT.CPP scripting pre/post conditions) is not supported",
+    "unknown underscore attribute": (
+        {"main.xml": A_TREE.format(node='<TestReady _skipif="done"/>')},
+        ("main.xml", "_skipif"),
+        "<TestReady>: unknown attribute '_skipif'; BT.CPP's are _failureIf, _successIf, _skipIf, _while, ",
     ),
     "two trees without a main": (
         {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="A"><TestReady/></BehaviorTree>\n'

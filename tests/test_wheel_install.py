@@ -50,6 +50,7 @@ NOT_INSTALLED = ("sim", "trees", "behaviours", "perception_plugins", "bench", "t
 # What a run reads at run time, by where it lives in the sources → where it must be in the wheel.
 RUN_TIME_DATA = {
     "trees/*.xml": "mission/trees",
+    "trees/examples/*.xml": "mission/trees/examples",
     "sim/scenarios/*.yaml": "mission/sim/scenarios",
     "mission/configs/*.yaml": "mission/configs",
     "mission/viz/static/*": "mission/viz/static",

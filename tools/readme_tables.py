@@ -178,14 +178,38 @@ def behaviours_block() -> str:
 
     rows = []
     for node in shipped_factory().behaviours():
-        cells = [
-            f"`{n}`: {p.type.__name__} = "
-            + ("*required*" if p.required else f"`{p.default!r}`")
-            + (f" — {p.doc}" if p.doc else "")
-            for n, p in node.ports.items()
-        ]
+        cells = [_port_cell(n, p) + (f" — {p.doc}" if p.doc else "") for n, p in node.ports.items()]
         rows.append((f"`{node.tag}`", node.kind, "<br>".join(cells) or "—", node.doc))
     return _table(("tag", "type", "ports (type = default — meaning)", "what it does"), rows)
+
+
+def _port_cell(name: str, port: Any) -> str:
+    if port.direction == "output":
+        return f"`{name}`: {port.type_name} (output)"
+    return f"`{name}`: {port.type_name} = " + ("*required*" if port.required else f"`{port.default!r}`")
+
+
+def builtins_block() -> str:
+    """BT.CPP's node library as this loader has it (trees/builtins.py)."""
+    from mission.trees.builtins import BUILTINS
+
+    rows = [
+        (f"`{m.tag}`", m.kind, "<br>".join(_port_cell(n, p) for n, p in m.ports.items()) or "—", m.doc)
+        for m in BUILTINS.values()
+    ]
+    return _table(("node", "kind", "ports", "what it does"), rows)
+
+
+def blackboard_block() -> str:
+    """The mission's blackboard keys with the names tree files use for them (trees/scopes.py)."""
+    from mission.core import blackboard as bbk
+    from mission.trees.scopes import bt_name
+
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    rows = [(f"`{k.path}`", f"`{bt_name(k)}`", cell(k.type), cell(k.doc)) for k in bbk.ALL_KEYS]
+    return _table(("py_trees key", "in a tree file", "holds", "meaning"), rows)
 
 
 def cli_block() -> str:
@@ -221,6 +245,8 @@ BLOCKS: dict[str, Callable[[], str]] = {
     "plugins": plugins_block,
     "scenario": scenario_block,
     "behaviours": behaviours_block,
+    "builtins": builtins_block,
+    "blackboard": blackboard_block,
     "ros-parameters": ros_block,
 }
 

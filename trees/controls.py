@@ -1,261 +1,487 @@
-"""BehaviorTree.CPP v4 built-in nodes, mapped to py_trees.
+"""BehaviorTree.CPP 4's control nodes, tick for tick (src/controls/*.cpp of BT.CPP 4.10).
 
-Each built-in is a :class:`~mission.trees.manifest.NodeManifest`: its XML tag, Groot2 kind, ports (the
-same :class:`mission.behaviours.ports.Port` as leaves, so the loader checks them the same way) and a
-``build`` function; every :class:`~mission.trees.factory.BehaviourFactory` starts with them, as
-BT.CPP's factory does. Mapping (and where it differs from BT.CPP):
+Each is a py_trees composite (the matching py_trees class where there is one, so viewers draw a sequence
+as a sequence) whose tick is BT.CPP's, written on trees/execution.py's protocol: children are ticked with
+``self.run(child)``, a finished child is reset to IDLE the way BT.CPP resets it, halts go to
+RUNNING children only, in child order. The golden traces (tests/golden/btcpp/) replay every one of them
+against the real BT.CPP.
 
-=======================  ==========================================================================
-XML                      py_trees
-=======================  ==========================================================================
-Sequence                 ``Sequence(memory=True)``: a RUNNING child is resumed on the next tick
-ReactiveSequence         ``Sequence(memory=False)``: every tick restarts from the first child
-Fallback                 ``Selector(memory=True)``
-ReactiveFallback         ``Selector(memory=False)``
-Parallel                 :class:`BtParallel` (a ``py_trees.composites.Parallel`` with BT.CPP's
-                         ``success_count`` / ``failure_count`` thresholds; negative = N + 1 + value)
-Inverter                 ``decorators.Inverter``
-ForceSuccess             ``decorators.FailureIsSuccess`` (RUNNING stays RUNNING)
-ForceFailure             ``decorators.SuccessIsFailure``
-RetryUntilSuccessful     :class:`RetryUntilSuccessful` (``decorators.Retry``; -1 = forever). A failed
-                         attempt is retried on the NEXT tick (BT.CPP retries within the same tick).
-Repeat                   ``decorators.Repeat(num_success=num_cycles)``; one cycle per tick; -1 = forever
-Timeout                  :class:`ClockTimeout`: ``msec`` measured on the blackboard CLOCK (sim or ROS
-                         time), so a faster-than-real-time simulation times out in sim seconds
-AlwaysSuccess / Failure  ``behaviours.Success`` / ``behaviours.Failure``
-=======================  ==========================================================================
-
-``SubTree`` is not here: the loader flattens it (see trees/loader.py).
+Where BT.CPP differs from py_trees' namesakes: ``Parallel`` returns as soon as ``success_count`` or
+``failure_count`` is reached and halts the children still running; a Sequence or Fallback child that is
+SKIPPED is stepped over, and a control whose children were all skipped is itself SKIPPED.
 """
 
 from __future__ import annotations
-
-import time
-from typing import Any
 
 import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
-from mission.behaviours.ports import REQUIRED, Port
-from mission.core import blackboard as bbk
-from mission.trees.manifest import Check, NodeManifest
-
-
-class BtParallel(py_trees.composites.Parallel):
-    """BehaviorTree.CPP v4 ``Parallel``: SUCCESS once `success_count` children succeeded, FAILURE once
-    `failure_count` failed (or success became impossible). Children that finished are not ticked
-    again until the parallel itself finishes; running children are halted when it does.
-
-    py_trees' own policies only cover "all succeed" / "one succeeds" with "any failure fails", so this
-    keeps py_trees' Parallel type (viewers draw it as a parallel) and replaces the status rule.
-    """
-
-    def __init__(
-        self, name: str, children: list[Behaviour], success_count: int, failure_count: int
-    ) -> None:
-        super().__init__(name, policy=py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=False), children=children)
-        self.success_count = success_count
-        self.failure_count = failure_count
-
-    def tick(self):  # type: ignore[no-untyped-def]  # same generator signature as Parallel.tick
-        if self.status != Status.RUNNING:
-            for child in self.children:
-                if child.status != Status.INVALID:
-                    child.stop(Status.INVALID)
-            self.current_child = None
-            self.initialise()
-        for child in self.children:
-            if child.status in (Status.SUCCESS, Status.FAILURE):
-                continue
-            yield from child.tick()
-        successes = sum(c.status == Status.SUCCESS for c in self.children)
-        failures = sum(c.status == Status.FAILURE for c in self.children)
-        if successes >= self.success_count:
-            new_status = Status.SUCCESS
-        elif failures >= self.failure_count or len(self.children) - failures < self.success_count:
-            new_status = Status.FAILURE
-        else:
-            new_status = Status.RUNNING
-        self.feedback_message = (
-            f"{successes}/{self.success_count} succeeded, {failures}/{self.failure_count} failed"
-        )
-        self.current_child = self.children[-1] if self.children else None
-        if new_status != Status.RUNNING:
-            self.stop(new_status)
-        self.status = new_status
-        yield self
-
-
-class RetryUntilSuccessful(py_trees.decorators.Retry):
-    """BT.CPP ``RetryUntilSuccessful``: a failed child is retried up to `num_attempts` times in all
-    (``-1`` = forever). The retry starts on the next tick so one tick never loops."""
-
-    def update(self) -> Status:
-        if self.num_failures < 0 and self.decorated.status == Status.FAILURE:
-            self.failures += 1
-            self.feedback_message = f"attempt {self.failures} failed, retrying (no limit)"
-            return Status.RUNNING
-        return super().update()
-
-
-class ClockTimeout(py_trees.decorators.Decorator):
-    """BT.CPP ``Timeout``: FAILURE (and the child halted) when the child is still RUNNING after
-    `duration_s` on the blackboard CLOCK. Without a CLOCK (a bare tree in a test or a script) the
-    timer falls back to ``time.monotonic()`` for that run."""
-
-    def __init__(self, name: str, child: Behaviour, duration_s: float) -> None:
-        super().__init__(name=name, child=child)
-        self.duration_s = duration_s
-        self._bb = py_trees.blackboard.Client(name=name)
-        bbk.register(self._bb, read=(bbk.CLOCK,))
-        self._use_clock = False
-        self._start = 0.0
-
-    def _now(self) -> float:
-        if self._use_clock:
-            return float(bbk.get(self._bb, bbk.CLOCK, self._start))  # type: ignore[arg-type]
-        return time.monotonic()
-
-    def initialise(self) -> None:
-        clock = bbk.get(self._bb, bbk.CLOCK)
-        self._use_clock = clock is not None
-        self._start = float(clock) if clock is not None else time.monotonic()  # type: ignore[arg-type]
-        self.feedback_message = ""
-
-    def update(self) -> Status:
-        elapsed = self._now() - self._start
-        if self.decorated.status == Status.RUNNING and elapsed > self.duration_s:
-            self.decorated.stop(Status.INVALID)
-            self.feedback_message = f"timed out after {self.duration_s:g} s"
-            return Status.FAILURE
-        if self.decorated.status == Status.RUNNING:
-            self.feedback_message = f"{self.duration_s - elapsed:.1f} s left"
-        else:
-            self.feedback_message = f"child finished after {elapsed:.1f} s"
-        return self.decorated.status
-
-
-def _at_least_one_or_forever(port: str) -> Check:
-    def check(values: dict[str, Any], _n: int) -> str | None:
-        value = values[port]
-        if value >= 1 or value == -1:
-            return None
-        return f"port {port} expects an int ≥ 1 (or -1 for no limit), got {value}"
-
-    return check
-
-
-def _positive(port: str) -> Check:
-    def check(values: dict[str, Any], _n: int) -> str | None:
-        return None if values[port] > 0 else f"port {port} expects an int > 0, got {values[port]}"
-
-    return check
-
-
-def parallel_thresholds(success_count: int, failure_count: int, n_children: int) -> tuple[int, int]:
-    """BT.CPP's rule: a negative count means ``n_children + 1 + count`` (-1 = all children)."""
-
-    def resolve(count: int) -> int:
-        return n_children + 1 + count if count < 0 else count
-
-    return resolve(success_count), resolve(failure_count)
-
-
-def _check_parallel(values: dict[str, Any], n: int) -> str | None:
-    success, failure = parallel_thresholds(values["success_count"], values["failure_count"], n)
-    for port, resolved in (("success_count", success), ("failure_count", failure)):
-        if not 1 <= resolved <= n:
-            return (
-                f"port {port}={values[port]} means {resolved} of {n} children; "
-                f"expected 1..{n} (or -1 for all)"
-            )
-    return None
-
-
-def _build_parallel(name: str, children: list[Behaviour], ports: dict[str, Any]) -> Behaviour:
-    success, failure = parallel_thresholds(ports["success_count"], ports["failure_count"], len(children))
-    return BtParallel(name, children, success, failure)
-
-
-BUILTINS: dict[str, NodeManifest] = {
-    node.tag: node
-    for node in (
-        NodeManifest(
-            "Sequence", "Control", "children in order until one fails; a RUNNING child is resumed",
-            lambda name, ch, _p: py_trees.composites.Sequence(name, memory=True, children=ch),
-        ),
-        NodeManifest(
-            "ReactiveSequence", "Control", "children in order every tick (conditions re-checked)",
-            lambda name, ch, _p: py_trees.composites.Sequence(name, memory=False, children=ch),
-        ),
-        NodeManifest(
-            "Fallback", "Control", "children in order until one succeeds; a RUNNING child is resumed",
-            lambda name, ch, _p: py_trees.composites.Selector(name, memory=True, children=ch),
-        ),
-        NodeManifest(
-            "ReactiveFallback", "Control", "children in priority order every tick (higher ones preempt)",
-            lambda name, ch, _p: py_trees.composites.Selector(name, memory=False, children=ch),
-        ),
-        NodeManifest(
-            "Parallel", "Control", "ticks all children; thresholds decide success and failure",
-            _build_parallel,
-            {
-                "success_count": Port(int, -1, "children that must succeed (-1 = all)"),
-                "failure_count": Port(int, 1, "children whose failure fails the parallel (-1 = all)"),
-            },
-            _check_parallel,
-        ),
-        NodeManifest(
-            "Inverter", "Decorator", "SUCCESS ↔ FAILURE",
-            lambda name, ch, _p: py_trees.decorators.Inverter(name, child=ch[0]),
-        ),
-        NodeManifest(
-            "ForceSuccess", "Decorator", "FAILURE → SUCCESS (RUNNING stays RUNNING)",
-            lambda name, ch, _p: py_trees.decorators.FailureIsSuccess(name, child=ch[0]),
-        ),
-        NodeManifest(
-            "ForceFailure", "Decorator", "SUCCESS → FAILURE (RUNNING stays RUNNING)",
-            lambda name, ch, _p: py_trees.decorators.SuccessIsFailure(name, child=ch[0]),
-        ),
-        NodeManifest(
-            "RetryUntilSuccessful", "Decorator", "retries a failing child (num_attempts in all, -1 = forever)",
-            lambda name, ch, p: RetryUntilSuccessful(name, child=ch[0], num_failures=p["num_attempts"]),
-            {"num_attempts": Port(int, REQUIRED, "attempts in all (-1 = no limit)")},
-            _at_least_one_or_forever("num_attempts"),
-        ),
-        NodeManifest(
-            "Repeat", "Decorator", "repeats a succeeding child num_cycles times (-1 = forever)",
-            lambda name, ch, p: py_trees.decorators.Repeat(name, child=ch[0], num_success=p["num_cycles"]),
-            {"num_cycles": Port(int, REQUIRED, "successful cycles before SUCCESS (-1 = forever)")},
-            _at_least_one_or_forever("num_cycles"),
-        ),
-        NodeManifest(
-            "Timeout", "Decorator", "FAILURE if the child still runs after msec (blackboard CLOCK)",
-            lambda name, ch, p: ClockTimeout(name, child=ch[0], duration_s=p["msec"] / 1000.0),
-            {"msec": Port(int, REQUIRED, "time limit in milliseconds")},
-            _positive("msec"),
-        ),
-        NodeManifest(
-            "AlwaysSuccess", "Action", "returns SUCCESS",
-            lambda name, _ch, _p: py_trees.behaviours.Success(name),
-        ),
-        NodeManifest(
-            "AlwaysFailure", "Action", "returns FAILURE",
-            lambda name, _ch, _p: py_trees.behaviours.Failure(name),
-        ),
-    )
-}
-
-#: BT.CPP v4 built-ins this loader does not map (yet): named in their own error message
-UNSUPPORTED_BUILTINS = frozenset(
-    {
-        "SequenceWithMemory", "ParallelAll", "IfThenElse", "WhileDoElse", "Switch2", "Switch3", "Switch4",
-        "Switch5", "Switch6", "ManualSelector", "KeepRunningUntilFailure", "Delay", "RunOnce", "Precondition",
-        "Sleep", "Script", "ScriptCondition", "SetBlackboard", "UnsetBlackboard", "WasEntryUpdated",
-        "SkipUnlessUpdated", "WaitValueUpdate", "LoopInt", "LoopDouble", "LoopString", "LoopBool",
-    }
+from mission.trees.execution import (
+    FAILURE,
+    IDLE,
+    RUNNING,
+    SKIPPED,
+    SUCCESS,
+    BuiltinNode,
+    PortError,
+    Result,
+    bt_status,
+    halt_child,
+    runtime,
 )
 
-#: tags with a meaning in the file format itself (not nodes a factory may register)
-RESERVED_TAGS = frozenset({"SubTree", "BehaviorTree", "root", "include", "TreeNodesModel"})
+
+def _active(status: Status) -> bool:
+    """BT.CPP's isStatusActive: RUNNING, SUCCESS or FAILURE (not IDLE, not SKIPPED)."""
+    return status is not IDLE
+
+
+class _Control(BuiltinNode):
+    def reset_children(self) -> None:
+        """ControlNode::resetChildren: halt the RUNNING ones, every child back to IDLE."""
+        for child in self.children:
+            halt_child(child)
+
+    def halt_children_from(self, first: int) -> None:
+        for child in self.children[first:]:
+            halt_child(child)
+
+    def wake_up(self) -> None:
+        runtime(self).tree.wake_up()  # type: ignore[arg-type]
+
+
+class Sequence(_Control, py_trees.composites.Sequence):
+    """BT.CPP ``Sequence`` (``AsyncSequence`` with `asynch`): a RUNNING child is resumed on the next tick;
+    a failure resets every child and starts again from the first next time."""
+
+    def __init__(self, name: str, children: list[Behaviour], asynch: bool = False) -> None:
+        super().__init__(name, memory=True, children=children)
+        self.asynch = asynch
+        self.index = 0
+        self.skipped = 0
+
+    def bt_halt(self) -> None:
+        self.index, self.skipped = 0, 0
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        n = len(self.children)
+        if not _active(self.bt_own_status):
+            self.skipped = 0
+        self.set_running()
+        while self.index < n:
+            child = self.children[self.index]
+            before = bt_status(child)
+            result = self.run(child)
+            if result is RUNNING:
+                return RUNNING
+            if result is FAILURE:
+                self.reset_children()
+                self.index = 0
+                return FAILURE
+            self.index += 1
+            if result is SKIPPED:
+                self.skipped += 1
+            elif self.asynch and before is IDLE and self.index < n:
+                self.wake_up()
+                return RUNNING
+        all_skipped = self.skipped == n
+        if self.index == n:
+            self.reset_children()
+            self.index, self.skipped = 0, 0
+        return SKIPPED if all_skipped else SUCCESS
+
+
+class SequenceWithMemory(_Control, py_trees.composites.Sequence):
+    """BT.CPP ``SequenceWithMemory``: a failed child is ticked again next time (earlier ones are not), and
+    a child that succeeds at once hands control back (the tree is woken up and ticked again)."""
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, memory=True, children=children)
+        self.index = 0
+        self.skipped = 0
+
+    def bt_tick(self) -> Result:
+        n = len(self.children)
+        if not _active(self.bt_own_status):
+            self.skipped = 0
+        self.set_running()
+        while self.index < n:
+            child = self.children[self.index]
+            before = bt_status(child)
+            result = self.run(child)
+            if result is RUNNING:
+                return RUNNING
+            if result is FAILURE:
+                self.halt_children_from(self.index)
+                return FAILURE
+            self.index += 1
+            if result is SKIPPED:
+                self.skipped += 1
+            elif before is IDLE and self.index < n:
+                self.wake_up()
+                return RUNNING
+        all_skipped = self.skipped == n
+        if self.index == n:
+            self.reset_children()
+            self.index, self.skipped = 0, 0
+        return SKIPPED if all_skipped else SUCCESS
+
+
+class Fallback(_Control, py_trees.composites.Selector):
+    """BT.CPP ``Fallback`` (``AsyncFallback`` with `asynch`): children in order until one succeeds; a
+    RUNNING child is resumed on the next tick."""
+
+    def __init__(self, name: str, children: list[Behaviour], asynch: bool = False) -> None:
+        super().__init__(name, memory=True, children=children)
+        self.asynch = asynch
+        self.index = 0
+        self.skipped = 0
+
+    def bt_halt(self) -> None:
+        self.index, self.skipped = 0, 0
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        n = len(self.children)
+        if not _active(self.bt_own_status):
+            self.skipped = 0
+        self.set_running()
+        while self.index < n:
+            child = self.children[self.index]
+            before = bt_status(child)
+            result = self.run(child)
+            if result is RUNNING:
+                return RUNNING
+            if result is SUCCESS:
+                self.reset_children()
+                self.index = 0
+                return SUCCESS
+            self.index += 1
+            if result is SKIPPED:
+                self.skipped += 1
+            elif self.asynch and before is IDLE and self.index < n:
+                self.wake_up()
+                return RUNNING
+        all_skipped = self.skipped == n
+        if self.index == n:
+            self.reset_children()
+            self.index, self.skipped = 0, 0
+        return SKIPPED if all_skipped else FAILURE
+
+
+class _Reactive(_Control):
+    """ReactiveSequence / ReactiveFallback: every child from the first, every tick."""
+
+    stop_on: Status  # the child status that ends the tick (FAILURE for a sequence, SUCCESS for a fallback)
+    otherwise: Status
+
+    def bt_tick(self) -> Result:
+        all_skipped = True
+        self.set_running()
+        for index, child in enumerate(self.children):
+            result = self.run(child)
+            all_skipped = all_skipped and result is SKIPPED
+            if result is RUNNING:
+                for i, other in enumerate(self.children):
+                    if i != index:
+                        halt_child(other)
+                return RUNNING
+            if result is self.stop_on:
+                self.reset_children()
+                return result
+            if result is SKIPPED:
+                halt_child(child)
+        self.reset_children()
+        return SKIPPED if all_skipped else self.otherwise
+
+
+class ReactiveSequence(_Reactive, py_trees.composites.Sequence):
+    """BT.CPP ``ReactiveSequence``: conditions re-checked every tick; a child that starts RUNNING halts the others."""
+
+    stop_on, otherwise = FAILURE, SUCCESS
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, memory=False, children=children)
+
+
+class ReactiveFallback(_Reactive, py_trees.composites.Selector):
+    """BT.CPP ``ReactiveFallback``: higher-priority children re-checked every tick and preempt lower ones."""
+
+    stop_on, otherwise = SUCCESS, FAILURE
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, memory=False, children=children)
+
+
+def threshold(count: int, n_children: int) -> int:
+    """BT.CPP's rule: a negative count means ``n_children + 1 + count`` (-1 = all children)."""
+    return max(n_children + count + 1, 0) if count < 0 else count
+
+
+class Parallel(_Control, py_trees.composites.Parallel):
+    """BT.CPP ``Parallel``: ticks the unfinished children in order and returns as soon as `success_count`
+    succeeded or `failure_count` failed (or success became impossible), halting the children still running.
+    Finished children are not ticked again until the parallel itself finishes."""
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        policy = py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=False)  # unused: the tick is BT.CPP's
+        super().__init__(name, policy=policy, children=children)
+        self.done: set[int] = set()
+        self.successes = 0
+        self.failures = 0
+
+    def clear(self) -> None:
+        self.done.clear()
+        self.successes, self.failures = 0, 0
+
+    def bt_halt(self) -> None:
+        self.clear()
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        success_count = self.input("success_count", -1)
+        failure_count = self.input("failure_count", 1)
+        n = len(self.children)
+        need_success, need_failure = threshold(success_count, n), threshold(failure_count, n)
+        self.set_running()
+        skipped = 0
+        for i, child in enumerate(self.children):
+            if i not in self.done:
+                result = self.run(child)
+                if result is SKIPPED:
+                    skipped += 1
+                elif result is SUCCESS:
+                    self.done.add(i)
+                    self.successes += 1
+                elif result is FAILURE:
+                    self.done.add(i)
+                    self.failures += 1
+            self.feedback_message = f"{self.successes}/{need_success} succeeded, {self.failures}/{need_failure} failed"
+            if self.successes >= need_success or (success_count < 0 and self.successes + skipped >= need_success):
+                self.clear()
+                self.reset_children()
+                return SUCCESS
+            if n - self.failures < need_success or self.failures == need_failure:
+                self.clear()
+                self.reset_children()
+                return FAILURE
+        return SKIPPED if skipped == n else RUNNING
+
+
+class ParallelAll(_Control, py_trees.composites.Parallel):
+    """BT.CPP ``ParallelAll``: every child runs to the end; FAILURE if at least `max_failures` failed."""
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        policy = py_trees.common.ParallelPolicy.SuccessOnAll(synchronise=False)
+        super().__init__(name, policy=policy, children=children)
+        self.done: set[int] = set()
+        self.failures = 0
+
+    def bt_halt(self) -> None:
+        self.done.clear()
+        self.failures = 0
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        n = len(self.children)
+        need_failure = threshold(self.input("max_failures", 1), n)
+        skipped = 0
+        self.set_running()
+        for i, child in enumerate(self.children):
+            if i in self.done:
+                continue
+            result = self.run(child)
+            if result is SUCCESS:
+                self.done.add(i)
+            elif result is FAILURE:
+                self.done.add(i)
+                self.failures += 1
+            elif result is SKIPPED:
+                skipped += 1
+        if skipped == n:
+            return SKIPPED
+        if skipped + len(self.done) >= n:
+            self.reset_children()
+            self.done.clear()
+            status = FAILURE if self.failures >= need_failure else SUCCESS
+            self.failures = 0
+            return status
+        return RUNNING
+
+
+class IfThenElse(_Control, py_trees.composites.Composite):
+    """BT.CPP ``IfThenElse``: the first child decides; the second runs on SUCCESS, the third (or FAILURE) on
+    FAILURE. The condition is not re-checked while the chosen branch runs."""
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, children=children)
+        self.branch = 0
+
+    def bt_halt(self) -> None:
+        self.branch = 0
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        self.set_running()
+        if self.branch == 0:
+            condition = self.run(self.children[0])
+            if condition is RUNNING:
+                return RUNNING
+            if condition is SUCCESS:
+                self.branch = 1
+            elif condition is FAILURE:
+                if len(self.children) != 3:
+                    return FAILURE
+                self.branch = 2
+            else:
+                return condition  # a SKIPPED condition: BT.CPP throws here; the control is skipped instead
+        result = self.run(self.children[self.branch])
+        if result is RUNNING:
+            return RUNNING
+        self.reset_children()
+        self.branch = 0
+        return result
+
+
+class WhileDoElse(_Control, py_trees.composites.Composite):
+    """BT.CPP ``WhileDoElse``: the condition is re-checked every tick; a change of answer halts the other branch."""
+
+    def bt_tick(self) -> Result:
+        self.set_running()
+        condition = self.run(self.children[0])
+        if condition is RUNNING:
+            return RUNNING
+        result: Result = IDLE
+        if condition is SUCCESS:
+            if len(self.children) == 3:
+                halt_child(self.children[2])
+            result = self.run(self.children[1])
+        elif condition is FAILURE:
+            if len(self.children) == 3:
+                halt_child(self.children[1])
+                result = self.run(self.children[2])
+            else:
+                result = FAILURE
+        else:
+            return condition
+        if result is RUNNING:
+            return RUNNING
+        self.reset_children()
+        return result
+
+
+class TryCatch(_Control, py_trees.composites.Composite):
+    """BT.CPP ``TryCatch``: the children but the last in sequence; if one fails, the last (catch) child runs
+    and the node fails when it finishes. With catch_on_halt the catch child also runs when the node is halted."""
+
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, children=children)
+        self.index = 0
+        self.skipped = 0
+        self.in_catch = False
+
+    def bt_halt(self) -> None:
+        catch_on_halt = bool(self.input("catch_on_halt", False))
+        if catch_on_halt and not self.in_catch and _active(self.bt_own_status) and len(self.children) >= 2:
+            for child in self.children[:-1]:
+                halt_child(child)
+            self.run(self.children[-1])  # BT.CPP ticks the catch child once, inside halt()
+            if bt_status(self.children[-1]) is RUNNING:
+                halt_child(self.children[-1])
+        self.index, self.skipped, self.in_catch = 0, 0, False
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        n = len(self.children)
+        if not _active(self.bt_own_status):
+            self.skipped = 0
+            self.in_catch = False
+        self.set_running()
+        while True:
+            if self.in_catch:
+                result = self.run(self.children[-1])
+                if result is RUNNING:
+                    return RUNNING
+                self.reset_children()
+                self.index, self.in_catch = 0, False
+                return FAILURE
+            tries = n - 1
+            while self.index < tries:
+                result = self.run(self.children[self.index])
+                if result is RUNNING:
+                    return RUNNING
+                if result is FAILURE:
+                    self.reset_children()
+                    self.index, self.in_catch = 0, True
+                    break
+                self.index += 1
+                if result is SKIPPED:
+                    self.skipped += 1
+            else:
+                all_skipped = self.skipped == tries
+                self.reset_children()
+                self.index, self.skipped = 0, 0
+                return SKIPPED if all_skipped else SUCCESS
+
+
+def same_case(variable: str, case: str, enums: dict[str, int]) -> bool:
+    """BT.CPP's Switch comparison: equal strings, or equal integers (an enum name counts as its value)."""
+    if variable == case:
+        return True
+
+    def as_int(text: str) -> int | None:
+        if text in enums:
+            return enums[text]
+        try:
+            return int(text)
+        except ValueError:
+            return None
+
+    a, b = as_int(variable), as_int(case)
+    return a is not None and a == b
+
+
+class Switch(_Control, py_trees.composites.Composite):
+    """BT.CPP ``Switch2`` … ``Switch6``: the child whose ``case_N`` equals `variable` runs, else the last one;
+    a change of case halts the child that was running."""
+
+    def __init__(self, name: str, children: list[Behaviour], cases: int, enums: dict[str, int]) -> None:
+        super().__init__(name, children=children)
+        self.cases = cases
+        self.enums = enums
+        self.running = -1
+
+    def bt_halt(self) -> None:
+        self.running = -1
+        super().bt_halt()
+
+    def bt_tick(self) -> Result:
+        match = self.cases
+        try:
+            variable: str | None = str(self.input("variable"))
+        except PortError:  # BT.CPP: no variable → the default child
+            variable = None
+        if variable is not None:
+            for index in range(self.cases):
+                try:
+                    case = self.input(f"case_{index + 1}")
+                except PortError:  # an unset case matches nothing
+                    continue
+                if same_case(variable, str(case), self.enums):
+                    match = index
+                    break
+        if self.running != -1 and self.running != match:
+            halt_child(self.children[self.running])
+        result = self.run(self.children[match])
+        if result is SKIPPED:
+            self.running = -1
+            return SKIPPED
+        if result is RUNNING:
+            self.running = match
+        else:
+            self.reset_children()
+            self.running = -1
+        return result
+

@@ -1,7 +1,7 @@
 """The tree factory: which node types a tree file may use, and what each is built from.
 
 Modelled on BehaviorTree.CPP's ``BehaviorTreeFactory``: a factory starts with the BT.CPP built-ins
-(trees/controls.py) and behaviours are registered on it explicitly, each under an XML tag and with the
+(trees/builtins.py) and behaviours are registered on it explicitly, each under an XML tag and with the
 extra constructor arguments it needs (its dependencies) given at registration, as
 ``registerNodeType<T>(ID, args...)`` does::
 
@@ -13,6 +13,9 @@ Nothing is discovered: no import side effects fill it, no constructor signature 
 ports come from its class's declaration (behaviours/ports.py); the factory turns a class into a
 :class:`~mission.trees.manifest.NodeManifest`, which is all the loader, the Groot2 TreeNodesModel and the
 README's behaviour table read. :func:`shipped_factory` is the one list of the behaviours that ship.
+
+Scripting enums (BT.CPP's ``registerScriptingEnum``) are registered here too: names a script may use for
+numbers. The shipped factory registers the mission states, so ``_skipIf="mission_state == DONE"`` reads.
 """
 
 from __future__ import annotations
@@ -29,14 +32,14 @@ from mission.behaviours.explore import Explore
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.lost import HoldLastGoal
-from mission.behaviours.mission_state import SetMissionState
+from mission.behaviours.mission_state import STATES, SetMissionState
 from mission.behaviours.perceive import PerceiveTargets
 from mission.behaviours.ports import PortsDeclared, unknown_port, wrong_type
 from mission.behaviours.search import SearchSweep
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
-from mission.trees.controls import BUILTINS, RESERVED_TAGS
-from mission.trees.manifest import Builder, Check, NodeKind, NodeManifest
+from mission.trees.builtins import BUILTINS, RESERVED_TAGS
+from mission.trees.manifest import BuildContext, Builder, Check, NodeKind, NodeManifest
 
 #: keywords the factory itself passes to constructors (the instance name and, for decorators and
 #: controls, the children), so they cannot be registration arguments
@@ -50,6 +53,20 @@ class BehaviourFactory:
         self._manifests: dict[str, NodeManifest] = dict(BUILTINS)
         self._registered: dict[str, NodeManifest] = {}  # as registered, before any set_port
         self._port_values: dict[str, dict[str, Any]] = {}  # tag → port → value (set_port)
+        self._enums: dict[str, int] = {}
+
+    def register_enum(self, name: str, value: int) -> None:
+        """A name scripts may use for the integer `value` (BT.CPP's registerScriptingEnum)."""
+        if not (name.isidentifier() and isinstance(value, int)):
+            raise ValueError(f"scripting enum {name!r}={value!r}: expected an identifier and an int")
+        if self._enums.get(name, value) != value:
+            raise ValueError(f"scripting enum {name} is already {self._enums[name]}")
+        self._enums[name] = value
+
+    @property
+    def enums(self) -> dict[str, int]:
+        """The scripting enums (a copy)."""
+        return dict(self._enums)
 
     def register(self, cls: type[PortsDeclared], tag: str | None = None, /, **args: Any) -> NodeManifest:
         """Make `cls` available in tree files as ``<tag>`` (default: the class name).
@@ -140,6 +157,8 @@ def shipped_factory() -> BehaviourFactory:
         SetMissionState,
     ):
         factory.register(cls)
+    for value, state in enumerate(STATES):  # EXPLORE = 0 … FAILED = 6
+        factory.register_enum(state, value)
     return factory
 
 
@@ -149,7 +168,7 @@ def _summary(cls: type) -> str:
 
 
 def _builder(cls: type, kind: NodeKind, args: dict[str, Any]) -> Builder:
-    def build(name: str, children: list[Behaviour], ports: dict[str, Any]) -> Behaviour:
+    def build(name: str, children: list[Behaviour], ports: dict[str, Any], _context: BuildContext) -> Behaviour:
         structure: dict[str, Any] = {}
         if kind == "Decorator":
             structure["child"] = children[0]
@@ -168,8 +187,8 @@ def _with_port_values(base: NodeManifest, values: dict[str, Any]) -> NodeManifes
     )
     check = base.check
 
-    def build(name: str, children: list[Behaviour], written: dict[str, Any]) -> Behaviour:
-        return base.build(name, children, {**written, **values})
+    def build(name: str, children: list[Behaviour], written: dict[str, Any], context: BuildContext) -> Behaviour:
+        return base.build(name, children, {**written, **values}, context)
 
     def checked(written: dict[str, Any], n: int) -> str | None:
         return None if check is None else check({**written, **values}, n)

@@ -17,12 +17,15 @@ from xml.sax.saxutils import escape, quoteattr
 
 from mission.behaviours.ports import Port
 from mission.core.files import atomic_write_text
+from mission.core.types import Pose2D
 from mission.trees.factory import BehaviourFactory, shipped_factory
 
-#: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows)
-GROOT_TYPES: dict[type, str] = {str: "std::string", int: "int", float: "double", bool: "bool"}
+#: Python port types in BehaviorTree.CPP's spelling (what Groot2 shows); a C++ host would declare Pose2D as a
+#: struct of three doubles read from "x;y;yaw"
+GROOT_TYPES: dict[type, str] = {str: "std::string", int: "int", float: "double", bool: "bool", Pose2D: "Pose2D"}
 
 _SECTION = re.compile(r"^([ \t]*)<TreeNodesModel>.*?</TreeNodesModel>[ \t]*\n?", re.S | re.M)
+_SUBTREE_MODEL = re.compile(r"^[ \t]*(?:<SubTree\b[^>]*/>|<SubTree\b[^>]*[^/]>.*?</SubTree>)[ \t]*\n", re.S | re.M)
 
 
 def format_default(value: object) -> str:
@@ -33,8 +36,12 @@ def format_default(value: object) -> str:
 
 
 def _port_xml(name: str, port: Port) -> str:
-    attrs = f"name={quoteattr(name)} type={quoteattr(GROOT_TYPES.get(port.type, port.type.__name__))}"
-    if not port.required:
+    """``<input_port>``, ``<output_port>`` or ``<inout_port>``; an output's default is the entry it writes."""
+    attrs = f"name={quoteattr(name)} type={quoteattr(GROOT_TYPES.get(port.type, port.type_name))}"
+    if port.direction == "output":
+        if isinstance(port.default, str):
+            attrs += f" default={quoteattr(port.default)}"
+    elif not port.required:
         attrs += f" default={quoteattr(format_default(port.default))}"
     tag = f"{port.direction}_port"
     return f"<{tag} {attrs}>{escape(port.doc)}</{tag}>" if port.doc else f"<{tag} {attrs}/>"
@@ -67,12 +74,24 @@ def nodes_model_section(text: str) -> str | None:
 
 
 def with_nodes_model(text: str, factory: BehaviourFactory, *, descriptions: bool = False) -> str:
-    """Tree file text with its ``<TreeNodesModel>`` replaced by (or, before ``</root>``, given) the current one."""
+    """Tree file text with its ``<TreeNodesModel>`` replaced by (or, before ``</root>``, given) the current one.
+
+    The ``<SubTree ID>`` models already there (the ports of the file's own trees, written by hand) are kept."""
     match = _SECTION.search(text)
     if match:
-        model = nodes_model_xml(factory, match.group(1), descriptions=descriptions)
-        return text[: match.start()] + model + text[match.end() :]
+        indent = match.group(1)
+        subtrees = "".join(m.group(0) for m in _SUBTREE_MODEL.finditer(match.group(0)))
+        section = nodes_model_xml(factory, indent, descriptions=descriptions)
+        if subtrees:
+            section = section.replace(f"{indent}</TreeNodesModel>\n", f"{subtrees}{indent}</TreeNodesModel>\n")
+        return text[: match.start()] + section + text[match.end() :]
     return text.replace("</root>", "\n" + nodes_model_xml(factory, "  ", descriptions=descriptions) + "</root>")
+
+
+def shipped_tree_files() -> list[Path]:
+    """The shipped tree files whose model this module keeps current: trees/*.xml and trees/examples/*.xml."""
+    here = Path(__file__).resolve().parent
+    return sorted(here.glob("*.xml")) + sorted((here / "examples").glob("*.xml"))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -81,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     factory = shipped_factory()
     stale = []
-    for path in sorted(Path(__file__).resolve().parent.glob("*.xml")):
+    for path in shipped_tree_files():
         text = path.read_text()
         new = with_nodes_model(text, factory)
         if new != text:

@@ -8,6 +8,7 @@ file it came from. Nothing here knows about behaviour trees; the loader interpre
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
@@ -27,6 +28,24 @@ def display_path(path: Path) -> str:
     return str(path) if rel.startswith("..") else rel
 
 
+_ATTRIBUTE = re.compile(r"""\s+([^\s=/>]+)\s*=\s*(?:"([^"]*)"|'([^']*)')""")
+_ENTITY = re.compile(r"&(#x[0-9a-fA-F]+|#[0-9]+|[A-Za-z]+);")
+
+
+@dataclass(eq=False)
+class SourceText:
+    """A file's text as read, for finding where inside an attribute value something was written."""
+
+    data: bytes
+
+    def char_offset(self, byte_offset: int) -> int:
+        return len(self.data[:byte_offset].decode("utf-8", errors="replace"))
+
+    @property
+    def text(self) -> str:
+        return self.data.decode("utf-8", errors="replace")
+
+
 @dataclass
 class SourceElement:
     """One XML element with where it was written."""
@@ -36,6 +55,38 @@ class SourceElement:
     line: int
     file: Path
     children: list[SourceElement] = field(default_factory=list)
+    source: SourceText | None = field(default=None, repr=False, compare=False)
+    start: int = field(default=0, repr=False, compare=False)  # byte offset of the start tag's '<'
+
+    def attribute_position(self, name: str, index: int = 0) -> tuple[int, int]:
+        """(line, column), 1-based, of character `index` of attribute `name`'s value as the parser gave it
+        (entities such as ``&amp;`` count as the one character they stand for)."""
+        if self.source is None:
+            return self.line, 1
+        text = self.source.text
+        pos = self.source.char_offset(self.start) + 1 + len(self.tag)
+        while True:
+            match = _ATTRIBUTE.match(text, pos)
+            if match is None:
+                return self.line, 1
+            if match.group(1) == name:
+                group = 2 if match.group(2) is not None else 3
+                raw_start, raw = match.start(group), match.group(group)
+                break
+            pos = match.end()
+        i = decoded = 0
+        while i < len(raw) and decoded < index:
+            entity = _ENTITY.match(raw, i) if raw[i] == "&" else None
+            i += len(entity.group(0)) if entity else 2 if raw.startswith("\r\n", i) else 1
+            decoded += 1
+        absolute = raw_start + i
+        line = text.count("\n", 0, absolute) + 1
+        return line, absolute - (text.rfind("\n", 0, absolute) + 1) + 1
+
+    def error_at(self, name: str, index: int, message: str) -> str:
+        """``file:line:column: <Tag>: message`` for a place inside attribute `name`'s value."""
+        line, column = self.attribute_position(name, index)
+        return f"{display_path(self.file)}:{line}:{column}: {self.label}: {message}"
 
     @property
     def where(self) -> str:
@@ -69,11 +120,14 @@ def parse_bytes(data: bytes, path: Path) -> SourceElement:
     if not data.strip():
         raise TreeError(f'{display_path(path)}:1: empty file; expected <root BTCPP_format="4"> with a <BehaviorTree>')
     parser = expat.ParserCreate()
+    parser.ordered_attributes = True
+    source = SourceText(data)
     stack: list[SourceElement] = []
     roots: list[SourceElement] = []
 
-    def start(tag: str, attrib: dict[str, str]) -> None:
-        element = SourceElement(tag, dict(attrib), parser.CurrentLineNumber, path)
+    def start(tag: str, attributes: list[str]) -> None:
+        attrib = dict(zip(attributes[0::2], attributes[1::2], strict=True))
+        element = SourceElement(tag, attrib, parser.CurrentLineNumber, path, [], source, parser.CurrentByteIndex)
         if len(stack) >= MAX_DEPTH:  # the checker and builder recurse: stop here, not with a RecursionError
             raise TreeError(element.error(f"nested {len(stack)} elements deep; expected at most {MAX_DEPTH} "
                                           "(split the tree into <SubTree>s)"))

@@ -7,9 +7,11 @@
 
 Topics and types are the ones a robot publishes and the ROS node subscribes to: ``/camera/image_raw``
 (sensor_msgs/Image bgr8), ``/camera/camera_info``, ``/camera/depth/image_raw`` (32FC1 metres, when the
-frame has depth), ``/odom`` (nav_msgs/Odometry) and ``/scan`` (sensor_msgs/LaserScan). Each message
-is logged at its own header stamp. Written with ``rosbags`` (no ROS install needed); ``ros2 bag play``
-plays the result.
+frame has depth), ``/odom`` (nav_msgs/Odometry) and ``/scan`` (sensor_msgs/LaserScan). With
+``compression="jpeg"`` (or ``"png"``) the camera goes where image_transport puts it, as most robots record
+it: ``/camera/image_raw/compressed`` (sensor_msgs/CompressedImage) and, for depth,
+``/camera/depth/image_raw/compressedDepth`` (16-bit PNG of millimetres). Each message is logged at its own
+header stamp. Written with ``rosbags`` (no ROS install needed); ``ros2 bag play`` plays the result.
 """
 
 from __future__ import annotations
@@ -26,7 +28,14 @@ from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.core.files import ensure_dir, unwritable
 from mission.core.types import Frame, LaserScan, RobotState
-from mission.ros.conversions import array_to_image, intrinsics_to_camera_info, scan_to_msg, state_to_odometry
+from mission.ros.conversions import (
+    array_to_compressed_image,
+    array_to_image,
+    depth_to_compressed_depth,
+    intrinsics_to_camera_info,
+    scan_to_msg,
+    state_to_odometry,
+)
 from mission.ros.messages import BagMessages
 
 TYPESTORE = Stores.ROS2_JAZZY
@@ -38,6 +47,11 @@ DEFAULT_TOPICS = {
     "odom": ("/odom", "nav_msgs/msg/Odometry"),
     "scan": ("/scan", "sensor_msgs/msg/LaserScan"),
 }
+COMPRESSED_TOPICS = {  # image_transport's names for the compressed camera
+    "image": ("/camera/image_raw/compressed", "sensor_msgs/msg/CompressedImage"),
+    "depth": ("/camera/depth/image_raw/compressedDepth", "sensor_msgs/msg/CompressedImage"),
+}
+COMPRESSIONS = ("jpeg", "png")
 
 
 def storage_for(path: Path, storage: str | None) -> StoragePlugin:
@@ -58,8 +72,14 @@ class BagRecorder:
         storage: str | None = None,
         odom_frame: str = "odom",
         base_frame: str = "base_link",
+        compression: str | None = None,
     ) -> None:
         p = Path(path)
+        if compression is not None and compression not in COMPRESSIONS:
+            expected = ", ".join(COMPRESSIONS)
+            raise MissionError(f"{p}: unknown image compression {compression!r}; expected one of {expected}")
+        self.compression = compression
+        self.topics = {**DEFAULT_TOPICS, **(COMPRESSED_TOPICS if compression else {})}
         self.path = p.with_suffix("") if p.suffix in (".mcap", ".db3") else p  # rosbag2 bags are directories
         self.storage = storage_for(p, storage)
         self.odom_frame = odom_frame
@@ -103,7 +123,7 @@ class BagRecorder:
             self._writer.open()
         except OSError as err:
             raise MissionError(f"{self.path}: cannot record a bag here ({err.strerror or err})") from err
-        for key, (topic, msgtype) in DEFAULT_TOPICS.items():
+        for key, (topic, msgtype) in self.topics.items():
             self._connections[key] = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
         return self
 
@@ -126,20 +146,28 @@ class BagRecorder:
     def _write(self, key: str, msg: Any, stamp: float) -> None:
         if self._writer is None:
             raise MissionError(f"{self.path}: the recorder is not open")
-        msgtype = DEFAULT_TOPICS[key][1]
+        msgtype = self.topics[key][1]
         data = self.typestore.serialize_cdr(msg, msgtype)
         self._writer.write(self._connections[key], max(0, round(stamp * 1e9)), data)
         self.counts[key] += 1
 
     def write_frame(self, frame: Frame) -> None:
-        """The image (bgr8, or mono8 for a mono frame), its camera info and its depth, at the frame's stamp."""
+        """The image (bgr8, or mono8 for a mono frame; or compressed), its camera info and its depth, at the
+        frame's stamp."""
         encoding = "mono8" if frame.image.ndim == 2 else "bgr8"
         if frame.intrinsics is not None:  # before the image, as camera drivers publish them
             info = intrinsics_to_camera_info(self.msgs, frame.intrinsics, frame.stamp, frame.frame_id)
             self._write("camera_info", info, frame.stamp)
-        self._write("image", array_to_image(self.msgs, frame.image, encoding, frame.stamp, frame.frame_id), frame.stamp)
+        if self.compression:
+            image = array_to_compressed_image(self.msgs, frame.image, self.compression, frame.stamp, frame.frame_id)
+        else:
+            image = array_to_image(self.msgs, frame.image, encoding, frame.stamp, frame.frame_id)
+        self._write("image", image, frame.stamp)
         if frame.depth is not None:
-            depth = array_to_image(self.msgs, frame.depth, "32FC1", frame.stamp, frame.frame_id)
+            if self.compression:
+                depth = depth_to_compressed_depth(self.msgs, frame.depth, frame.stamp, frame.frame_id)
+            else:
+                depth = array_to_image(self.msgs, frame.depth, "32FC1", frame.stamp, frame.frame_id)
             self._write("depth", depth, frame.stamp)
 
     def write_state(self, state: RobotState) -> None:

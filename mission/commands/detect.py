@@ -3,6 +3,12 @@
 All images go through ONE source instance, in the order given, as consecutive frames (stamps 1/30 s
 apart), so per-marker temporal logic (pose flip disambiguation) applies across a sequence. A file that
 cannot be read is reported on stderr and skipped; the exit code is then 1.
+
+The camera model is ``--intrinsics fx,fy,cx,cy`` or ``--calibration FILE`` (mission/app/calibration.py).
+A source that declares what a frame must carry (``requires``, e.g. the VLM's depth) gets it or the
+command says what is missing before reading any image: ``--depth FILE`` gives one depth image per IMAGE.
+A source that answers off the tick (``wait_idle``, the VLM) is waited for; when it finds nothing, stderr
+says why (its ``status()["state"]``: rate limited, no depth, …), never a silent empty result.
 """
 
 from __future__ import annotations
@@ -18,13 +24,16 @@ import cv2
 import numpy as np
 import yaml
 
+from mission.app.calibration import load_calibration
 from mission.core.config import merge_mappings
-from mission.core.errors import ConfigError
+from mission.core.errors import ConfigError, MissionError
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins import registry
 from mission.sim.quiet import quiet
 
 FRAME_PERIOD_S = 1.0 / 30.0
+ANSWER_TIMEOUT_S = 60.0  # how long to wait for a source that answers off the tick (a remote model)
+DEPTH_FORMATS = "a 16-bit PNG/TIFF in millimetres, or a .npy or 32-bit float TIFF in metres"
 
 
 def parse_set(items: list[str]) -> dict[str, Any]:
@@ -87,6 +96,35 @@ def read_image(path: str) -> np.ndarray:
     return img
 
 
+def read_depth(path: str) -> np.ndarray:
+    """A depth image as H×W float32 metres (NaN = no return); OSError/ValueError with the reason."""
+    p = Path(path)
+    if not p.is_file():
+        raise OSError("no such file" if not p.exists() else "not a file")
+    if p.suffix.lower() == ".npy":
+        try:
+            arr = np.load(p, allow_pickle=False)
+        except (OSError, ValueError) as err:
+            raise ValueError(f"not a readable .npy array ({err})") from None
+    else:
+        with quiet():
+            arr = cv2.imread(str(p), cv2.IMREAD_UNCHANGED | cv2.IMREAD_ANYDEPTH)
+        if arr is None:
+            raise ValueError(f"not a decodable depth image (expected {DEPTH_FORMATS})")
+    arr = np.asarray(arr)
+    if arr.ndim != 2:
+        raise ValueError(f"depth must be one channel (H×W), got shape {tuple(arr.shape)}")
+    if arr.dtype == np.uint8:
+        raise ValueError(f"an 8-bit image is not depth (expected {DEPTH_FORMATS})")
+    if np.issubdtype(arr.dtype, np.integer):  # millimetres, 0 = no return
+        depth = arr.astype(np.float32) / 1000.0
+        depth[arr == 0] = np.nan
+        return depth
+    depth = arr.astype(np.float32)
+    depth[~np.isfinite(depth) | (depth <= 0)] = np.nan
+    return depth
+
+
 def _table(path: str, img: np.ndarray, dets: list[Detection]) -> str:
     h, w = img.shape[:2]
     lines = [f"{path}  ({w}×{h}): {len(dets)} detection{'s' if len(dets) != 1 else ''}"]
@@ -103,11 +141,61 @@ def _table(path: str, img: np.ndarray, dets: list[Detection]) -> str:
     return "\n".join(lines)
 
 
+def _requirements(args: argparse.Namespace, cls: type) -> set[str]:
+    """What the source needs in a frame; a MissionError saying how to give it when the command line does not."""
+    requires = set(getattr(cls, "requires", ()))
+    if "depth" in requires and not args.depth:
+        raise MissionError(
+            f"--source {args.source} needs a depth image for each IMAGE (it places what it finds in 3D with "
+            f"depth): give --depth FILE ({DEPTH_FORMATS}), one per IMAGE in the same order"
+        )
+    if args.depth and len(args.depth) != len(args.images):
+        raise MissionError(f"--depth: {len(args.depth)} depth image(s) for {len(args.images)} image(s); give one "
+                           "per IMAGE, in the same order")  # fmt: skip
+    return requires
+
+
+def _intrinsics(args: argparse.Namespace, calibration: CameraIntrinsics | None, w: int, h: int,
+                requires: set[str]) -> CameraIntrinsics | None:  # fmt: skip
+    if calibration is not None:
+        problem = calibration.problem(w, h)
+        if problem is not None:
+            raise ValueError(f"--calibration {args.calibration}: {problem}")
+        return calibration
+    given = parse_intrinsics(args.intrinsics, w, h)
+    if given is None and "intrinsics" in requires:  # the source cannot fall back by itself
+        return CameraIntrinsics.fallback(w, h)
+    return given
+
+
+def _detect(source: object, frame: Frame) -> list[Detection]:
+    """The source's detections of `frame`; a source that answers off the tick is given time to answer."""
+    dets = source.process(frame)  # type: ignore[attr-defined]
+    wait = getattr(source, "wait_idle", None)
+    if dets or wait is None:
+        return dets
+    wait(ANSWER_TIMEOUT_S)
+    return source.process(frame)  # type: ignore[attr-defined]
+
+
+def _why_nothing(source: object) -> str | None:
+    status = getattr(source, "status", None)
+    if status is None:
+        return None
+    state = status().get("state")
+    return None if state in (None, "idle", "latched") else str(state).replace("_", " ")
+
+
 def main(args: argparse.Namespace) -> int:
     params = parse_set(args.set)
+    if args.intrinsics is not None and args.calibration is not None:
+        raise ConfigError("give --intrinsics or --calibration, not both", key="--calibration")
     if args.intrinsics is not None:
         parse_intrinsics(args.intrinsics, 1, 1)  # fail on a bad value before touching any file
+    calibration = load_calibration(args.calibration) if args.calibration is not None else None
     cls = registry.load_class(args.source)
+    requires = _requirements(args, cls)
+    params = {**dict(getattr(cls, "batch_params", {})), **params}
     try:
         source = cls(params, name=args.source)
     except ConfigError as err:
@@ -115,21 +203,32 @@ def main(args: argparse.Namespace) -> int:
     failures = 0
     try:
         for i, path in enumerate(args.images):
+            which = path
             try:
                 img = read_image(path)
+                which = args.depth[i] if args.depth else path
+                depth = read_depth(which) if args.depth else None
             except (OSError, ValueError) as err:
-                print(f"mission: error: {path}: cannot read image ({err})", file=sys.stderr)
+                kind = "depth image" if which != path else "image"
+                print(f"mission: error: {which}: cannot read {kind} ({err})", file=sys.stderr)
                 failures += 1
                 continue
             h, w = img.shape[:2]
-            frame = Frame(image=img, stamp=i * FRAME_PERIOD_S, frame_id="camera_optical_frame",
-                          intrinsics=parse_intrinsics(args.intrinsics, w, h))  # fmt: skip
             try:
-                dets = source.process(frame)
+                if depth is not None and depth.shape != (h, w):
+                    raise ValueError(f"depth {args.depth[i]} is {depth.shape[1]}×{depth.shape[0]}, the image {w}×{h}")
+                intrinsics = _intrinsics(args, calibration, w, h, requires)
+                frame = Frame(image=img, stamp=i * FRAME_PERIOD_S, frame_id="camera_optical_frame",
+                              intrinsics=intrinsics, depth=depth)  # fmt: skip
+                dets = _detect(source, frame)
             except ValueError as err:
                 print(f"mission: error: {path}: {err}", file=sys.stderr)
                 failures += 1
                 continue
+            if not dets:
+                why = _why_nothing(source)
+                if why is not None:
+                    print(f"mission: {path}: {args.source}: nothing found ({why})", file=sys.stderr)
             if args.json:
                 rec = {"image": path, "width": w, "height": h, "detections": [d.to_json() for d in dets]}
                 print(json.dumps(rec), flush=True)

@@ -1,4 +1,4 @@
-"""`mission replay BAG`: the tree on a recorded rosbag2, through the ROS node's adapter code.
+"""`mission replay BAG`: the tree on a recorded bag (ROS 1 or rosbag2), through the ROS node's adapter code.
 
 ``--json`` prints one line per processed frame: ``{"stamp", "frame_id", "detections": [Detection]}``;
 the summary goes to stderr. Without it, one summary line on stdout. Exit 0 when the bag was replayed.
@@ -10,8 +10,9 @@ import argparse
 import json
 import sys
 
+from mission.app.calibration import load_calibration
 from mission.core.config import load_config
-from mission.ros.replay import FrameResult, replay
+from mission.ros.replay import TOPIC_KEYS, FrameResult, replay
 
 
 def main(args: argparse.Namespace) -> int:
@@ -19,6 +20,9 @@ def main(args: argparse.Namespace) -> int:
     if args.rate < 0:
         print("mission: error: --rate must be >= 0 (0 = as fast as possible, 1.0 = recorded rate)", file=sys.stderr)
         return 2
+
+    calibration = load_calibration(args.calibration) if args.calibration else None
+    topics = {key: getattr(args, key) for key in TOPIC_KEYS}
 
     def show(fr: FrameResult) -> None:
         print(json.dumps(fr.to_json()), flush=True)
@@ -30,12 +34,15 @@ def main(args: argparse.Namespace) -> int:
         rate=args.rate,
         on_frame=show if args.json else None,
         warn=lambda message: print(f"mission replay: warning: {message}", file=sys.stderr),
+        topics=topics,
+        calibration=calibration,
     )
     with_dets = sum(1 for f in result.frames if f.detections)
     ids = sorted({d.marker_id for f in result.frames for d in f.detections if d.marker_id is not None})
     dropped = result.stats.get("dropped_total", 0)
+    read = ", ".join(f"{k} {v}" for k, v in result.read.items())
     summary = (
-        f"replayed {args.bag}: {result.bag_s:.1f} s of recording in {result.wall_s:.1f} s, "
+        f"replayed {args.bag} ({result.kind}; {read}): {result.bag_s:.1f} s of recording in {result.wall_s:.1f} s, "
         f"{len(result.frames)} frames processed ({with_dets} with detections, marker ids {ids}), "
         f"{dropped} messages dropped, {result.ticks} ticks, mission state {result.mission_state or '-'}, "
         f"commands {result.commands or '{}'}"

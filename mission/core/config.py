@@ -220,12 +220,27 @@ class RunConfig(StrictModel):
     tick_hz: float = Field(15.0, gt=0, le=200)  # one perception pass per tick: match the camera rate
 
 
+class TopicsConfig(StrictModel):
+    """Topic names in a recording, for `mission replay` (its `--…-topic` flags override them).
+
+    The ROS node takes the same names as its `-p` parameters. Unset: the node's defaults, and for the
+    camera the bag's only image topic when the default is not there."""
+
+    image_topic: str | None = None  # camera images, raw or compressed (default /camera/image_raw)
+    camera_info_topic: str | None = None  # sensor_msgs/CameraInfo (default /camera/camera_info)
+    depth_topic: str | None = None  # depth images, raw or compressedDepth (default /camera/depth/image_raw)
+    odom_topic: str | None = None  # nav_msgs/Odometry (default /odom)
+    scan_topic: str | None = None  # sensor_msgs/LaserScan (default /scan)
+    map_topic: str | None = None  # nav_msgs/OccupancyGrid (default /map)
+
+
 class MissionConfig(StrictModel):
     """Top-level config; every section has defaults, so an empty file is a valid config."""
 
     tree: str = "mission.xml"  # a path, or a file name under trees/
     perception: PerceptionConfig = Field(default_factory=PerceptionConfig)
     run: RunConfig = Field(default_factory=RunConfig)
+    topics: TopicsConfig = Field(default_factory=TopicsConfig)
     sim: dict[str, Any] = Field(default_factory=dict)  # scenario keys overridden for this config (see Scenario keys)
 
 

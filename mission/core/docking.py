@@ -45,6 +45,20 @@ def tag_floor_normal(T_ref_tag: np.ndarray) -> np.ndarray:
     return n / norm
 
 
+def floor_pose(T_ref_target: np.ndarray) -> Pose2D:
+    """Where a target is on the floor: its position, and the heading of its face normal (0 when it lies flat).
+
+    For a marker this is the dock pose (the face it is approached from); for another target only x, y mean much.
+    """
+    T = np.asarray(T_ref_target, dtype=np.float64)
+    try:
+        n = tag_floor_normal(T)
+        yaw = math.atan2(n[1], n[0])
+    except ValueError:
+        yaw = 0.0
+    return Pose2D(float(T[0, 3]), float(T[1, 3]), yaw)
+
+
 def dock_offsets(T_ref_optical: np.ndarray, T_ref_tag: np.ndarray, robot_yaw: float) -> DockOffsets:
     """Standoff, lateral offset and skew of the camera relative to the tag (poses in one z-up frame)."""
     n = tag_floor_normal(T_ref_tag)

@@ -24,6 +24,10 @@ class PerceptionSource(Protocol):
     * ``process(frame)`` returns the detections in that frame (possibly empty). It may raise; the
       caller isolates the failure.
     * ``close()`` releases threads, files and handles.
+    * Optional: a class attribute ``requires`` (a set of ``Frame`` fields, e.g. ``{"depth"}``) names what a
+      frame must carry for the source to find anything; tools that build frames (``mission detect``) say so
+      instead of returning nothing. Optional: ``wait_idle(timeout) -> bool`` for sources that answer off
+      the tick (the VLM), so a batch tool can wait for the answer to a frame.
     """
 
     description: ClassVar[str]

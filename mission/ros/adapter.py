@@ -12,6 +12,10 @@ listeners; commands are reliable.
 ``/tf`` and ``/tf_static`` feed the TF buffer (mission/ros/frames.py); ``navigator`` chooses how goals
 leave: ``action`` (Nav2's navigate_to_pose, mission/ros/nav_client.py) or ``topic`` (/goal_pose).
 ``on_image`` (set by the node) is called after each usable image is cached: perception on arrival.
+
+Images are also taken from ``<image_topic>/compressed`` (sensor_msgs/CompressedImage), where
+image_transport's ``compressed`` plugin publishes them; a camera that publishes both gives one frame per
+stamp (the cache skips the second copy).
 """
 
 from __future__ import annotations
@@ -57,9 +61,9 @@ class RosAdapter(CachedWorld):
         self.on_image: Callable[[], None] | None = None
         self.last_input: dict[str, float] = {}  # kind → monotonic time of the last message (the watchdog)
 
-    def _image(self, msg: Any) -> None:
+    def _image(self, msg: Any, topic: str) -> None:
         self.last_input["image"] = time.monotonic()
-        if self.cache.on_image(msg, self.topics.image_topic) and self.on_image is not None:
+        if self.cache.on_image(msg, topic) and self.on_image is not None:
             self.on_image()
 
     def _odometry(self, msg: Any) -> None:
@@ -84,8 +88,11 @@ class RosAdapter(CachedWorld):
         image, pose = m.cls("sensor_msgs/msg/Image"), m.cls("geometry_msgs/msg/PoseStamped")
         if self._make_navigation is not None:
             self.navigation = self._make_navigation()
+        compressed, compressed_topic = m.cls("sensor_msgs/msg/CompressedImage"), f"{t.image_topic}/compressed"
         self._subs = [
-            n.create_subscription(image, t.image_topic, self._image, sensor),
+            n.create_subscription(image, t.image_topic, lambda msg: self._image(msg, t.image_topic), sensor),
+            n.create_subscription(compressed, compressed_topic, lambda msg: self._image(msg, compressed_topic),
+                                  sensor),
             n.create_subscription(image, t.depth_topic, lambda msg: c.on_depth(msg, t.depth_topic), sensor),
             n.create_subscription(m.cls("sensor_msgs/msg/CameraInfo"), t.camera_info_topic,
                                   lambda msg: c.on_camera_info(msg, t.camera_info_topic), sensor),

@@ -6,13 +6,18 @@ a publisher and a bag writer.
 
 Images follow REP 118 / sensor_msgs conventions: ``step`` is the byte length of one row and may be
 larger than ``width × bytes per pixel`` (row padding); ``16UC1`` depth is millimetres and ``32FC1`` is
-metres, with 0 / NaN meaning "no return". A message that cannot be read raises :class:`BadMessage`
-with a one-line reason; callers drop it, count it and keep running.
+metres, with 0 / NaN meaning "no return". ``sensor_msgs/CompressedImage`` is read as image_transport
+writes it: ``compressed`` (JPEG or PNG, ``format`` like ``"bgr8; jpeg compressed bgr8"`` or just
+``"jpeg"``) for camera images, ``compressedDepth`` (a 12-byte header, then a PNG of 16-bit millimetres or
+of 32-bit depth quantised as inverse depth) for depth. ROS 1 messages (from ``.bag`` files, through
+``rosbags``) spell CameraInfo's arrays ``D K R P``; both spellings are read. A message that cannot be
+read raises :class:`BadMessage` with a one-line reason; callers drop it, count it and keep running.
 """
 
 from __future__ import annotations
 
 import math
+import struct
 import sys
 from typing import Any
 
@@ -85,13 +90,86 @@ def image_to_array(msg: Any, allowed: tuple[str, ...] = tuple(ENCODINGS)) -> np.
     return out.copy() if out.base is not None and np.shares_memory(out, data) else out
 
 
+def is_compressed(msg: Any) -> bool:
+    """A sensor_msgs/CompressedImage (it has a ``format`` where an Image has an ``encoding``)."""
+    return hasattr(msg, "format") and not hasattr(msg, "encoding")
+
+
 def image_to_camera_array(msg: Any) -> np.ndarray:
-    """A camera image for perception: bgr8 / rgb8 → H×W×3 BGR, mono8 → H×W."""
+    """A camera image for perception: bgr8 / rgb8 → H×W×3 BGR, mono8 → H×W; a CompressedImage (JPEG, PNG)
+    the same way."""
+    if is_compressed(msg):
+        return compressed_to_camera_array(msg)
     return image_to_array(msg, COLOUR_ENCODINGS)
 
 
+def _payload(msg: Any) -> np.ndarray:
+    data = np.frombuffer(msg.data, dtype=np.uint8)
+    if data.size == 0:
+        raise BadMessage("empty", f"compressed image with no data (format {str(msg.format)!r})")
+    return data
+
+
+def _decode(data: np.ndarray, what: str) -> np.ndarray:
+    try:
+        img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        img = None
+    if img is None:
+        raise BadMessage("encoding", f"{what}: the data is not a decodable JPEG or PNG ({data.size} bytes)")
+    return img
+
+
+def compressed_to_camera_array(msg: Any) -> np.ndarray:
+    """sensor_msgs/CompressedImage (image_transport ``compressed``: JPEG or PNG) → H×W×3 BGR or H×W mono uint8."""
+    fmt = str(msg.format)
+    if "compresseddepth" in fmt.lower():
+        raise BadMessage("encoding", f"format {fmt!r} is a compressed depth image, not a camera image")
+    img = _decode(_payload(msg), f"compressed image (format {fmt!r})")
+    if img.dtype != np.uint8:  # a 16-bit colour PNG: 8 bits, as a camera driver would send them
+        img = cv2.convertScaleAbs(img, alpha=255.0 / max(1.0, float(img.max())))
+    if img.ndim == 3 and img.shape[2] == 4:
+        img = cv2.cvtColor(img, cv2.COLOR_BGRA2BGR)
+    if fmt.split(";")[0].strip() == "rgb8" and "compressed bgr8" not in fmt and img.ndim == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_RGB2BGR)  # an rgb8 image compressed as it was (no "compressed bgr8")
+    return img
+
+
+COMPRESSED_DEPTH_HEADER = struct.Struct("<iff")  # compressed_depth_image_transport ConfigHeader: format, A, B
+
+
+def compressed_depth_to_m(msg: Any) -> np.ndarray:
+    """sensor_msgs/CompressedImage (image_transport ``compressedDepth``) → H×W float32 metres, NaN = no return.
+
+    The data is a ConfigHeader (int32 format, float32 depthQuantA, depthQuantB) and a PNG: 16-bit
+    millimetres for ``16UC1``; for ``32FC1``, inverse depth, ``depth = A / (value − B)`` (0 = no return).
+    """
+    fmt = str(msg.format)
+    data = _payload(msg)
+    if "rvl" in fmt.lower():
+        raise BadMessage("encoding", f"format {fmt!r}: RVL-compressed depth is not supported (use png)")
+    if data.size <= COMPRESSED_DEPTH_HEADER.size:
+        raise BadMessage("size", f"compressedDepth data of {data.size} bytes is shorter than its header")
+    _, quant_a, quant_b = COMPRESSED_DEPTH_HEADER.unpack(data[: COMPRESSED_DEPTH_HEADER.size].tobytes())
+    img = _decode(data[COMPRESSED_DEPTH_HEADER.size :], f"compressed depth (format {fmt!r})")
+    if img.dtype != np.uint16 or img.ndim != 2:
+        raise BadMessage("encoding", f"compressed depth (format {fmt!r}) is not a 16-bit single-channel PNG")
+    encoding = fmt.split(";")[0].strip()
+    if encoding == "32FC1":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = (quant_a / (img.astype(np.float32) - np.float32(quant_b))).astype(np.float32)
+        depth[(img == 0) | ~np.isfinite(depth) | (depth <= 0)] = np.nan
+        return depth
+    depth = img.astype(np.float32) / 1000.0  # 16UC1: millimetres
+    depth[img == 0] = np.nan
+    return depth
+
+
 def image_to_depth_m(msg: Any) -> np.ndarray:
-    """A depth image → H×W float32 metres, NaN where there is no return (16UC1 mm or 32FC1 m)."""
+    """A depth image → H×W float32 metres, NaN where there is no return (16UC1 mm or 32FC1 m, or a
+    ``compressedDepth`` CompressedImage)."""
+    if is_compressed(msg):
+        return compressed_depth_to_m(msg)
     arr = image_to_array(msg, DEPTH_ENCODINGS)
     if arr.dtype == np.uint16:
         depth = arr.astype(np.float32) / 1000.0
@@ -145,23 +223,54 @@ def array_to_image(
     )
 
 
+def array_to_compressed_image(
+    factory: MessageFactory, arr: np.ndarray, fmt: str, stamp: float, frame_id: str, *, quality: int = 90
+) -> Any:
+    """BGR / mono uint8 → sensor_msgs/CompressedImage as image_transport's ``compressed`` publishes it
+    (`fmt` ``jpeg`` or ``png``; ``format`` ``"bgr8; jpeg compressed bgr8"``)."""
+    if fmt not in ("jpeg", "png"):
+        raise BadMessage("encoding", f"unsupported compression {fmt!r}; expected jpeg or png")
+    a = np.ascontiguousarray(arr, dtype=np.uint8)
+    encoding = "mono8" if a.ndim == 2 else "bgr8"
+    params = [cv2.IMWRITE_JPEG_QUALITY, int(quality)] if fmt == "jpeg" else [cv2.IMWRITE_PNG_COMPRESSION, 3]
+    ok, buf = cv2.imencode(".jpg" if fmt == "jpeg" else ".png", a, params)
+    if not ok:
+        raise BadMessage("encoding", f"OpenCV could not encode a {a.shape} image as {fmt}")
+    return factory.new("sensor_msgs/msg/CompressedImage", header=header_msg(factory, stamp, frame_id),
+                       format=f"{encoding}; {fmt} compressed {encoding}", data=buf.reshape(-1))  # fmt: skip
+
+
+def depth_to_compressed_depth(factory: MessageFactory, depth_m: np.ndarray, stamp: float, frame_id: str) -> Any:
+    """H×W metres (NaN = no return) → sensor_msgs/CompressedImage as image_transport's ``compressedDepth``
+    publishes a 16UC1 image: the ConfigHeader, then a PNG of millimetres."""
+    mm = np.nan_to_num(np.asarray(depth_m, np.float64) * 1000.0, nan=0.0, posinf=0.0, neginf=0.0)
+    mm = np.clip(np.round(mm), 0, 65535).astype(np.uint16)
+    ok, buf = cv2.imencode(".png", mm)
+    if not ok:
+        raise BadMessage("encoding", f"OpenCV could not encode a {mm.shape} depth image as PNG")
+    data = np.concatenate([np.frombuffer(COMPRESSED_DEPTH_HEADER.pack(0, 0.0, 0.0), np.uint8), buf.reshape(-1)])
+    return factory.new("sensor_msgs/msg/CompressedImage", header=header_msg(factory, stamp, frame_id),
+                       format="16UC1; compressedDepth png", data=data)  # fmt: skip
+
+
 # --------------------------------------------------------------------------------------------------
 # Camera calibration
 # --------------------------------------------------------------------------------------------------
 
 
 def camera_info_to_intrinsics(msg: Any) -> CameraIntrinsics:
-    """sensor_msgs/CameraInfo → CameraIntrinsics; raises BadMessage("value") when K is unusable.
+    """sensor_msgs/CameraInfo (ROS 2 ``k d``, or ROS 1 ``K D``) → CameraIntrinsics; raises BadMessage("value")
+    when K is unusable.
 
     Width/height of 0 are kept (some drivers leave them unset); the caller fills them from the image.
     """
-    k = np.asarray(msg.k, dtype=np.float64).reshape(-1)
+    k = np.asarray(msg.k if hasattr(msg, "k") else msg.K, dtype=np.float64).reshape(-1)
     if k.size != 9:
         raise BadMessage("value", f"camera_info k has {k.size} values, expected 9")
     fx, fy, cx, cy = float(k[0]), float(k[4]), float(k[2]), float(k[5])
     if not all(math.isfinite(v) for v in (fx, fy, cx, cy)) or fx <= 0 or fy <= 0:
         raise BadMessage("value", f"camera_info has fx={fx:g}, fy={fy:g}; expected finite fx > 0 and fy > 0")
-    d = np.asarray(msg.d, dtype=np.float64).reshape(-1)
+    d = np.asarray(msg.d if hasattr(msg, "d") else msg.D, dtype=np.float64).reshape(-1)
     if not np.all(np.isfinite(d)):
         raise BadMessage("value", "camera_info distortion d has non-finite values")
     intr = CameraIntrinsics(

@@ -1,4 +1,4 @@
-"""Running the tree on a recorded rosbag2 (mcap or sqlite3), through the same code as the live node.
+"""Running the tree on a recorded bag (ROS 1, or rosbag2 mcap / sqlite3), through the same code as the live node.
 
 The bag's messages go into the ROS adapter's :class:`~mission.ros.sensor_cache.SensorCache` (same
 conversions, same pairing by stamp, same drop counters) and the runner's one loop steps once per camera
@@ -6,7 +6,8 @@ image (the world's ``advance`` plays the bag up to the next image), so every rec
 perceived exactly once, as fast as possible (``rate=0``) or paced to the recorded timing (``rate=1.0``
 is real time). SIGINT/SIGTERM end the replay after the current frame with what was replayed so far.
 The world does not answer the tree's commands — a bag is open loop — so replay is for perception and
-decision logic, not for closing the loop. Needs only ``rosbags`` (no ROS install).
+decision logic, not for closing the loop. Needs only ``rosbags`` (no ROS install); incomplete and damaged
+bags are read as far as they go (mission/ros/bag_source.py).
 """
 
 from __future__ import annotations
@@ -17,15 +18,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 from mission.app.observers import RunObserver
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
-from mission.core.types import Detection
+from mission.core.types import CameraIntrinsics, Detection
 from mission.perception_plugins.pipeline import Perceived
+from mission.ros.bag_source import BagSource, open_bag
 from mission.ros.messages import BagMessages
 from mission.ros.world_io import CachedWorld, RosTopics
 
@@ -56,86 +57,163 @@ class ReplayResult:
     bag_s: float = 0.0
     interrupted: bool = False  # SIGINT/SIGTERM ended the replay before the bag's end
     stop_signal: int | None = None  # which one
+    read: dict[str, str] = field(default_factory=dict)  # input ("image", "camera_info", …) → the topic read
+    kind: str = ""  # rosbag1 | rosbag2 (mcap) | rosbag2 (sqlite3)
 
 
-def _open_reader(path: Path) -> AnyReader:
-    if not path.exists():
-        raise MissionError(f"{path}: bag not found")
-    bag = path.parent if path.is_file() and path.suffix in (".mcap", ".db3", ".yaml") else path
-    if bag.is_dir() and not (bag / "metadata.yaml").exists() and any(bag.glob("*.mcap")) | any(bag.glob("*.db3")):
-        raise MissionError(
-            f"{path}: no metadata.yaml next to the data: the recording was cut off before it was closed "
-            f"(`ros2 bag reindex {path}` may recover it)"
-        )
-    try:
-        reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY))
-        reader.open()
-    except Exception as err:  # rosbags raises several unrelated types for unreadable bags
-        why = " ".join(str(err).split())
-        raise MissionError(f"{path}: not a readable rosbag2 (mcap or sqlite3): {why}") from None
-    return reader
+TOPIC_KEYS = ("image_topic", "camera_info_topic", "depth_topic", "odom_topic", "scan_topic", "map_topic")
+IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+CAMERA_INFO_TYPE = "sensor_msgs/msg/CameraInfo"
+
+
+def replay_topics(config: MissionConfig, flags: dict[str, str | None] | None = None) -> tuple[RosTopics, set[str]]:
+    """The topics to read: each ``--…-topic`` flag over the config's ``topics`` section over the node's
+    defaults; and which were chosen (by a flag or the config) rather than defaulted."""
+    chosen: dict[str, str] = {}
+    for key in TOPIC_KEYS:
+        value = (flags or {}).get(key) or getattr(config.topics, key)
+        if value:
+            chosen[key] = value
+    return RosTopics(**chosen), set(chosen)
+
+
+def _camera_topics(bag: BagSource, depth_topic: str) -> list[str]:
+    """The bag's camera image topics, a raw topic and its ``/compressed`` twin counted once (the raw one),
+    depth images left out."""
+    found = set(bag.topics(IMAGE_TYPES))
+    out = []
+    for t in sorted(found):
+        if t == depth_topic or t.startswith(depth_topic + "/") or t.endswith("/compressedDepth"):
+            continue
+        if t.endswith("/compressed") and t.removesuffix("/compressed") in found:
+            continue
+        out.append(t)
+    return out
 
 
 class BagWorld(CachedWorld):
-    """A WorldAdapter that plays a bag: ``step()`` feeds messages up to and including the next image."""
+    """A WorldAdapter that plays a bag: ``step()`` feeds messages up to and including the next image.
 
-    def __init__(self, path: str | Path, topics: RosTopics | None = None, warn: Any = lambda message: None) -> None:
+    Any bag :func:`mission.ros.bag_source.open_bag` reads; topics as :func:`replay_topics` chooses them,
+    each also read from its image_transport twin (``<image>/compressed``, ``<depth>/compressedDepth``)
+    when the bag has that instead. `explicit` names the topics a user chose: an unchosen camera topic that
+    is not in the bag is replaced by the bag's only image topic (and the same for camera info), with a
+    warning saying so. `calibration` replaces the bag's camera info for every frame."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        topics: RosTopics | None = None,
+        warn: Any = lambda message: None,
+        *,
+        explicit: set[str] | None = None,
+        calibration: CameraIntrinsics | None = None,
+    ) -> None:
         self.exhausted = False  # the bag has no image left: the loop ends
         super().__init__(topics or RosTopics(), BagMessages(get_typestore(Stores.ROS2_JAZZY)), warn=warn)
+        self.cache.fixed_intrinsics = calibration
+        self.warn = warn
+        self.explicit = set(explicit or ())
         self.path = Path(path)
-        self.reader: AnyReader | None = None
-        self._messages: Iterator[tuple[Any, int, bytes]] | None = None
-        self._pending: tuple[Any, int, bytes] | None = None
+        self.bag: BagSource | None = None
+        self._messages: Iterator[tuple[str, str, int, bytes]] | None = None
+        self._pending: tuple[str, str, int, bytes] | None = None
         self.lookahead_ns = round(LOOKAHEAD_S * 1e9)
         self.commands: dict[str, int] = {}
         self.clock = 0.0
         self.first_stamp: float | None = None
+        self.read: dict[str, str] = {}  # what each input was read from: "image" → topic
+        self.undecodable = 0
+
+    def _resolve(self, bag: BagSource) -> dict[str, Callable[[Any, str], bool]]:
+        t, c = self.topics, self.cache
+        present = set(bag.topics())
+
+        def twin(topic: str, suffix: str) -> str | None:
+            return topic if topic in present else topic + suffix if topic + suffix in present else None
+
+        image = twin(t.image_topic, "/compressed")
+        if image is None:
+            cameras = _camera_topics(bag, t.depth_topic)
+            if "image_topic" not in self.explicit and len(cameras) == 1:
+                image = cameras[0]
+                self.warn(f"{self.path}: no {t.image_topic} in this bag; using {image}, its only image topic "
+                          f"(--image-topic chooses another)")  # fmt: skip
+            else:
+                listed = ", ".join(cameras) or "none"
+                others = ", ".join(sorted(present - set(cameras))) or "none"
+                choose = "choose one with --image-topic" if cameras else "the bag has no camera images"
+                raise MissionError(f"{self.path}: no image topic {t.image_topic} in this bag (image topics: {listed}; "
+                                   f"other topics: {others}); {choose}")  # fmt: skip
+        info = twin(t.camera_info_topic, "")
+        infos = bag.topics((CAMERA_INFO_TYPE,))
+        if info is None and "camera_info_topic" not in self.explicit and len(infos) == 1:
+            info = infos[0]
+            self.warn(f"{self.path}: no {t.camera_info_topic} in this bag; using {info}, its only camera info topic")
+        if info is not None and self.cache.fixed_intrinsics is not None:
+            self.warn(f"{self.path}: the calibration file replaces the camera info on {info}")
+            info = None
+        depth = twin(t.depth_topic, "/compressedDepth")
+        handlers: dict[str, Callable[[Any, str], bool]] = {image: c.on_image}
+        self.read["image"] = image
+        for kind, topic, handler in (("camera_info", info, c.on_camera_info), ("depth", depth, c.on_depth),
+                                     ("odom", twin(t.odom_topic, ""), c.on_odometry),
+                                     ("scan", twin(t.scan_topic, ""), c.on_scan),
+                                     ("map", twin(t.map_topic, ""), c.on_map),
+                                     ("amcl_pose", twin(t.amcl_topic, ""), c.on_amcl_pose)):  # fmt: skip
+            if topic is not None:
+                handlers[topic] = handler
+                self.read[kind] = topic
+        return handlers
 
     def setup(self) -> None:
-        self.reader = _open_reader(self.path)
-        t = self.topics
-        handlers: dict[str, Callable[[Any, str], bool]] = {
-            t.image_topic: self.cache.on_image,
-            t.depth_topic: self.cache.on_depth,
-            t.camera_info_topic: self.cache.on_camera_info,
-            t.odom_topic: self.cache.on_odometry,
-            t.scan_topic: self.cache.on_scan,
-            t.map_topic: self.cache.on_map,
-            t.amcl_topic: self.cache.on_amcl_pose,
-        }
-        self._handlers = handlers
-        conns = [c for c in self.reader.connections if c.topic in handlers]
-        if not any(c.topic == t.image_topic for c in conns):
-            topics = ", ".join(sorted({c.topic for c in self.reader.connections})) or "none"
-            raise MissionError(f"{self.path}: no {t.image_topic} in this bag (topics: {topics})")
-        self._messages = iter(self.reader.messages(connections=conns))
+        self.bag = open_bag(self.path)
+        for note in self.bag.notes:
+            self.warn(note)
+        self._handlers = self._resolve(self.bag)
+        self._image = self.read["image"]
+        self._messages = iter(self.bag.messages(set(self._handlers)))
         self.exhausted = not self.step()  # the first image and what came with it, for the first sense()
 
     def advance(self, dt: float) -> None:
         """Play the bag up to the next image (a bag's time moves by messages, not by `dt`)."""
         self.exhausted = not self.step()
 
+    def _next(self) -> tuple[str, str, int, bytes] | None:
+        item = self._pending if self._pending is not None else next(self._messages, None)  # type: ignore[arg-type]
+        self._pending = None
+        if item is None and self.bag is not None and self.bag.damage is not None:
+            self.warn(self.bag.damage)
+            self.bag.damage = None  # said once
+        return item
+
     def step(self) -> bool:
         """Feed messages up to the next image, plus the non-image messages logged up to ``LOOKAHEAD_S``
         after it (a robot's camera info and depth are often logged just after their image); False at the
-        end of the bag."""
-        assert self._messages is not None and self.reader is not None, "call setup() first"
+        end of the bag (or at the damage in a damaged one)."""
+        assert self._messages is not None and self.bag is not None, "call setup() first"
         image_time: int | None = None
         while True:
-            item = self._pending if self._pending is not None else next(self._messages, None)
-            self._pending = None
+            item = self._next()
             if item is None:
                 return image_time is not None
-            conn, timestamp, raw = item
+            topic, msgtype, timestamp, raw = item
             late = timestamp > image_time + self.lookahead_ns if image_time is not None else False
-            if image_time is not None and (late or conn.topic == self.topics.image_topic):
+            if image_time is not None and (late or topic == self._image):
                 self._pending = item  # belongs to the next step
                 return True
             self.clock = timestamp * 1e-9
             if self.first_stamp is None:
                 self.first_stamp = self.clock
-            self._handlers[conn.topic](self.reader.deserialize(raw, conn.msgtype), conn.topic)
-            if conn.topic == self.topics.image_topic:
+            try:
+                msg = self.bag.deserialize(raw, msgtype)
+            except Exception as err:  # bytes that do not decode as the bag's own type
+                self.undecodable += 1
+                self.cache.log(f"undecodable:{topic}", f"dropped a message on {topic} that does not decode as "
+                               f"{msgtype} ({' '.join(str(err).split())[:120]})")  # fmt: skip
+                continue
+            self._handlers[topic](msg, topic)
+            if topic == self._image:
                 image_time = timestamp
 
     def now(self) -> float:
@@ -145,9 +223,9 @@ class BagWorld(CachedWorld):
         self.commands[kind] = self.commands.get(kind, 0) + 1
 
     def close(self) -> None:
-        if self.reader is not None:
-            self.reader.close()
-            self.reader = None
+        if self.bag is not None:
+            self.bag.close()
+            self.bag = None
 
 
 class _Frames(RunObserver):
@@ -175,11 +253,15 @@ def replay(
     rate: float = 0.0,
     on_frame: Callable[[FrameResult], None] | None = None,
     warn: Callable[[str], None] = lambda message: None,
+    topics: dict[str, str | None] | None = None,
+    calibration: CameraIntrinsics | None = None,
 ) -> ReplayResult:
-    """Step the runner once per recorded image; report each processed frame's detections."""
+    """Step the runner once per recorded image; report each processed frame's detections. `topics`: the
+    ``--…-topic`` flags (key → topic, None = not given); `calibration`: a camera model for every frame."""
     from mission.app.runner import TreeRunner, WallClockPacer
 
-    world = BagWorld(path, warn=warn)
+    ros_topics, explicit = replay_topics(config, topics)
+    world = BagWorld(path, ros_topics, warn=warn, explicit=explicit, calibration=calibration)
     frames = _Frames(on_frame)
     runner = TreeRunner(config, world, tree, config_file=config_file, observers=[frames])
     result = ReplayResult()
@@ -195,6 +277,8 @@ def replay(
         result.stats = {**dict(runner.get(bbk.PERCEPTION_STATS, {}) or {}), **world.cache.stats.to_json()}
         result.commands = dict(world.commands)
         result.bag_s = 0.0 if world.first_stamp is None else world.clock - world.first_stamp
+        result.read = dict(world.read)
+        result.kind = world.bag.kind if world.bag is not None else ""
         result.interrupted = runner.stop_signal is not None
         result.stop_signal = runner.stop_signal
         runner.finish(result)

@@ -9,6 +9,10 @@ so both turn the same messages into the same Frames. No rclpy here.
   newest info is used (calibration rarely changes); an invalid info (fx or fy 0) or none at all gives
   the fallback pinhole, with a warning.
 * Depth images are paired with the colour image by stamp the same way.
+* Images and depth may be ``sensor_msgs/Image`` or ``CompressedImage`` (image_transport's ``compressed`` /
+  ``compressedDepth``); a camera that publishes both (``<topic>`` and ``<topic>/compressed``) gives one
+  frame per stamp: the copy of an image already taken from the other topic is skipped.
+* A calibration file (``fixed_intrinsics``, from ``--calibration``) replaces whatever CameraInfo says.
 * With ``/amcl_pose``, the robot pose is AMCL's map pose carried forward by odometry (what the
   map → odom TF does); without it the odometry pose is used as the map pose.
 """
@@ -107,14 +111,17 @@ class SensorCache:
         info_tolerance_s: float = 0.1,
         warn: Callable[[str], None] = lambda message: None,
         history: int = 30,
+        fixed_intrinsics: CameraIntrinsics | None = None,
     ) -> None:
         self.camera_frame = camera_frame
+        self.fixed_intrinsics = fixed_intrinsics
         self.info_tolerance_s = info_tolerance_s
         self.log = ThrottledLog(warn)
         self.stats = CacheStats()
         self._infos: deque[_Stamped] = deque(maxlen=history)  # value: CameraIntrinsics | str (why invalid)
         self._depths: deque[_Stamped] = deque(maxlen=history)
         self._image: tuple[float, str, np.ndarray] | None = None
+        self._image_topic = ""
         self._image_seq = 0
         self._taken_seq = 0
         self.odom: RobotState | None = None
@@ -135,15 +142,18 @@ class SensorCache:
 
     # -- inputs ------------------------------------------------------------------------------------
     def on_image(self, msg: Any, topic: str = "image") -> bool:
-        """A colour image; returns False when it was dropped."""
+        """A colour image (Image or CompressedImage); returns False when it was dropped or a copy."""
         stamp = stamp_to_sec(msg.header.stamp)
         self._received("image", stamp)
+        if self._image is not None and stamp == self._image[0] and topic != self._image_topic:
+            return False  # the same frame from the camera's other transport (raw / compressed)
         try:
             image = image_to_camera_array(msg)
         except BadMessage as err:
             self._drop("image", topic, err)
             return False
         self._image = (stamp, str(msg.header.frame_id) or self.camera_frame, image)
+        self._image_topic = topic
         self._image_seq += 1
         return True
 
@@ -242,6 +252,13 @@ class SensorCache:
 
     def _intrinsics_for(self, stamp: float, image: np.ndarray) -> CameraIntrinsics:
         h, w = image.shape[:2]
+        if self.fixed_intrinsics is not None:
+            problem = self.fixed_intrinsics.problem(w, h)
+            if problem is None:
+                return self.fixed_intrinsics
+            self.stats.fallback_intrinsics += 1
+            self.log("fallback_intrinsics", f"calibration file: {problem}; using the fallback pinhole fx = fy = 0.9·W")
+            return CameraIntrinsics.fallback(w, h)
         near = _nearest(self._infos, stamp)
         if near is not None and abs(near.stamp - stamp) > self.info_tolerance_s:
             near = self._infos[-1]  # no info at this stamp: the newest calibration

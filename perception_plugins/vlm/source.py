@@ -146,6 +146,10 @@ class VlmSource:
         "Vision-language model (client: stub finds '<colour> [shape]', e.g. 'red box'): latches the object's "
         "pose in the map frame after 3 agreeing rate-limited model calls (coarse)"
     )
+    requires: ClassVar[frozenset[str]] = frozenset({"depth", "intrinsics"})  # an answer is placed in 3D by depth
+    # What a batch tool (mission detect: one frame per image, no camera pose to latch in) runs it with
+    # unless told otherwise: each answer reported as it comes, not latched in the map.
+    batch_params: ClassVar[dict[str, Any]] = {"latch_in_map": False}
 
     def __init__(
         self,
