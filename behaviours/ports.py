@@ -256,6 +256,8 @@ class PortsDeclared:
     PORTS: ClassVar[Mapping[str, Port]] = MappingProxyType({})
     #: where set_output writes (the tree loader installs it on each node it builds; None: nothing connected)
     port_sink: OutputSink | None = None
+    #: the output ports the tree file connected to an entry (the loader sets it with port_sink)
+    connected_outputs: frozenset[str] = frozenset()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -299,6 +301,11 @@ class PortsDeclared:
         if pending:
             return _provisional(cls.Params, values)
         return cls.Params(**values)
+
+    def output_connected(self, name: str) -> bool:
+        """Whether the tree file connected output `name`: a value that costs work to compute is only worth
+        computing for set_output when someone reads it."""
+        return name in self.connected_outputs
 
     def set_output(self, name: str, value: Any) -> bool:
         """Write output (or inout) port `name`: the blackboard entry the tree file connected it to.

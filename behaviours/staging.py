@@ -54,6 +54,7 @@ class GoToStaging(MissionLeaf):
         self.refinements = 0
         self._staged_from: np.ndarray | None = None
         self._staged: Pose2D | None = None
+        self._staged_offset = math.nan
         self._where_for: Pose2D | None = None
         self._where_text = ""
 
@@ -65,11 +66,13 @@ class GoToStaging(MissionLeaf):
         self.feedback_message = f"DOCK: going to the staging pose of {self.params.target}"
 
     def _staging(self, pose_map: np.ndarray) -> Pose2D:
-        """The staging pose of the tag at `pose_map`, computed once per new tag pose (the track replaces
-        its pose_map with a new array on each detection; between detections it is the same object)."""
-        if pose_map is not self._staged_from:
-            self._staged = staging_pose(pose_map, self.params.offset_m)
-            self._staged_from = pose_map
+        """The staging pose for the tag at `pose_map`, computed once per new tag pose (the track replaces its
+        pose_map with a new array on each detection; between detections it is the same object, and every
+        tick reads it)."""
+        offset = self.params.offset_m  # a port the tree may connect to the blackboard: part of the key
+        if pose_map is not self._staged_from or offset != self._staged_offset:
+            self._staged = staging_pose(pose_map, offset)
+            self._staged_from, self._staged_offset = pose_map, offset
         assert self._staged is not None
         return self._staged
 
@@ -104,7 +107,8 @@ class GoToStaging(MissionLeaf):
             pose = self._staging(tr.pose_map)
         except ValueError as err:
             return self.fail(f"DOCK: {self.params.target}: {err}")
-        self.set_output("dock_pose", floor_pose(tr.pose_map))
+        if self.output_connected("dock_pose"):
+            self.set_output("dock_pose", floor_pose(tr.pose_map))
         self.set_output("staging_pose", pose)
         distance = tr.detection.distance if tr.detection is not None else math.inf
         if self._wanted(pose, distance):

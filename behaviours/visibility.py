@@ -40,7 +40,7 @@ class IsTargetVisible(MissionLeaf):
             self.set_output("visible", False)
             self.feedback_message = f"{target} never seen"
             return py_trees.common.Status.FAILURE
-        if tr.pose_map is not None:
+        if tr.pose_map is not None and self.output_connected("last_seen_pose"):
             self.set_output("last_seen_pose", floor_pose(tr.pose_map))
         age = self.now() - tr.last_seen
         self.set_output("visible", tr.misses <= max_misses)

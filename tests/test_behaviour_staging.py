@@ -88,3 +88,36 @@ def test_the_goal_is_refined_when_the_tag_is_re_measured_from_closer():
     second = read(bbk.NAV_GOAL)
     assert second.seq > first.seq
     assert math.isclose(second.pose.y, 2.0, abs_tol=1e-9) and "1 refinement" in node.feedback_message
+
+
+def test_connected_output_ports_carry_the_dock_and_the_last_seen_pose_to_the_blackboard(tmp_path):
+    """A tree that wires the outputs gets them; the same leaves in a tree that does not compute nothing for them."""
+    from mission.core.docking import floor_pose
+    from mission.trees.loader import load_tree
+
+    path = tmp_path / "wired.xml"
+    path.write_text("""<root BTCPP_format="4">
+  <BehaviorTree ID="Wired">
+    <Sequence>
+      <IsTargetVisible target="dock" last_seen_pose="{seen}"/>
+      <GoToStaging dock_pose="{dock}" staging_pose="{staging}"/>
+    </Sequence>
+  </BehaviorTree>
+</root>
+""")
+    scene = Scene(robot=Pose2D(1.0, 1.5, 0.0), marker=DOCK, marker_id=0, navigator=ScriptedNavigator())
+    scene.perceive_targets({"dock": TargetSpec(marker_id=0)})
+    root = load_tree(path)
+    tree = py_trees.trees.BehaviourTree(root)
+    tree.setup()
+    scene.sense()
+    scene.perceive()
+    tree.tick()
+    storage = py_trees.blackboard.Blackboard.storage
+    expected = floor_pose(read(bbk.TRACKS)["dock"].pose_map)
+    assert storage["/tree/seen"] == expected and storage["/tree/dock"] == expected
+    assert storage["/tree/staging"] == read(bbk.NAV_GOAL).pose
+    visible, staging = root.children
+    assert visible.output_connected("last_seen_pose") and staging.output_connected("dock_pose")
+    unwired = GoToStaging()
+    assert not unwired.output_connected("dock_pose")

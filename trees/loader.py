@@ -775,5 +775,6 @@ class _Builder:
             if wiring.inputs:
                 rt.refresh = wiring.refresh_params
             node.port_sink = wiring.write
+            node.connected_outputs = frozenset(wiring.outputs)
         install(node, rt)
         return node
