@@ -11,7 +11,7 @@ from mission.core.errors import ConfigError
 from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
 
-SHIPPED = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner"]
+SHIPPED = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner", "vlm_discovery"]
 
 
 def write(tmp_path: Path, data: dict) -> str:
@@ -20,7 +20,7 @@ def write(tmp_path: Path, data: dict) -> str:
     return str(path)
 
 
-def test_the_five_shipped_scenarios_load_by_name_with_tag36h11_markers() -> None:
+def test_the_shipped_scenarios_load_by_name_with_tag36h11_markers() -> None:
     assert shipped_scenarios() == SHIPPED
     for name in SHIPPED:
         sc = load_scenario(name)
@@ -41,6 +41,7 @@ def test_each_scenario_names_a_default_tree_and_success_criteria() -> None:
         "search_corner": ("follow.xml", "follow"),
         "explore_dock": ("explore_dock.xml", "dock"),
         "mission_full": ("mission.xml", "mission"),
+        "vlm_discovery": ("discover_follow.xml", "follow"),
     }
     for name, (tree, kind) in expected.items():
         sc = load_scenario(name)
