@@ -23,7 +23,7 @@ import numpy as np
 
 from mission.core.errors import ConfigError
 from mission.perception_plugins.vlm.client import RequestBudget, VlmPoint
-from mission.perception_plugins.vlm.pointing import prompt_for, read_points
+from mission.perception_plugins.vlm.pointing import prompt_for
 from mission.perception_plugins.vlm.remote import ErrorDetails, ModelCallError, RemoteCaller, jpeg_base64
 from mission.perception_plugins.vlm.settings import GeminiSettings, RemoteSettings
 
@@ -76,14 +76,7 @@ class GeminiClient:
                 input_tokens=usage.get("promptTokenCount"), output_tokens=usage.get("candidatesTokenCount"),
                 total_tokens=usage.get("totalTokenCount"), thinking_tokens=usage.get("thoughtsTokenCount"),
             )  # fmt: skip
-        try:
-            text = self._answer_text(answer)
-        except ModelCallError as err:
-            self.usage.failures[err.kind] += 1
-            raise
-        read = read_points(text, default_confidence=self.remote.default_confidence)
-        if not read.found_json:
-            self.usage.unread_answers += 1
+        read = self._caller.read_answer(lambda: self._answer_text(answer))
         self.last_note = read.note
         return read.points
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from mission.core.errors import ConfigError
 from mission.perception_plugins.vlm.client import RequestBudget, VlmPoint
-from mission.perception_plugins.vlm.pointing import prompt_for, read_points
+from mission.perception_plugins.vlm.pointing import prompt_for
 from mission.perception_plugins.vlm.remote import ModelCallError, RemoteCaller, jpeg_base64
 from mission.perception_plugins.vlm.settings import OpenAiSettings, RemoteSettings
 
@@ -74,14 +74,7 @@ class OpenAiChatClient:
         if isinstance(usage, dict):
             self.usage.add_tokens(input_tokens=usage.get("prompt_tokens"), output_tokens=usage.get("completion_tokens"),
                                   total_tokens=usage.get("total_tokens"))  # fmt: skip
-        try:
-            text = self._answer_text(answer)
-        except ModelCallError as err:
-            self.usage.failures[err.kind] += 1
-            raise
-        read = read_points(text, default_confidence=self.remote.default_confidence)
-        if not read.found_json:
-            self.usage.unread_answers += 1
+        read = self._caller.read_answer(lambda: self._answer_text(answer))
         self.last_note = read.note
         return read.points
 

@@ -40,6 +40,7 @@ import httpx
 import numpy as np
 
 from mission.perception_plugins.vlm.client import RequestBudget
+from mission.perception_plugins.vlm.pointing import ReadAnswer, read_points
 from mission.perception_plugins.vlm.settings import RemoteSettings
 
 log = logging.getLogger(__name__)
@@ -184,6 +185,20 @@ class RemoteCaller:
     def close(self) -> None:
         self._closed.set()
         self._http.close()
+
+    def read_answer(self, answer_text: Callable[[], str]) -> ReadAnswer:
+        """The points of an answer whose text `answer_text` takes out of the API's body, counted in the
+        usage: a body of the wrong shape is a failure of its kind (and raised), text with no JSON in it an
+        unread answer — the same for every API, whatever shape its body has."""
+        try:
+            text = answer_text()
+        except ModelCallError as err:
+            self.usage.failures[err.kind] += 1
+            raise
+        read = read_points(text, default_confidence=self.settings.default_confidence)
+        if not read.found_json:
+            self.usage.unread_answers += 1
+        return read
 
     def post_json(self, url: str, body: dict[str, Any], headers: dict[str, str]) -> dict[str, Any]:
         """The JSON object the service answered; ModelCallError when it did not, after the retries."""
