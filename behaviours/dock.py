@@ -27,7 +27,7 @@ from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
-from mission.core.docking import DockOffsets, dock_offsets, tag_floor_normal
+from mission.core.docking import DockOffsets, floor_normal, floor_offsets
 from mission.core.types import DockSetpoint
 
 SETTLE_DETECTIONS = 2  # consecutive fresh detections inside tolerance before declaring success
@@ -51,38 +51,39 @@ class FloorTagFilter:
         self.alpha = alpha
         self.gate_rad = gate_rad
         self.reset_after = reset_after
-        self.xy: np.ndarray | None = None
+        self.xy: tuple[float, float] | None = None
         self.heading = 0.0
-        self.z = 0.0
         self.rejected = 0
         self._streak = 0
 
     def update(self, T_map_tag: np.ndarray) -> bool:
         """Fold in one measurement; False when it was gated out as a flip."""
-        n = tag_floor_normal(T_map_tag)
-        heading = math.atan2(n[1], n[0])
-        xy = np.asarray(T_map_tag, dtype=np.float64)[:2, 3]
+        nx, ny = floor_normal(T_map_tag)
+        heading = math.atan2(ny, nx)
+        x, y = float(T_map_tag[0, 3]), float(T_map_tag[1, 3])
         if self.xy is None:
-            self.xy, self.heading, self.z = xy.copy(), heading, float(T_map_tag[2, 3])
+            self.xy, self.heading = (x, y), heading
             return True
+        kept = True
         jump = se3.wrap_angle(heading - self.heading)
         if abs(jump) > self.gate_rad:
             self._streak += 1
             self.rejected += 1
             if self._streak < self.reset_after:
-                self.xy = (1 - self.alpha) * self.xy + self.alpha * xy
-                return False
-            self.heading, self._streak = heading, 0
+                kept = False
+            else:
+                self.heading, self._streak = heading, 0
         else:
             self.heading = se3.wrap_angle(self.heading + self.alpha * jump)
             self._streak = 0
-        self.xy = (1 - self.alpha) * self.xy + self.alpha * xy
-        return True
+        a = self.alpha
+        self.xy = ((1 - a) * self.xy[0] + a * x, (1 - a) * self.xy[1] + a * y)
+        return kept
 
-    def pose(self) -> np.ndarray:
-        """The filtered tag pose as a 4×4 map transform (z out of the face, horizontal)."""
-        assert self.xy is not None
-        return se3.transform(se3.rot_z(self.heading) @ se3.rot_y(math.pi / 2), (self.xy[0], self.xy[1], self.z))
+    @property
+    def normal(self) -> tuple[float, float]:
+        """The filtered face normal on the floor (unit)."""
+        return math.cos(self.heading), math.sin(self.heading)
 
 
 class VisualServoDock(MissionLeaf):
@@ -198,8 +199,7 @@ class VisualServoDock(MissionLeaf):
             self.halt()
             self.feedback_message = f"DOCK: waiting for a map pose of {self.params.target}"
             return py_trees.common.Status.RUNNING
-        T_map_optical = se3.planar(state.pose.x, state.pose.y, state.pose.yaw) @ self.extrinsics()
-        off = dock_offsets(T_map_optical, self.filter.pose(), state.pose.yaw)
+        off = floor_offsets(self.camera_xy(state.pose), self.filter.xy, self.filter.normal, state.pose.yaw)
         self.offsets = off
 
         if self._within(off):

@@ -67,7 +67,11 @@ class FollowTarget(MissionLeaf):
             return None
         pts = tr.history[-self.params.window :]
         # summed in order on Python floats, as numpy's mean over rows would (a tenth of its cost per tick)
-        return sum(x for _, x, _ in pts) / len(pts), sum(y for _, _, y in pts) / len(pts)
+        sx = sy = 0.0
+        for _, x, y in pts:
+            sx += x
+            sy += y
+        return sx / len(pts), sy / len(pts)
 
     def update(self) -> py_trees.common.Status:
         self.set_state(MissionState.FOLLOW)

@@ -256,8 +256,7 @@ class IsLineOfSightBlocked(MissionLeaf):
     def _classify(self, tr: TargetTrack, robot: Pose2D) -> tuple[bool, str]:
         """(blocked, why) for the current loss: last/predicted position (map + scan), then reachable places (map)."""
         assert tr.pose_map is not None
-        T_map_cam = se3.planar(robot.x, robot.y, robot.yaw) @ self.extrinsics()
-        cam = (float(T_map_cam[0, 3]), float(T_map_cam[1, 3]))
+        cam = self.camera_xy(robot)
         last = (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3]))
         candidates = [("last", last)]
         pred = predicted_position(tr, self.now())

@@ -310,16 +310,21 @@ class PortsDeclared:
     def set_output(self, name: str, value: Any) -> bool:
         """Write output (or inout) port `name`: the blackboard entry the tree file connected it to.
 
-        Returns False when the port is not connected (nothing is written). A value of the wrong type is a
+        Returns False when the port is not connected (nothing is written, nothing checked: a leaf sets its
+        outputs every tick, most of them unconnected). A value of the wrong type for a connected port is a
         TypeError: the declaration says what the port carries."""
         declared = self.PORTS.get(name)
         if declared is None or not declared.writes:
-            raise ValueError(f"{type(self).__name__}: {name} is not an output port; outputs: "
-                             f"{', '.join(n for n, p in self.PORTS.items() if p.writes) or 'none'}")
+            raise ValueError(
+                f"{type(self).__name__}: {name} is not an output port; outputs: "
+                f"{', '.join(n for n, p in self.PORTS.items() if p.writes) or 'none'}"
+            )
+        sink = self.port_sink
+        if sink is None or name not in self.connected_outputs:
+            return False
         if value is not None and not declared.accepts(value):
             raise TypeError(f"{type(self).__name__}: {wrong_type(name, declared.type_name, value)}")
-        sink = self.port_sink
-        return False if sink is None else sink(name, value)
+        return sink(name, value)
 
 
 def _provisional(params: type, values: dict[str, Any]) -> Any:
@@ -330,4 +335,3 @@ def _provisional(params: type, values: dict[str, Any]) -> Any:
         value = values.get(f.name, f.default if f.default is not dataclasses.MISSING else REQUIRED)
         object.__setattr__(obj, f.name, value)
     return obj
-

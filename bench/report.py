@@ -92,7 +92,8 @@ def collect(results: Path) -> list[Entry]:
     if not results.is_dir():
         raise MissionError(f"{results}: no such results directory (run `mission bench -o {results}` first)")
     files = {p.stem: p for p in sorted(results.glob("*.json")) if p.name not in SKIP and not p.name.startswith(".")}
-    parts = {s for s in files if any(s.startswith(f"{other}_") for other in files if other != s)}
+    registered = {b.name for b in BENCHMARKS}  # ros_missions is a benchmark of its own, not a part of ros
+    parts = {s for s in files if s not in registered and any(s.startswith(f"{o}_") for o in files if o != s)}
     entries = [load_entry(p) for s, p in files.items() if s not in parts]
     order = {b.name: i for i, b in enumerate(BENCHMARKS)}
     descriptions = {b.name: b.description for b in BENCHMARKS}

@@ -15,7 +15,8 @@ time per simulated second. Every run's outcome goes to ``<out>/ros_missions_runs
 
 Knobs (environment): ``MISSION_ROS_BENCH_SEEDS`` (default 10; --quick 1), ``MISSION_ROS_BENCH_SCENARIOS``
 (default mission_full,follow_occlusion,explore_dock), ``MISSION_ROS_BENCH_BUDGET_S`` (stop starting pairs
-after this many wall seconds).
+after this many wall seconds), ``MISSION_ROS_BENCH_RESUME=1`` (keep the runs an earlier bench finished in
+``<out>/ros_missions_runs.jsonl`` and run only the others).
 
     mission bench --only ros_missions          # long: about 3 wall minutes per ROS run on 2 busy cores
 """
@@ -64,6 +65,18 @@ def _over_ros(scenario: str, seed: int, tree: str, env: dict[str, str], work: Pa
     return _row("ros", json.loads(path.read_text()))
 
 
+def _finished_rows(path: Path) -> list[dict[str, Any]]:
+    """The runs an earlier, interrupted bench finished (MISSION_ROS_BENCH_RESUME=1): a pair takes minutes,
+    so a long bench is run in parts; a torn last line is dropped."""
+    rows = []
+    for line in path.read_text().splitlines() if path.is_file() else []:
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return rows
+
+
 def ros_env_overrides(env: dict[str, str]) -> dict[str, str]:
     keys = ("FASTRTPS_DEFAULT_PROFILES_FILE", "RMW_IMPLEMENTATION", "ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")
     return {k: env[k] for k in keys if k in env}
@@ -95,16 +108,20 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     env = ros_env()
     out.mkdir(parents=True, exist_ok=True)
     runs_path = out / "ros_missions_runs.jsonl"
-    runs_path.write_text("")
+    rows = _finished_rows(runs_path) if os.environ.get("MISSION_ROS_BENCH_RESUME") == "1" else []
+    runs_path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    done = {(r["scenario"], r["seed"], r["world"]) for r in rows}
     work = Path(tempfile.mkdtemp(prefix="ros_missions_"))
-    rows: list[dict[str, Any]] = []
     t0 = time.monotonic()
     for seed in range(seeds):
         for scenario in scenarios:
             if time.monotonic() - t0 > budget:
                 break
             tree = load_scenario(scenario).tree
-            for row in (_in_process(scenario, seed), _over_ros(scenario, seed, tree, env, work)):
+            for world in ("in_process", "ros"):
+                if (scenario, seed, world) in done:
+                    continue
+                row = _over_ros(scenario, seed, tree, env, work) if world == "ros" else _in_process(scenario, seed)
                 row.update(scenario=scenario, seed=seed)
                 rows.append(row)
                 with runs_path.open("a") as f:
@@ -138,7 +155,13 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     return {
         "title": "The mission over ROS 2 (sim-robot + installed node) vs in process, same seeds",
         "figures": figs,
-        "details": {"scenarios": scenarios, "seeds": seeds, "runs": len(rows), "wall_s": round(time.monotonic() - t0),
-                    "failures": [r for r in rows if not r["success"]], "runs_file": runs_path.name},
+        "details": {
+            "scenarios": scenarios,
+            "seeds": seeds,
+            "runs": len(rows),
+            "wall_s": round(time.monotonic() - t0),
+            "failures": [r for r in rows if not r["success"]],
+            "runs_file": runs_path.name,
+        },
         "plots": [],
     }

@@ -68,6 +68,22 @@ def source_name(src: object) -> str:
     return str(getattr(src, "name", None) or type(src).__name__)
 
 
+def source_statuses(sources: list[PerceptionSource]) -> dict[str, dict]:
+    """Each source's own account of itself, by name: its ``status()`` where it keeps one (the VLM: state,
+    budget, circuit breaker and why it opened, what its model calls cost). For the ROS heartbeat and the
+    run report. A status that cannot be read is reported as such, never raised: observers must not fail."""
+    out: dict[str, dict] = {}
+    for src in sources:
+        status = getattr(src, "status", None)
+        if not callable(status):
+            continue
+        try:
+            out[source_name(src)] = dict(status())
+        except Exception as err:
+            out[source_name(src)] = {"status_error": f"{type(err).__name__}: {err}"}
+    return out
+
+
 @dataclass
 class Perceived:
     """What the stage made of one frame: kept for observers (ROS outputs, logs) and the blackboard."""

@@ -238,6 +238,11 @@ class FaultyVlmClient:
     def close(self) -> None:
         self.inner.close()
 
+    def __getattr__(self, item: str) -> Any:  # usage (the cost accounting), last_note … of the wrapped client
+        if item == "inner":
+            raise AttributeError(item)
+        return getattr(self.inner, item)
+
 
 def wrap_sources(sources: list[Any], spec: Any, injected: Counter[str]) -> None:
     """Put the perception-side faults of ``spec`` around the runner's sources, in place (the tree holds

@@ -167,6 +167,7 @@ def test_an_output_port_is_not_a_constructor_argument_and_set_output_writes_wher
     assert camera.set_output("last_stamp", 2.5) is False  # not connected: nothing written
     written: dict[str, object] = {}
     camera.port_sink = lambda name, value: written.setdefault(name, value) is value
+    camera.connected_outputs = frozenset({"last_stamp"})  # what the loader sets with the sink
     assert camera.set_output("last_stamp", 2.5) is True
     assert written == {"last_stamp": 2.5}
     with pytest.raises(TypeError, match="Camera: port last_stamp expects float, got 'late'"):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mission.core import se3
-from mission.core.docking import dock_offsets, staging_pose, tag_floor_normal
+from mission.core.docking import dock_offsets, floor_normal, staging_pose
 
 
 def wall_tag(x: float, y: float, facing: float) -> np.ndarray:
@@ -40,4 +40,4 @@ def test_staging_pose_is_offset_along_the_normal_facing_the_tag():
 
 def test_a_tag_lying_flat_has_no_approach_direction():
     with pytest.raises(ValueError, match="tag normal is vertical"):
-        tag_floor_normal(np.eye(4))
+        floor_normal(np.eye(4))

@@ -156,6 +156,17 @@ def test_a_nav2_that_aborts_every_goal_fails_the_staging_with_its_reason(tmp_pat
                "aborts every goal (fault abort_goals) (error_code 9000)" in r for r in reasons), reasons  # fmt: skip
 
 
+@pytest.mark.slow
+def test_a_robot_whose_nav2_is_not_up_fails_the_staging_naming_the_missing_server(tmp_path, watcher):
+    with closed_loop(tmp_path, "explore_dock", 0, "explore_dock.xml", 20.0, ("no_nav_server",)) as (node, robot):
+        wait_for(lambda: watcher.saw("navigate_to_pose: no action server"), 150, "the tree to see no Nav2")
+        finish(robot, timeout=200)
+        assert node.alive()
+    log = node.log()
+    assert log.count("navigate_to_pose: no action server (is Nav2's bt_navigator running") == 1, log
+    assert "Traceback" not in log
+
+
 @pytest.mark.parametrize(("fault", "seen"), [
     ("tf_loop", "TF loop: "),
     pytest.param("tf_stale_at=4", "is stale: the newest transform", marks=pytest.mark.slow),

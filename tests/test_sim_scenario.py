@@ -11,7 +11,7 @@ from mission.core.errors import ConfigError
 from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
 
-ORIGINAL = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner"]
+ORIGINAL = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner", "vlm_discovery"]
 # issue 15: worlds where turning in place cannot find the target again
 SEARCH_WORLDS = ["aisle", "hide_and_wait", "moving_occluder", "target_gone", "two_rooms"]
 SHIPPED = sorted(ORIGINAL + SEARCH_WORLDS)
@@ -44,6 +44,7 @@ def test_each_scenario_names_a_default_tree_and_success_criteria() -> None:
         "search_corner": ("follow.xml", "follow"),
         "explore_dock": ("explore_dock.xml", "dock"),
         "mission_full": ("mission.xml", "mission"),
+        "vlm_discovery": ("discover_follow.xml", "follow"),
     }
     for name, (tree, kind) in expected.items():
         sc = load_scenario(name)

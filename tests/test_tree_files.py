@@ -25,7 +25,7 @@ from mission.trees.loader import (
 )
 from mission.trees.nodes_model import nodes_model_section, with_nodes_model
 
-SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml"]
+SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml", "discover_follow.xml"]
 
 
 def shape(desc: TreeDescription) -> str:
@@ -53,6 +53,8 @@ CATALOGUE = {
     "follow.xml": f"BehaviorTree[{FOLLOW}]",
     "mission.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SubTree(FollowTree)]]",
     "explore_dock.xml": "BehaviorTree[Sequence[SubTree(ExploreTree),SubTree(DockTree),SetMissionState(state=DONE)]]",
+    "discover_follow.xml": "BehaviorTree[Sequence[Explore:discover(target=target,angular_speed=0.1,timeout_s=90.0),"
+    "SubTree(FollowTree)]]",
 }
 MAIN_TREE = {  # no tree ID is the name of a node (BT.CPP 4.6.2+ refuses a tree called Explore next to the action)
     "explore.xml": "ExploreTree",
@@ -60,6 +62,7 @@ MAIN_TREE = {  # no tree ID is the name of a node (BT.CPP 4.6.2+ refuses a tree 
     "follow.xml": "FollowTree",
     "mission.xml": "Mission",
     "explore_dock.xml": "ExploreDock",
+    "discover_follow.xml": "DiscoverFollow",
 }
 
 

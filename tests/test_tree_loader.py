@@ -652,7 +652,7 @@ ERROR_CASES = {
          '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
         ("main.xml", "nowhere"),
         '<include path="nowhere.xml">: included file not found: {dir}/nowhere.xml '
-        "(paths are relative to this file, or name a shipped tree: dock.xml",
+        "(paths are relative to this file, or name a shipped tree: ",
     ),
     "include cycle": (
         {

@@ -382,7 +382,7 @@ def test_without_latching_each_answer_is_emitted_once_for_a_moving_target(tmp_pa
         ({"republish_rate_hz": -30}, "republish_rate_hz"),
         ({"target_lable": "red box"}, "target_lable"),
         ({"target_label": "trash bag"}, "target_label"),
-        ({"client": "gemini"}, "client"),
+        ({"client": "chatgpt"}, "client"),
         ({"client": "no_such_module:Client"}, "client"),
     ],
 )

@@ -51,12 +51,16 @@ class _Control(BuiltinNode):
         runtime(self).tree.wake_up()  # type: ignore[arg-type]
 
 
-class Sequence(_Control, py_trees.composites.Sequence):
-    """BT.CPP ``Sequence`` (``AsyncSequence`` with `asynch`): a RUNNING child is resumed on the next tick;
-    a failure resets every child and starts again from the first next time."""
+class _Ordered(_Control):
+    """BT.CPP's SequenceNode and FallbackNode, which differ only in the result that ends them early
+    (`ENDS_ON`: FAILURE for a Sequence, SUCCESS for a Fallback) and the one they return when every child
+    had the other (`ALL_DONE`)."""
+
+    ENDS_ON: Result
+    ALL_DONE: Result
 
     def __init__(self, name: str, children: list[Behaviour], asynch: bool = False) -> None:
-        super().__init__(name, memory=True, children=children)
+        super().__init__(name, memory=True, children=children)  # type: ignore[call-arg]  # the py_trees composite
         self.asynch = asynch
         self.index = 0
         self.skipped = 0
@@ -76,10 +80,10 @@ class Sequence(_Control, py_trees.composites.Sequence):
             result = self.run(child)
             if result is RUNNING:
                 return RUNNING
-            if result is FAILURE:
+            if result is self.ENDS_ON:
                 self.reset_children()
                 self.index = 0
-                return FAILURE
+                return result
             self.index += 1
             if result is SKIPPED:
                 self.skipped += 1
@@ -90,7 +94,14 @@ class Sequence(_Control, py_trees.composites.Sequence):
         if self.index == n:
             self.reset_children()
             self.index, self.skipped = 0, 0
-        return SKIPPED if all_skipped else SUCCESS
+        return SKIPPED if all_skipped else self.ALL_DONE
+
+
+class Sequence(_Ordered, py_trees.composites.Sequence):
+    """BT.CPP ``Sequence`` (``AsyncSequence`` with `asynch`): a RUNNING child is resumed on the next tick;
+    a failure resets every child and starts again from the first next time."""
+
+    ENDS_ON, ALL_DONE = FAILURE, SUCCESS
 
 
 class SequenceWithMemory(_Control, py_trees.composites.Sequence):
@@ -129,46 +140,11 @@ class SequenceWithMemory(_Control, py_trees.composites.Sequence):
         return SKIPPED if all_skipped else SUCCESS
 
 
-class Fallback(_Control, py_trees.composites.Selector):
+class Fallback(_Ordered, py_trees.composites.Selector):
     """BT.CPP ``Fallback`` (``AsyncFallback`` with `asynch`): children in order until one succeeds; a
     RUNNING child is resumed on the next tick."""
 
-    def __init__(self, name: str, children: list[Behaviour], asynch: bool = False) -> None:
-        super().__init__(name, memory=True, children=children)
-        self.asynch = asynch
-        self.index = 0
-        self.skipped = 0
-
-    def bt_halt(self) -> None:
-        self.index, self.skipped = 0, 0
-        super().bt_halt()
-
-    def bt_tick(self) -> Result:
-        n = len(self.children)
-        if not _active(self.bt_own_status):
-            self.skipped = 0
-        self.set_running()
-        while self.index < n:
-            child = self.children[self.index]
-            before = bt_status(child)
-            result = self.run(child)
-            if result is RUNNING:
-                return RUNNING
-            if result is SUCCESS:
-                self.reset_children()
-                self.index = 0
-                return SUCCESS
-            self.index += 1
-            if result is SKIPPED:
-                self.skipped += 1
-            elif self.asynch and before is IDLE and self.index < n:
-                self.wake_up()
-                return RUNNING
-        all_skipped = self.skipped == n
-        if self.index == n:
-            self.reset_children()
-            self.index, self.skipped = 0, 0
-        return SKIPPED if all_skipped else FAILURE
+    ENDS_ON, ALL_DONE = SUCCESS, FAILURE
 
 
 class _Reactive(_Control):

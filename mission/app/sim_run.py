@@ -27,6 +27,7 @@ from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
 from mission.core.errors import ConfigError
+from mission.perception_plugins.pipeline import source_statuses
 from mission.sim.adapter import SimAdapter
 from mission.sim.config import apply_overrides
 from mission.sim.faults import fault_summary, wrap_sources
@@ -56,6 +57,8 @@ class RunOutcome:
     metrics: dict[str, Any]
     perception_stats: dict[str, int] = field(default_factory=dict)
     faults: dict[str, Any] = field(default_factory=dict)  # scenario `faults:`: injected vs counted (sim/faults.py)
+    # each source's status() at the end, by name: the VLM's budget, circuit breaker (and why) and model cost
+    sources: dict[str, Any] = field(default_factory=dict)
     interrupted: bool = False  # SIGINT/SIGTERM ended the run early; what was measured so far is reported
     stop_signal: str | None = None  # SIGINT | SIGTERM when interrupted
     # what produced the run: resolved config, tree file, plugins and their versions, seed, package versions
@@ -311,6 +314,7 @@ def _outcome(
         metrics=summary,
         perception_stats=stats,
         faults=fault_summary(adapter.faults, stats, runner.sources),
+        sources=source_statuses(runner.sources),
         interrupted=signum is not None,
         stop_signal=signal.Signals(signum).name if signum is not None else None,
     )

@@ -25,6 +25,7 @@ import numpy as np
 import yaml
 
 from mission.app.calibration import load_calibration
+from mission.core.config import merge_mappings
 from mission.core.errors import ConfigError, MissionError
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins import registry
@@ -36,18 +37,22 @@ DEPTH_FORMATS = "a 16-bit PNG/TIFF in millimetres, or a .npy or 32-bit float TIF
 
 
 def parse_set(items: list[str]) -> dict[str, Any]:
-    """`key=value` pairs with YAML values (`marker_size_m=0.15`, `allowed_ids=[1,2]`) → params dict."""
+    """`key=value` pairs with YAML values (`marker_size_m=0.15`, `allowed_ids=[1,2]`) → params dict. A dotted
+    key sets a key of a params section (`gemini.model=…` is `gemini: {model: …}`, the rest of it kept)."""
     out: dict[str, Any] = {}
     for item in items:
         key, sep, raw = item.partition("=")
         key = key.strip()
-        if not sep or not key:
+        if not sep or not key or any(not part for part in key.split(".")):
             raise ConfigError(f"expected KEY=VALUE, got {item!r}", key="--set")
         try:
-            out[key] = yaml.safe_load(raw) if raw.strip() else None
+            value = yaml.safe_load(raw) if raw.strip() else None
         except yaml.YAMLError as err:
             why = str(err).splitlines()[0]
             raise ConfigError(f"value {raw!r} is not valid YAML ({why})", key=f"--set {key}") from None
+        for part in reversed(key.split(".")[1:]):
+            value = {part: value}
+        out = merge_mappings(out, {key.split(".")[0]: value})
     return out
 
 

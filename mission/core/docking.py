@@ -36,13 +36,16 @@ class DockOffsets:
         return math.degrees(self.skew_rad)
 
 
-def tag_floor_normal(T_ref_tag: np.ndarray) -> np.ndarray:
-    """Unit (2,) floor-plane direction of the tag's face normal; raises ValueError for a tag lying flat."""
-    n = np.asarray(T_ref_tag, dtype=np.float64)[:2, 2]
-    norm = float(np.linalg.norm(n))
+def floor_normal(T_ref_tag: np.ndarray) -> tuple[float, float]:
+    """Unit floor-plane direction (nx, ny) of the tag's face normal; raises ValueError for a tag lying flat.
+
+    On Python floats: the docking behaviours call it on every detection, and numpy's per-call overhead
+    on a 2-vector is most of the cost (the tree benchmark)."""
+    nx, ny = float(T_ref_tag[0, 2]), float(T_ref_tag[1, 2])
+    norm = math.hypot(nx, ny)
     if norm < 1e-3:
         raise ValueError("tag normal is vertical: a tag lying flat has no approach direction on the floor")
-    return n / norm
+    return nx / norm, ny / norm
 
 
 def floor_pose(T_ref_target: np.ndarray) -> Pose2D:
@@ -50,30 +53,37 @@ def floor_pose(T_ref_target: np.ndarray) -> Pose2D:
 
     For a marker this is the dock pose (the face it is approached from); for another target only x, y mean much.
     """
-    T = np.asarray(T_ref_target, dtype=np.float64)
     try:
-        n = tag_floor_normal(T)
-        yaw = math.atan2(n[1], n[0])
+        nx, ny = floor_normal(T_ref_target)
+        yaw = math.atan2(ny, nx)
     except ValueError:
         yaw = 0.0
-    return Pose2D(float(T[0, 3]), float(T[1, 3]), yaw)
+    return Pose2D(float(T_ref_target[0, 3]), float(T_ref_target[1, 3]), yaw)
 
 
 def dock_offsets(T_ref_optical: np.ndarray, T_ref_tag: np.ndarray, robot_yaw: float) -> DockOffsets:
     """Standoff, lateral offset and skew of the camera relative to the tag (poses in one z-up frame)."""
-    n = tag_floor_normal(T_ref_tag)
-    t = np.array([-n[1], n[0]])
-    d = np.asarray(T_ref_optical, dtype=np.float64)[:2, 3] - np.asarray(T_ref_tag, dtype=np.float64)[:2, 3]
-    facing = math.atan2(-n[1], -n[0])
+    camera = (float(T_ref_optical[0, 3]), float(T_ref_optical[1, 3]))
+    tag = (float(T_ref_tag[0, 3]), float(T_ref_tag[1, 3]))
+    return floor_offsets(camera, tag, floor_normal(T_ref_tag), robot_yaw)
+
+
+def floor_offsets(
+    camera_xy: tuple[float, float], tag_xy: tuple[float, float], normal: tuple[float, float], robot_yaw: float
+) -> DockOffsets:
+    """:func:`dock_offsets` from the floor-plane quantities alone: the optical centre, the tag and its unit
+    normal (what a floor filter of the tag keeps)."""
+    nx, ny = normal
+    dx, dy = camera_xy[0] - tag_xy[0], camera_xy[1] - tag_xy[1]
     return DockOffsets(
-        standoff_m=float(d @ n),
-        lateral_m=float(d @ t),
-        skew_rad=se3.wrap_angle(robot_yaw - facing),
+        standoff_m=dx * nx + dy * ny,
+        lateral_m=dx * -ny + dy * nx,
+        skew_rad=se3.wrap_angle(robot_yaw - math.atan2(-ny, -nx)),
     )
 
 
 def staging_pose(T_ref_tag: np.ndarray, offset_m: float) -> Pose2D:
     """The base pose `offset_m` in front of the tag along its normal, facing the tag (Nav2's staging pose)."""
-    n = tag_floor_normal(T_ref_tag)
-    p = np.asarray(T_ref_tag, dtype=np.float64)[:2, 3] + offset_m * n
-    return Pose2D(float(p[0]), float(p[1]), math.atan2(-n[1], -n[0]))
+    nx, ny = floor_normal(T_ref_tag)
+    x, y = float(T_ref_tag[0, 3]) + offset_m * nx, float(T_ref_tag[1, 3]) + offset_m * ny
+    return Pose2D(x, y, math.atan2(-ny, -nx))

@@ -34,8 +34,7 @@ from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.core.files import ensure_parent, unwritable
 from mission.groot import protocol as p
-from mission.groot.transitions import TransitionRecorder
-from mission.groot.uids import BindError, bind, uid_tree
+from mission.groot.transitions import TransitionRecorder, watch_run
 
 if TYPE_CHECKING:
     from mission.app.runner import TreeRunner
@@ -85,17 +84,10 @@ class BtLogWriter(RunObserver):
         self.transitions = 0
 
     def on_start(self, run: TreeRunner) -> None:
-        if run.tree is None or run.tree_path is None:
-            log.warning("--btlog: this run has no tree (perception only); the log stays empty")
+        watched = watch_run(run, "--btlog")
+        if watched is None:
             return
-        tree = uid_tree(run.tree_path)
-        try:
-            uids = bind(tree, run.root)
-        except BindError as err:
-            log.warning("--btlog: no statuses logged, the built tree differs from its file: %s", err)
-            uids = {}
-        self._recorder = TransitionRecorder.for_tree(tree, uids)
-        run.tree.add_visitor(self._recorder)
+        tree, self._recorder = watched
         self._write(header_bytes(tree.xml(run.factory), time.time_ns() // 1000))
 
     def on_tick(self, run: TreeRunner, tick: Tick) -> None:

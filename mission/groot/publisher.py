@@ -24,7 +24,6 @@ lock, so a connected Groot2 costs the tick nothing but the visitor (mission.groo
 from __future__ import annotations
 
 import collections
-import logging
 import sys
 import threading
 import time
@@ -37,13 +36,12 @@ from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.groot import protocol as p
 from mission.groot.blackboard_export import blackboard_entries
-from mission.groot.transitions import TransitionRecorder
-from mission.groot.uids import BindError, UidTree, bind, uid_tree
+from mission.groot.transitions import TransitionRecorder, watch_run
+from mission.groot.uids import UidTree
 
 if TYPE_CHECKING:
     from mission.app.runner import TreeRunner
 
-log = logging.getLogger(__name__)
 
 DEFAULT_PORT = 1667  # Groot2's and BT.CPP's default
 HOST = "127.0.0.1"
@@ -116,17 +114,10 @@ class Groot2Publisher(RunObserver):
 
     # -- RunObserver ------------------------------------------------------------------------------
     def on_start(self, run: TreeRunner) -> None:
-        if run.tree is None or run.tree_path is None:
-            log.warning("Groot2 monitor: this run has no tree (perception only); nothing to show")
+        watched = watch_run(run, "Groot2 monitor")
+        if watched is None:
             return
-        tree = uid_tree(run.tree_path)
-        try:
-            uids = bind(tree, run.root)
-        except BindError as err:  # monitoring must never stop a mission: show the tree, statuses stay IDLE
-            log.warning("Groot2 monitor: statuses unavailable, the built tree differs from its file: %s", err)
-            uids = {}
-        recorder = TransitionRecorder.for_tree(tree, uids)
-        run.tree.add_visitor(recorder)
+        tree, recorder = watched
         with self._lock:
             self._xml = tree.xml(run.factory).encode("utf-8")
             self._status, self._status_at = _status_buffer(tree)

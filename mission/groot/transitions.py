@@ -24,16 +24,23 @@ numbers (mission.groot.protocol). It observes and never changes the tree.
 
 from __future__ import annotations
 
+import logging
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
 from mission.groot.protocol import FAILURE, IDLE, RUNNING, SUCCESS
-from mission.groot.uids import UidTree
+from mission.groot.uids import BindError, UidTree, bind, uid_tree
+
+if TYPE_CHECKING:
+    from mission.app.runner import TreeRunner
+
+log = logging.getLogger(__name__)
 
 BT_STATUS: dict[Status, int] = {Status.INVALID: IDLE, Status.RUNNING: RUNNING, Status.SUCCESS: SUCCESS,
                                 Status.FAILURE: FAILURE}  # fmt: skip
@@ -156,3 +163,22 @@ class TransitionRecorder(py_trees.visitors.VisitorBase):
         with self._lock:
             out, self._pending = self._pending, []
         return out
+
+
+def watch_run(run: TreeRunner, who: str) -> tuple[UidTree, TransitionRecorder] | None:
+    """The numbered tree file of `run` and a recorder of its transitions, attached to the tree: what the
+    Groot2 monitor and the .btlog writer (`who`, for their warnings) both start from. None for a run without
+    a tree. A built tree that differs from its file gets a recorder with no bound nodes: watching must never
+    stop a mission, so the tree is still shown and its statuses stay IDLE."""
+    if run.tree is None or run.tree_path is None:
+        log.warning("%s: this run has no tree (perception only); nothing to show", who)
+        return None
+    tree = uid_tree(run.tree_path)
+    try:
+        uids = bind(tree, run.root)
+    except BindError as err:
+        log.warning("%s: statuses unavailable, the built tree differs from its file: %s", who, err)
+        uids = {}
+    recorder = TransitionRecorder.for_tree(tree, uids)
+    run.tree.add_visitor(recorder)
+    return tree, recorder

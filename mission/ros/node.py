@@ -37,6 +37,7 @@ from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
 from mission.core.errors import ConfigError, MissionError
 from mission.core.perception import PerceptionSource
+from mission.perception_plugins.pipeline import source_statuses
 from mission.ros import dds
 
 NODE_NAME = "mission_tree"
@@ -367,6 +368,7 @@ class MissionNode:
                            "results": getattr(self.adapter.navigation, "results", None)},
             **cache.to_json(),
             "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
+            "sources": source_statuses(self.sources),  # the VLM's budget, breaker (and why), model cost
         }
 
     def _on_heartbeat(self) -> None:

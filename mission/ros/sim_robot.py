@@ -13,7 +13,8 @@
 * back from the node: ``/mission/status`` (state, reason, root status), so the run is scored here against
   ground truth by the same code and criteria as ``mission run`` (mission/app/sim_run.py).
 
-Faults (``--fault``, for tests and demonstrations): ``abort_goals`` (every goal aborted), ``no_tf`` (no /tf
+Faults (``--fault``, for tests and demonstrations): ``abort_goals`` (every goal aborted), ``no_nav_server``
+(no navigate_to_pose action server: a robot whose Nav2 is not up), ``no_tf`` (no /tf
 or /tf_static), ``tf_loop`` (a second publisher sends base_link → odom), ``tf_stale_at=S`` (/tf stops at S s),
 ``clock_back_at=S`` (at S s the clock jumps back 5 s, once), ``image_delay_s=D`` (images published D s after
 they were taken, with their true stamp).
@@ -49,13 +50,14 @@ from mission.sim.adapter import SimAdapter
 CMD_VEL_TIMEOUT_S = 0.5  # a twist holds this long (sim time) without a new one
 CLOCK_JUMP_S = 5.0
 NODE_NAME = "sim_robot"
-FAULTS = ("abort_goals", "no_tf", "tf_loop", "tf_stale_at", "clock_back_at", "image_delay_s")
+FAULTS = ("abort_goals", "no_nav_server", "no_tf", "tf_loop", "tf_stale_at", "clock_back_at", "image_delay_s")
 _SEQ = itertools.count(1_000_000)  # goal seqs of this process (the node's own seqs never reach here)
 
 
 @dataclass
 class Faults:
     abort_goals: bool = False
+    no_nav_server: bool = False
     no_tf: bool = False
     tf_loop: bool = False
     tf_stale_at: float | None = None
@@ -69,7 +71,7 @@ class Faults:
             name, _, value = item.partition("=")
             if name not in FAULTS:
                 raise ConfigError(f"unknown fault {name!r}; known: {', '.join(FAULTS)}", key="--fault")
-            if name in ("abort_goals", "no_tf", "tf_loop"):
+            if name in ("abort_goals", "no_nav_server", "no_tf", "tf_loop"):
                 setattr(f, name, True)
                 continue
             try:
@@ -150,7 +152,7 @@ class SimRobot:
             n.create_subscription(pose, "/goal_pose", self._on_goal_pose, RELIABLE),
             n.create_subscription(string, "/mission/status", self._on_status, LATCHED),
         ]
-        self.server = ActionServer(
+        self.server = None if self.faults.no_nav_server else ActionServer(
             n, self.nav_action, "navigate_to_pose", execute_callback=self._execute,
             goal_callback=lambda _req: GoalResponse.ACCEPT, cancel_callback=lambda _h: CancelResponse.ACCEPT,
         )  # fmt: skip
@@ -344,7 +346,8 @@ class SimRobot:
             self._end(self._goal, "abort", "the simulation ended")
         if self.node is not None:
             self._spin()
-            self.server.destroy()
+            if self.server is not None:
+                self.server.destroy()
             self.executor.shutdown(timeout_sec=1.0)
             self.node.destroy_node()
             self.node = None

@@ -7,11 +7,18 @@ budget, consensus and latch around it (source.py).
 
 The source's ``client`` param chooses the client:
 
-* a built-in name (:data:`BUILTIN_CLIENTS`): ``stub``, the colour-and-shape stand-in (stub.py). A
-  built-in is a factory given the source's validated params, named by import path so that it is
-  imported only when chosen — a remote model's SDK is then needed only by the configs that use it;
+* a built-in name (:data:`BUILTIN_CLIENTS`): ``stub``, the colour-and-shape stand-in (stub.py);
+  ``gemini``, Google's generateContent REST API (gemini.py); ``openai``, an OpenAI-compatible
+  chat-completions server such as vLLM or Ollama (openai_chat.py). A built-in is a factory given the
+  source's validated params and the request budget, named by import path so that it is imported only
+  when chosen — an HTTP client library is then loaded only by the configs that use one;
 * ``package.module:Class``: any class with VlmClient's two methods, built with ``client_params`` as its
   keyword arguments — how a third-party package adds a model without changing this one.
+
+A remote client sends more than one request for a call when it retries; each retry asks the source's
+:class:`RequestBudget` first (quota.py), so the persisted per-minute and per-day limits hold for every
+request sent, not only for the call that began it. A client may also expose ``usage`` (an object with
+``to_json()``: requests, retries, tokens …): the source reports it as the run's cost.
 """
 
 from __future__ import annotations
@@ -42,6 +49,23 @@ class VlmPoint:
         return self.x / 1000.0 * width, self.y / 1000.0 * height
 
 
+class RequestBudget(Protocol):
+    """The part of the source's persisted quota a remote client uses (quota.py QuotaBudget)."""
+
+    def take_retry(self) -> float:
+        """Ask for one more request of the call in progress: 0 = granted (counted and persisted now, before
+        it is sent), else the seconds until one could be (``inf``: none today)."""
+        ...
+
+    def defer(self, seconds: float) -> None:
+        """The service asked for no request for this long (a Retry-After the call does not wait out)."""
+        ...
+
+    def spend_day(self) -> None:
+        """The service says today's quota is spent: no more requests until the next UTC day."""
+        ...
+
+
 class VlmClient(Protocol):
     """What the VLM source asks of a model. `locate` may block (a network call); the source runs it
     on a worker thread, never on the tick."""
@@ -55,20 +79,22 @@ class VlmClient(Protocol):
 #: source's validated params. Paths rather than functions, so a client's dependencies load only when chosen.
 BUILTIN_CLIENTS: dict[str, str] = {
     "stub": "mission.perception_plugins.vlm.stub:stub_client",
+    "gemini": "mission.perception_plugins.vlm.gemini:gemini_client",
+    "openai": "mission.perception_plugins.vlm.openai_chat:openai_client",
 }
 
-ClientFactory = Callable[["VlmParams"], VlmClient]
+ClientFactory = Callable[["VlmParams", RequestBudget], VlmClient]
 
 
-def make_client(params: VlmParams) -> VlmClient:
-    """The client `params.client` names: a built-in (given the params) or a third-party class (given
-    `params.client_params`). A name that is neither, or a class that cannot be built, is a ConfigError on
-    the ``client`` key, so a typo stops start-up instead of every model call failing later."""
+def make_client(params: VlmParams, budget: RequestBudget) -> VlmClient:
+    """The client `params.client` names: a built-in (given the params and the budget) or a third-party class
+    (given `params.client_params`). A name that is neither, or a class that cannot be built, is a
+    ConfigError on the ``client`` key, so a typo stops start-up instead of every model call failing later."""
     spec = params.client
     if spec in BUILTIN_CLIENTS:
         module, attr = BUILTIN_CLIENTS[spec].split(":")
         factory: ClientFactory = getattr(importlib.import_module(module), attr)
-        return factory(params)  # its ConfigErrors name its own keys (the stub's: target_label)
+        return factory(params, budget)  # its ConfigErrors name its own keys (the stub's: target_label)
     module, _, cls_name = spec.partition(":")
     if not module or not cls_name:
         names = ", ".join(repr(n) for n in BUILTIN_CLIENTS)

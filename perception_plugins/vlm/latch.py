@@ -1,5 +1,6 @@
 """The one-shot latch of the VLM pipeline: consensus of a few model answers, then a pose held in the
-anchor (odom/map) frame; and the circuit breaker that stops calling the model when there is no anchor.
+anchor (odom/map) frame; and the circuit breaker that stops calling the model after repeated failed
+attempts — no anchor (the design notes' case), or a model call that gave no answer — keeping the reason.
 
 A VLM answer is expensive (a rate-limited, quota-counted remote call) and noisy (~cm to dm), so the
 design notes' node asks until `min_consecutive` answers agree within `tolerance_m` *in the anchor frame*
@@ -48,7 +49,7 @@ def mean_pose(candidates: list[Candidate]) -> np.ndarray:
 
 
 class OneShotLatch:
-    """Consensus → latch, plus the failed-anchor circuit breaker."""
+    """Consensus → latch, plus the circuit breaker of failed attempts."""
 
     def __init__(self, *, min_consecutive: int, tolerance_m: float, max_failed_attempts: int) -> None:
         self.min_consecutive = min_consecutive
@@ -64,6 +65,7 @@ class OneShotLatch:
         self.latched_at: float | None = None
         self.failed_attempts = 0
         self.breaker_open = False
+        self.breaker_reason = ""  # why the breaker opened ("" while closed)
 
     @property
     def latched(self) -> bool:
@@ -93,15 +95,18 @@ class OneShotLatch:
         pts = [c.T_anchor_target[:3, 3] for c in self.run]
         return max((float(np.linalg.norm(a - b)) for i, a in enumerate(pts) for b in pts[i + 1 :]), default=0.0)
 
-    def anchor_failed(self) -> bool:
-        """Count an attempt that could not reach the anchor frame; True when the breaker is now open."""
+    def attempt_failed(self, why: str, *, permanent: bool = False) -> bool:
+        """Count a failed attempt (`why`: one line); True when the breaker is open. A `permanent` failure — one
+        that every further attempt would repeat — opens it at once."""
         self.failed_attempts += 1
-        if self.failed_attempts >= self.max_failed_attempts:
+        if not self.breaker_open and (permanent or self.failed_attempts >= self.max_failed_attempts):
             self.breaker_open = True
+            count = "" if permanent else f"{self.failed_attempts} consecutive failed attempts, the last: "
+            self.breaker_reason = count + why
         return self.breaker_open
 
-    def anchor_ok(self) -> None:
-        """The anchor frame was reachable: failures must be consecutive to open the breaker."""
+    def attempt_ok(self) -> None:
+        """An attempt got the model's answer: failures must be consecutive to open the breaker."""
         self.failed_attempts = 0
 
     def unlatch(self) -> None:

@@ -1,14 +1,16 @@
 """The VLM source: find an object by a text label with a few rate-limited vision-language-model calls.
 
 The design notes' Gemini Robotics-ER node, with the model behind a small client interface (client.py;
-the ``client`` param chooses one, the colour-and-shape stub in stub.py by default):
+the ``client`` param chooses one: the colour-and-shape stub in stub.py by default, ``gemini`` (gemini.py)
+or an OpenAI-compatible local server, ``openai`` (openai_chat.py)):
 
 * a model call runs on a worker thread, never on the tick: ``process()`` submits a request when the
   budget allows and returns what is ready;
-* the budget — ``publish_rate_limit_hz`` between calls and ``daily_quota`` per UTC day — is recorded in
-  ``state_file`` *before* each call, atomically, so a crash loop cannot burn the quota; with
-  ``clock: frame`` (simulation) budget and latency run on frame stamps instead and nothing is persisted,
-  so a seeded sim run repeats whatever the machine's speed;
+* the budget — ``publish_rate_limit_hz`` between calls, ``requests_per_minute`` and ``daily_quota`` per
+  UTC day — is recorded in ``state_file`` *before* each request, atomically, so a crash loop cannot burn
+  the quota; a remote client's retries ask the same budget first (quota.py); with ``clock: frame``
+  (simulation) budget and latency run on frame stamps instead and nothing is persisted, so a seeded sim
+  run repeats whatever the machine's speed;
 * each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
   Canny + PCA in-plane axis (x axis) — depth_pose.py;
 * answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
@@ -16,9 +18,13 @@ the ``client`` param chooses one, the colour-and-shape stub in stub.py by defaul
   ``republish_rate_hz`` as ``inv(T_anchor_camera_now) @ T_anchor_target`` with no further calls
   (latch.py);
 * the camera's anchor pose comes with each frame (``Frame.T_anchor_camera`` / ``Frame.anchor_frame``,
-  filled by the world adapter); when it is missing at an attempt, the attempt fails, and after
-  ``max_failed_latch_attempts`` consecutive failures the circuit breaker stops all model calls until
-  :meth:`VlmSource.reset_latch` (the /mission/redetect request).
+  filled by the world adapter); when it is missing at an attempt, the attempt fails. A model call that
+  gives no answer (a timeout, a dropped connection, 5xx after the client's retries) fails too. After
+  ``max_failed_latch_attempts`` consecutive failed attempts — or at once when the service rejects the
+  request as such (a bad key, an unknown model: the same request would fail every time) — the circuit
+  breaker stops all model calls until :meth:`VlmSource.reset_latch` (the /mission/redetect request). Its
+  reason is in :meth:`VlmSource.status` (``breaker_reason``), so the heartbeat and the run report say why.
+  Being told to slow down (429, our own budget) is not a failure: the budget waits it out.
 
 A latched pose is only right while the target stays put. So, while latched, the source checks the depth
 image where the target should appear: nearer than expected means something is in front (occluded: not
@@ -52,7 +58,8 @@ from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins.vlm.client import VlmClient, make_client
 from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
 from mission.perception_plugins.vlm.latch import Candidate, OneShotLatch
-from mission.perception_plugins.vlm.quota import QuotaStore, default_state_file
+from mission.perception_plugins.vlm.quota import QuotaBudget, QuotaStore, default_state_file
+from mission.perception_plugins.vlm.settings import GeminiSettings, OpenAiSettings, RemoteSettings
 
 log = logging.getLogger(__name__)
 
@@ -61,16 +68,21 @@ class VlmParams(StrictModel):
     """Params of the `vlm` source (defaults follow the design notes' Gemini node)."""
 
     target_label: str = Field("red box", min_length=1)  # what to find (client stub: a colour word + optional shape)
-    client: str = "stub"  # "stub" (built in), or "package.module:Class" of a VlmClient built with client_params
+    client: str = "stub"  # "stub", "gemini", "openai" (built in), or "package.module:Class" built with client_params
     client_params: dict[str, Any] = Field(default_factory=dict)  # keyword arguments for the client's constructor
     confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
-    daily_quota: int = Field(20, ge=0)  # model calls per UTC day, shared by everything using state_file
+    requests_per_minute: int = Field(5, ge=1)  # requests in any 60 s, retries included (Gemini free tier: 5)
+    daily_quota: int = Field(20, ge=0)  # requests per UTC day, retries included, shared by users of state_file
     state_file: str | None = None  # None = $XDG_CACHE_HOME/mission/vlm_quota_<client>.json
     # "wall": budget and latency in wall-clock time, budget persisted (a real model); "frame": in frame
     # stamps, nothing persisted — a simulation's time base, so seeded sim runs repeat whatever the CPU speed
     clock: Literal["wall", "frame"] = "wall"  # wall: real time, quota on disk; frame: frame stamps (sim)
-    # client stub: its imitation of a remote model (other clients take client_params; latency_s also paces
+    # the remote clients (gemini, openai): their manners and what each API is asked
+    remote: RemoteSettings = Field(default_factory=RemoteSettings)  # client gemini / openai: timeouts, retries, image
+    gemini: GeminiSettings = Field(default_factory=GeminiSettings)  # client gemini: model, prompt, response schema
+    openai: OpenAiSettings = Field(default_factory=OpenAiSettings)  # client openai: base_url, model, prompt
+    # client stub: its imitation of a remote model (custom clients take client_params; latency_s also paces
     # answers with clock: frame)
     latency_s: float = Field(1.0, ge=0.0)  # seconds from request to answer
     miss_rate: float = Field(0.05, ge=0.0, le=1.0)  # fraction of calls answered with nothing
@@ -153,23 +165,24 @@ class VlmSource:
         self.name = name
         p = self.params
         self._clock = clock or time.time
-        self._client: VlmClient = client if client is not None else make_client(p)
         client_kind = p.client.replace(":", ".")  # the budget is per client kind (one API key each)
         path = Path(p.state_file).expanduser() if p.state_file else default_state_file(client_kind)
         if p.clock == "frame":
             path = None  # frame stamps restart with every run: a budget in them is per run, not persisted
         self._last_stamp = 0.0
         self._min_interval = 1.0 / p.publish_rate_limit_hz
-        self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval)
+        self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval,
+                                requests_per_minute=p.requests_per_minute)  # fmt: skip
         try:
             self.quota.check_writable()
         except OSError as err:
-            self._client.close()
             why = err.strerror or str(err)
             if err.filename and Path(err.filename) != path and not str(err.filename).endswith(".probe"):
                 why += f": {err.filename}"  # the parent in the way
             raise ConfigError(f"cannot save the call budget to {path} ({why}); expected a writable file path",
                               key="state_file") from None  # fmt: skip
+        # the client's retries ask the same budget, on the same clock as the calls
+        self._client: VlmClient = client if client is not None else make_client(p, QuotaBudget(self.quota, self._now))
         self.latch = OneShotLatch(
             min_consecutive=p.min_consecutive_detections,
             tolerance_m=p.latch_position_tolerance_m,
@@ -186,6 +199,7 @@ class VlmSource:
         self.model_calls = 0
         self.state = "idle"
         self.counters: Counter[str] = Counter()
+        self.last_error = ""  # the last failed model call, one line (no secrets: the clients redact them)
         self._logged: set[str] = set()
 
     # -- public controls ---------------------------------------------------------------------------
@@ -214,21 +228,37 @@ class VlmSource:
         return bool(done)
 
     def status(self) -> dict[str, Any]:
-        """What the source is doing, for logs and viewers."""
+        """What the source is doing, for logs, viewers, the ROS heartbeat and the run report: its state, the
+        budget, the breaker and why it opened, the last failure, and what the calls cost."""
         with self._lock:
             now = self._now()
             return {
                 "state": self.state,
+                "client": self.params.client,
                 "latched": self.latch.latched,
                 "model_calls": self.model_calls,
                 "calls_today": self.quota.calls_today(now),
                 "daily_quota": self.params.daily_quota,
+                "requests_last_minute": self.quota.requests_last_minute(now),
+                "requests_per_minute": self.params.requests_per_minute,
                 "run": len(self.latch.run),
                 "failed_latch_attempts": self.latch.failed_attempts,
                 "breaker_open": self.latch.breaker_open,
+                "breaker_reason": self.latch.breaker_reason,
+                "last_error": self.last_error,
                 "in_flight": self._pending is not None,
+                "cost": self.cost(),
                 **{k: int(v) for k, v in self.counters.items()},
             }
+
+    def cost(self) -> dict[str, Any]:
+        """What the model calls spent: the client's own accounting (requests, retries, tokens where the
+        service reports them) when it keeps one, else the calls made (each one request)."""
+        usage = getattr(self._client, "usage", None)
+        to_json = getattr(usage, "to_json", None)
+        if callable(to_json):
+            return dict(to_json())
+        return {"requests": self.model_calls, "retries": 0}
 
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
@@ -303,14 +333,11 @@ class VlmSource:
         if p.latch_in_map and anchor is None:
             self._next_attempt = now + self._min_interval
             self.counters["anchor_failures"] += 1
-            if self.latch.anchor_failed():
+            if self._attempt_failed(f"no camera pose in {p.map_frame!r} (frames carry {frame.anchor_frame!r})"):
                 self.state = "breaker_open"
-                self._log_once("breaker", "no camera pose in %r for %d attempts: circuit breaker open, "
-                               "no more model calls until redetect", p.map_frame, self.latch.failed_attempts)
             else:
                 self.state = "no_anchor"
             return
-        self.latch.anchor_ok()
         self.quota.record_call(now)  # persisted before the call: a crash now still counts it
         self._next_attempt = now + self._min_interval
         self.model_calls += 1
@@ -327,6 +354,14 @@ class VlmSource:
         self._pending = self._executor.submit(self._ask, request)
         self._pending_stamp = float(frame.stamp)
         self.state = "waiting_for_model"
+
+    def _attempt_failed(self, why: str, *, permanent: bool = False) -> bool:
+        """Count a failed attempt; True when the breaker is (now) open. Logged once per opening."""
+        opened = self.latch.attempt_failed(why, permanent=permanent)
+        if opened:
+            self._log_once("breaker", "circuit breaker open, no more model calls until redetect: %s",
+                           self.latch.breaker_reason)  # fmt: skip
+        return opened
 
     def _ask(self, req: _Request) -> _Answer:
         """Worker thread: the model call, then the geometry (kept off the tick too)."""
@@ -376,10 +411,11 @@ class VlmSource:
         try:
             answer = fut.result()
         except Exception as err:  # a failing client must not take the tick down
-            self.counters["client_errors"] += 1
-            why = " ".join(str(err).split())  # one line, whatever the client raised (cv2 errors span lines)
-            self._log_once(f"client:{type(err).__name__}", "VLM client failed: %s: %s", type(err).__name__, why)
+            self._call_failed(err)
+            self.state = "breaker_open" if self.latch.breaker_open else "idle"
             return
+        self.state = "idle"  # until the next frame says what the source waits for
+        self.latch.attempt_ok()  # the model answered (even with nothing): failures must be consecutive
         if answer.outcome != "ok" or answer.pose is None:
             self.counters["misses" if answer.outcome == "miss" else "answers_without_depth"] += 1
             return
@@ -392,12 +428,29 @@ class VlmSource:
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
                               req.stamp)
         if self.latch.add(candidate):
+            self.state = "latched"
             self.counters["latches"] += 1
             self._stale_frames = 0
             self._next_emit = None
             pos = self.latch.T_anchor_target[:3, 3]  # type: ignore[index]
             log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.target_label,
                      np.round(pos, 3).tolist(), self.params.map_frame, self.model_calls)
+
+    def _call_failed(self, err: Exception) -> None:
+        """A model call gave no answer: count it by kind and, unless the service only asked us to slow
+        down, count it towards the breaker (a rejected request opens it at once)."""
+        kind = getattr(err, "kind", None)
+        why = " ".join(str(err).split())  # one line, whatever the client raised (cv2 errors span lines)
+        self.counters["client_errors"] += 1
+        if kind:
+            self.counters[f"client_errors_{kind}"] += 1
+        self.last_error = f"{type(err).__name__}: {why}" if not kind else why
+        self._log_once(f"client:{kind or type(err).__name__}", "VLM client failed: %s", self.last_error)
+        if getattr(err, "throttled", False):
+            return
+        permanent = bool(getattr(err, "permanent", False))
+        self._attempt_failed(f"{'the service rejected the request' if permanent else 'model call failed'}: "
+                             f"{self.last_error}", permanent=permanent)  # fmt: skip
 
     def _detection(self, t_cam: np.ndarray, frame: Frame, confidence: float, latched: bool,
                    extra: dict[str, Any]) -> Detection:

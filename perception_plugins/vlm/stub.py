@@ -21,6 +21,7 @@ from mission.core.errors import ConfigError
 from mission.perception_plugins.vlm.client import VlmPoint
 
 if TYPE_CHECKING:
+    from mission.perception_plugins.vlm.client import RequestBudget
     from mission.perception_plugins.vlm.source import VlmParams
 
 # HSV ranges in OpenCV units (H 0–179, S and V 0–255): (h_lo, h_hi, s_lo, s_hi, v_lo, v_hi); several per colour.
@@ -190,8 +191,9 @@ class ColourShapeClient:
         self._closed.set()
 
 
-def stub_client(params: VlmParams) -> ColourShapeClient:
-    """The stub built from the VLM source's params (the built-in ``client: stub``, client.py).
+def stub_client(params: VlmParams, budget: RequestBudget | None = None) -> ColourShapeClient:
+    """The stub built from the VLM source's params (the built-in ``client: stub``, client.py); it never
+    retries, so it has no use for the request budget.
 
     A label without a colour word is a config error now rather than a stub that never finds anything.
     With ``clock: frame`` the stub answers at once: the source holds the answer for ``latency_s`` of frame
