@@ -130,17 +130,38 @@ def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[floa
     return best
 
 
-def fitted_velocity(track: TargetTrack, window_s: float = 1.0) -> tuple[float, float] | None:
+TURNING_RAD = math.radians(60.0)  # the two halves of the window disagree this much: it was turning, no heading
+
+
+def _least_squares_velocity(recent: np.ndarray) -> tuple[float, float]:
+    t = recent[:, 0] - recent[:, 0].mean()
+    vx = float(t @ (recent[:, 1] - recent[:, 1].mean()) / (t @ t))
+    vy = float(t @ (recent[:, 2] - recent[:, 2].mean()) / (t @ t))
+    return vx, vy
+
+
+def fitted_velocity(
+    track: TargetTrack, window_s: float = 1.0, *, steady: bool = False
+) -> tuple[float, float] | None:
     """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its history,
-    clamped to MAX_SPEED; None when too few sightings span too short a time to tell."""
+    clamped to MAX_SPEED; None when too few sightings span too short a time to tell.
+
+    With `steady`, also None when the target was turning: the halves of the window point more than
+    TURNING_RAD apart. A target tracked by a marker on its face that turns at a corner moves the marker
+    round its centre, and a fit over that says it walked off the wrong way (the search then looks there)."""
     if track.last_seen is None or len(track.history) < 3:
         return None
     recent = np.array([h for h in track.history if h[0] >= track.last_seen - window_s])
     if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < 0.2:
         return None
-    t = recent[:, 0] - recent[:, 0].mean()
-    vx = float(t @ (recent[:, 1] - recent[:, 1].mean()) / (t @ t))
-    vy = float(t @ (recent[:, 2] - recent[:, 2].mean()) / (t @ t))
+    vx, vy = _least_squares_velocity(recent)
+    if steady and len(recent) >= 6:
+        half = len(recent) // 2
+        (ax, ay), (bx, by) = _least_squares_velocity(recent[:half]), _least_squares_velocity(recent[half:])
+        if math.hypot(ax, ay) > 0.05 and math.hypot(bx, by) > 0.05:
+            turn = abs(math.atan2(ax * by - ay * bx, ax * bx + ay * by))
+            if turn > TURNING_RAD:
+                return None
     speed = math.hypot(vx, vy)
     if speed > MAX_SPEED:
         vx, vy = vx * MAX_SPEED / speed, vy * MAX_SPEED / speed

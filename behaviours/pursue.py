@@ -28,7 +28,7 @@ import py_trees
 
 from mission.behaviours.approach import approach_goal, bearing_to
 from mission.behaviours.ports import port
-from mission.behaviours.search_grid import SearchGrid, dilate, travel_distances, view_cells
+from mission.behaviours.search_grid import SearchGrid, dilate, ray_masses, travel_distances, view_cells
 from mission.behaviours.search_leaf import SearchLeaf, predicted_walk, turn_rate
 from mission.core import se3
 from mission.core.blackboard import MissionState
@@ -38,6 +38,15 @@ ARRIVED_M = 0.25  # within this of the viewpoint, facing the target's way, count
 FACING_RAD = 0.35
 MIN_STANDOFF_M = 0.7  # a viewpoint no closer than this to where the target went
 TURN_RATE = 1.0  # rad/s assumed for the loss timer's turn
+# Peeking round an edge (no heading to go by): what the target could have walked to unseen, and where from.
+PEEK_SPEED_MPS = 1.0
+PEEK_MIN_CELLS = 4  # fewer hidden cells than this: nothing to peek round
+PEEK_SPACING_M = 0.2
+PEEK_MAX_TRAVEL_M = 4.0
+PEEK_MIN_SEEN = 0.5  # a place must see at least half of what the best place sees
+PEEK_AIM_M = 1.5  # the point faced: this far along the middle of the view
+PEEK_ARC_FRACTION = 0.05  # directions seeing this fraction of the best one's hidden cells are swept across
+RAYS = 72
 
 
 @dataclass
@@ -52,6 +61,8 @@ class Pursuit:
     deadline: float
     started: float
     arrived_at: float | None = None
+    sweep_to: float | None = None  # peeking: after facing `aim`, turn to this heading across what it hides
+    swept: bool = False
     done: str = ""  # why this loss's pursuit is over ('' while it goes on)
     fallback: bool = False  # no place sees `aim`: heading for the last position instead
 
@@ -98,14 +109,23 @@ class PursueLastSeen(SearchLeaf):
             goal = approach_goal((robot.x, robot.y), last, 0.5)
             return Pursuit(track.last_seen, last, last, goal, 0.0, now + p.min_timeout_s, now, fallback=True)
         _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
-        view, path_m = self._viewpoint(sg, robot, last, aim)
+        peek = self._peek(sg, robot, last) if aim == last else None
+        sweep_to = None
+        if peek is not None:  # no heading to go by: look round the edge it vanished behind
+            view, path_m, sweep_to = peek
+            aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
+        else:
+            view, path_m = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
             path_m = math.hypot(view.x - robot.x, view.y - robot.y)
         turn = abs(se3.wrap_angle(view.yaw - robot.yaw)) / TURN_RATE
+        if sweep_to is not None:
+            turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
         timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + turn + p.look_s))
-        return Pursuit(track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback)
+        return Pursuit(track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback,
+                       sweep_to=sweep_to)  # fmt: skip
 
     def _viewpoint(
         self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float], aim: tuple[float, float]
@@ -135,7 +155,69 @@ class PursueLastSeen(SearchLeaf):
             x, y = robot.x, robot.y
         return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c])
 
+    def _peek(
+        self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float]
+    ) -> tuple[Pose2D, float, float | None] | None:
+        """Where to look round the edge the target vanished behind, when there is no heading to go by.
+
+        The places it could have walked to in ``horizon_s`` (at PEEK_SPEED_MPS, by the paths it can walk)
+        that the robot cannot see from where it stands are where it went; the place to drive to is the one
+        that sees most of them, turning, per second of driving (ties: the nearer). Returns that
+        place facing one edge of what it hides, the path length, and the heading of the other edge when
+        they are wider apart than the camera's field of view (to sweep across them), else None. None when
+        the robot sees all of them already (it vanished in plain view: nothing to peek round)."""
+        p = self.params
+        blocked = self.sight_blocked(sg, robot)
+        free = sg.target_free()
+        r0, c0 = sg.cell(*last)
+        walkable = travel_distances(free, (r0, c0), sg.resolution) <= PEEK_SPEED_MPS * p.horizon_s
+        cam = self.camera_pose(robot)
+        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + 2.0, min_range_m=0.05)
+        hidden = walkable & free & ~visible
+        if int(hidden.sum()) < PEEK_MIN_CELLS:
+            return None
+        drivable = sg.robot_free(p.clearance_m) & ~blocked
+        dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
+        rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
+        step = max(1, round(PEEK_SPACING_M / sg.resolution))
+        cand = drivable & (rows % step == 0) & (cols % step == 0) & (dist <= PEEK_MAX_TRAVEL_M)
+        idx = np.argwhere(cand)
+        if not len(idx):
+            return None
+        xs, ys = sg.centres()
+        cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
+        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + 1.0)
+        seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
+        travel = dist[idx[:, 0], idx[:, 1]]
+        score = seen / (travel / p.speed_mps + 1.0)
+        score[seen < PEEK_MIN_SEEN * max(float(seen.max()), 1e-9)] = 0.0
+        i = int(np.argmax(score))
+        if not score[i] > 0:
+            return None
+        x, y = float(cx[i]), float(cy[i])
+        ray = 2 * math.pi / RAYS
+        lo, hi = _arc(masses[i] > PEEK_ARC_FRACTION * float(masses[i].max()))
+        half = self.hfov() / 2
+        if (hi - lo) * ray <= 2 * half:  # one look covers it: face its middle
+            return Pose2D(x, y, se3.wrap_angle((lo + hi + 1) / 2 * ray)), float(travel[i]), None
+        edges = (se3.wrap_angle(lo * ray + half), se3.wrap_angle((hi + 1) * ray - half))
+        arrive = math.atan2(y - robot.y, x - robot.x)  # start at the edge nearer the way it arrives
+        first, second = sorted(edges, key=lambda a: abs(se3.wrap_angle(a - arrive)))
+        return Pose2D(x, y, first), float(travel[i]), second
+
     # -- ticking ----------------------------------------------------------------------------------
+    def _look(self, plan: Pursuit, robot: Pose2D, now: float) -> bool:
+        """Peeking: turn across what the edge hides; True while turning (the look timer starts after)."""
+        if plan.sweep_to is None or plan.swept:
+            return False
+        error = se3.wrap_angle(plan.sweep_to - robot.yaw)
+        if abs(error) <= 0.1:
+            plan.swept, plan.arrived_at = True, now
+            return False
+        self.drive(0.0, turn_rate(error, 0.8))
+        self.feedback_message = f"LOST: looking round the edge it went behind, {math.degrees(abs(error)):.0f}° to go"
+        return True
+
     def update(self) -> py_trees.common.Status:
         p = self.params
         track = self.track(p.target)
@@ -164,11 +246,13 @@ class PursueLastSeen(SearchLeaf):
         if plan.arrived_at is None and close and facing:
             plan.arrived_at = now
         if plan.arrived_at is not None:
+            if self._look(plan, robot, now):
+                return py_trees.common.Status.RUNNING
             if now - plan.arrived_at >= p.look_s:
                 seen_from = f"({v.x:.2f}, {v.y:.2f})"
                 return self._finish(plan, belief, f"LOST: looked from {seen_from} toward {where}, where "
                                     f"{p.target} went: not there")
-            self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8) if not facing else 0.0)
+            self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8) if not facing and not plan.swept else 0.0)
             self.feedback_message = f"LOST: looking toward {where}, {now - plan.arrived_at:.1f} s of {p.look_s:g} s"
             return py_trees.common.Status.RUNNING
         if self._goal is None:
@@ -194,3 +278,17 @@ class PursueLastSeen(SearchLeaf):
         if belief is not None:
             belief.log.append(f"LOST went {plan.path_m:.1f} m to look ({self.now() - plan.started:.0f} s)")
         return self.fail(why)
+
+
+def _arc(mask: np.ndarray) -> tuple[int, int]:
+    """(first, last) index of the shortest circular run of directions holding every True of `mask` (last may
+    exceed len(mask): it wraps)."""
+    on = np.flatnonzero(mask)
+    n = len(mask)
+    if len(on) == 0:
+        return 0, 0
+    gaps = np.diff(np.concatenate([on, [on[0] + n]]))  # gap after each on-direction to the next
+    k = int(np.argmax(gaps))  # the widest gap is outside the arc
+    first = int(on[(k + 1) % len(on)])
+    last = int(on[k]) if on[k] >= first else int(on[k]) + n
+    return first, last

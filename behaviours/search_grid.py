@@ -269,14 +269,21 @@ def line_clear(blocked: np.ndarray, sg: SearchGrid, a: tuple[float, float], b: t
     return not bool(blocked[rows[~own], cols[~own]].any())
 
 
+_SQUARE = np.ones((3, 3), np.uint8)
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+
+
 def dilate(mask: np.ndarray, cells: int) -> np.ndarray:
     """`mask` grown by `cells` cells (a disc-ish octagon: square and cross kernels alternating)."""
-    out = mask.astype(np.uint8)
-    square = np.ones((3, 3), np.uint8)
-    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+    out = mask.astype(bool)
     for i in range(cells):
-        out = cv2.dilate(out, square if i % 2 else cross)
-    return out.astype(bool)
+        out = dilate_once(out, i)
+    return out
+
+
+def dilate_once(mask: np.ndarray, i: int) -> np.ndarray:
+    """`mask` grown by one cell: the `i`-th step of :func:`dilate` (the cross on even steps, the square on odd)."""
+    return cv2.dilate(mask.astype(np.uint8), _SQUARE if i % 2 else _CROSS).astype(bool)
 
 
 def walk(free: np.ndarray, sg: SearchGrid, start: tuple[float, float], end: tuple[float, float]) -> tuple[float, float]:

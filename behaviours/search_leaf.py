@@ -84,7 +84,7 @@ class SearchLeaf(MissionLeaf):
         if belief is None or belief.episode != track.last_seen or belief.grid is not sg:
             last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
             belief = TargetBelief.start(
-                track.name, track.last_seen, last, fitted_velocity(track, HEADING_WINDOW_S), sg, now,
+                track.name, track.last_seen, last, fitted_velocity(track, HEADING_WINDOW_S, steady=True), sg, now,
                 speed_mps=DEFAULT_SPEED_MPS if speed_mps is None else speed_mps,
                 view_range_m=DEFAULT_VIEW_RANGE_M if view_range_m is None else view_range_m,
             )  # fmt: skip
@@ -115,7 +115,7 @@ def predicted_walk(
     at the first place it cannot walk through). The same point twice when it stood still."""
     assert track.pose_map is not None
     last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
-    v = fitted_velocity(track, HEADING_WINDOW_S)
+    v = fitted_velocity(track, HEADING_WINDOW_S, steady=True)
     if v is None:
         return last, last
     end = (last[0] + v[0] * horizon_s, last[1] + v[1] * horizon_s)

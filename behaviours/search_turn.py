@@ -112,7 +112,7 @@ class TurnToBearing(SearchLeaf):
         bearing = bearing_to(state.pose, aim)
         if abs(bearing) >= AHEAD_RAD:
             return bearing, math.copysign(1.0, bearing)
-        v = fitted_velocity(track, HEADING_WINDOW_S)
+        v = fitted_velocity(track, HEADING_WINDOW_S, steady=True)
         if v is not None and math.hypot(*v) > 0.05:  # crossing the view: it walked off to that side
             across = math.sin(math.atan2(v[1], v[0]) - state.pose.yaw)
             return bearing, 1.0 if across >= 0 else -1.0

@@ -267,6 +267,9 @@ class ViewpointSearch(SearchLeaf):
         width, sweep = self._windows()
         seen, start = best_window(masses, width)
         time = travel / p.speed_mps + sweep / p.angular_speed + OVERHEAD_S
+        # Where it stands the robot first turns on the spot to the window (elsewhere the drive there turns it).
+        turn = abs(se3.wrap_angle((start[0] + 0.5) * (2 * math.pi / RAYS) + self.hfov() / 2 - robot.yaw))
+        time[0] += turn / p.angular_speed
         score = seen / time
         i = int(np.argmax(score))
         if seen[i] < MIN_SEEN:
