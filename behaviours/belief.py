@@ -138,6 +138,8 @@ class TargetBelief:
         if self.grown_to + step_s > self.updated:
             return
         within = (self.reach <= self.radius_m) & self.free
+        if not self.front.any():  # the views cleared all of it: the camera missed the target where it looked,
+            self.front = within & ~self.seen  # so it can be anywhere within reach not yet seen
         while self.grown_to + step_s <= self.updated:
             self.front = dilate_once(self.front, self.grows) & within
             self.grows += 1

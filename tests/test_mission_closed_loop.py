@@ -23,10 +23,7 @@ LATERAL_TOL_M, DISTANCE_TOL_M, SKEW_TOL_DEG = 0.03, 0.025, 10.0
 
 SEEDS = range(10)
 FAST = {  # scenario → (seed, simulated seconds) run by default
-    # the corner: lost round the partition's end, found down the far corridor. Seed 1: with the search ladder
-    # seed 2 (the seed before it) is re-acquired after 11.1 s — a failure the search benchmark reports
-    # (bench/results/search.json, search_corner: 2 of 5 seeds met the 10 s bound), not hidden here
-    "search_corner": (1, 40.0),
+    "search_corner": (2, 40.0),  # the corner: lost round the partition's end, found down the far corridor
     "follow_occlusion": (0, 40.0),  # through the pillars and round their west end
     "explore_dock": (0, None),  # ends when docked
 }

@@ -124,6 +124,43 @@ def test_what_the_camera_sees_is_no_longer_where_the_target_can_be():
     assert 0 < belief.seen_fraction() < 1
 
 
+CORRIDOR = [(-7.0, 0.5, 7.0, 0.7), (-7.0, -0.7, 7.0, -0.5)]  # a corridor 1 m wide along x
+
+
+def test_the_target_cannot_get_past_the_camera_unseen():
+    # the robot looks down a corridor toward where the target was lost, beyond what its camera can read
+    sg = search_grid(grid_with_boxes(CORRIDOR, size_m=16.0))
+    belief = TargetBelief.start("target", 0.0, (5.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for k in range(1, 81):  # 8 s of looking, 10 looks a second
+        belief.look(0.1 * k, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    assert belief.radius_m > 6.5  # near enough by walking: the reach alone would allow it behind the robot
+    assert not belief.possible[sg.cell(-1.5, 0.0)]  # but only through the camera's view
+    assert not belief.possible[sg.cell(2.0, 0.0)]  # in view
+    assert belief.possible[sg.cell(6.5, 0.0)]  # beyond the view's range it can be
+
+
+def test_a_target_missed_in_plain_view_is_looked_for_where_the_camera_has_not_looked():
+    sg = search_grid(grid_with_boxes([]))
+    belief = TargetBelief.start("target", 0.0, (2.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for t in (0.1, 0.2, 0.3):  # everywhere it could have walked is in view, and it is not seen
+        belief.look(t, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    belief.grow(2.0)
+    assert (belief.possible & ~belief.seen).any()  # not nowhere: somewhere it has not looked
+
+
+def test_a_place_looked_at_fills_again_once_the_target_could_have_walked_back_into_it():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (-1.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    belief.grow(1.0)
+    belief.look(1.0, camera=(-3.0, -1.0), yaw=0.0, hfov=math.radians(30), blocked=sg.occupied)
+    here, aside = sg.cell(-1.0, -1.0), sg.cell(-1.0, -2.6)
+    assert not belief.possible[here]
+    belief.grow(4.0)  # no more looks: from either side of the narrow view it can have walked back
+    assert belief.possible[here] and belief.possible[aside]
+    w = belief.weights()
+    assert 0 < w[here] < w[aside] / belief.prior[aside] * belief.prior[here]  # looked at 3 s ago: worth less
+
+
 # ------------------------------------------------------------------------------------ SEARCH b
 def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belief_per_second():
     # the target went behind the wall at (2, −1); round the north end is 2 m of driving, round the south end 6 m
@@ -195,6 +232,22 @@ def test_lost_drives_to_where_the_camera_sees_where_the_target_went_facing_it_wi
     timer = plan.deadline - plan.started
     assert timer >= plan.path_m / 0.35 and plan.path_m > 2.0  # a timer long enough for the detour
     assert f"{plan.path_m:.1f} m detour" in node.feedback_message
+
+
+def test_with_no_heading_lost_peeks_round_the_edge_the_target_went_behind_sweeping_across_it():
+    # last seen at the wall's north end, standing still: it can have gone on round the end, out of sight
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(-0.5, -1.5, math.radians(60)), grid=grid, clock=0.5)
+    lost_at(0.9, 1.3, last_seen=0.0)
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    plan = node.pursuit
+    sg = search_grid(grid)
+    behind = (1.5, 0.6)  # round the end, on the far side of the wall: hidden from where the robot stands
+    assert not line_clear(sg.occupied, sg, (-0.5, -1.5), behind)
+    assert line_clear(sg.occupied, sg, (plan.view.x, plan.view.y), behind)  # from where it goes, in sight
+    assert plan.sweep_to is not None or abs(math.remainder(
+        math.atan2(behind[1] - plan.view.y, behind[0] - plan.view.x) - plan.view.yaw, 2 * math.pi)) < math.radians(35)
 
 
 def test_a_longer_detour_gets_a_longer_loss_timer():
