@@ -8,6 +8,12 @@ the shadow's border — and arrives facing the predicted position. Where a place
 occluder has moved away, or the robot stands at the corner) that place is where the robot stands, turned
 toward it.
 
+When there is no heading to go by — the target stood still, or it was turning (a marker on the face of a
+target that turns at a corner swings round its centre, and a velocity fitted over that points the wrong
+way) — the leaf peeks round the edge instead: of the places the target could have walked to in
+``horizon_s`` that the camera cannot see from where the robot stands, it drives to the place that sees the
+most of them per second of driving, and sweeps the camera across them there.
+
 The loss timer is the detour's: its path length on the map over ``speed_mps``, plus the turn and
 ``look_s`` of looking, within [``min_timeout_s``, ``max_timeout_s``] — a long way round a pillar is given
 the time it takes, a glance round a corner is not given more. It is set once per loss (when LOST is first
