@@ -292,9 +292,9 @@ def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_f
 
 
 # ------------------------------------------------------------------------------------ no false occlusion
-def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
-    # walking away at 1 m/s; it turned its marker away and stopped at (3.1, 0). A second later the prediction
-    # says (4, 0): the lidar sees its body at 3.1 m, nearer than the prediction — but that is the target
+def walked_away_with_a_scan_return_at(distance: float) -> None:
+    """The target walked straight away from the robot at 1 m/s to (3, 0), last seen a second ago; the lidar
+    sees something `distance` ahead."""
     track = TargetTrack("target", last_seen=9.0, misses=6, pose_map=marker_facing(3.0, 0.0, math.pi))
     track.history = [(8.0 + 0.1 * i, 2.0 + 0.1 * i, 0.0) for i in range(11)]
     w = board()
@@ -303,7 +303,13 @@ def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
     bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
     bbk.set_(w, bbk.TRACKS, {"target": track})
     bbk.set_(w, bbk.MAP, grid_with_boxes([]))
-    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=3.1))
+    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=distance))
+
+
+def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
+    # walking away at 1 m/s; it turned its marker away and stopped at (3.1, 0). A second later the prediction
+    # says (4, 0): the lidar sees its body at 3.1 m, nearer than the prediction — but that is the target
+    walked_away_with_a_scan_return_at(3.1)
     node = IsLineOfSightBlocked()
     assert tick(node) == S.FAILURE and "left the view" in node.feedback_message
     unfiltered = IsLineOfSightBlocked(target_radius_m=0.0)  # the check before the filter: a false occlusion
@@ -311,14 +317,6 @@ def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
 
 
 def test_a_box_between_robot_and_target_is_still_an_occluder():
-    track = TargetTrack("target", last_seen=9.0, misses=6, pose_map=marker_facing(3.0, 0.0, math.pi))
-    track.history = [(8.0 + 0.1 * i, 2.0 + 0.1 * i, 0.0) for i in range(11)]
-    w = board()
-    bbk.set_(w, bbk.CLOCK, 10.0)
-    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 10.0))
-    bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
-    bbk.set_(w, bbk.TRACKS, {"target": track})
-    bbk.set_(w, bbk.MAP, grid_with_boxes([]))
-    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=1.5))
+    walked_away_with_a_scan_return_at(1.5)
     node = IsLineOfSightBlocked()
     assert tick(node) == S.SUCCESS and "scan return 1.50 m away" in node.feedback_message
