@@ -49,6 +49,8 @@ PEEK_SPEED_MPS = 1.0
 PEEK_MIN_CELLS = 4  # fewer hidden cells than this: nothing to peek round
 PEEK_SPACING_M = 0.2
 PEEK_MAX_TRAVEL_M = 4.0
+PEEK_SEEN_FROM_HERE_M = 2.0  # beyond max_standoff_m: how far the robot's own view counts as seeing
+PEEK_REACH_M = 1.0  # beyond max_standoff_m: how far a viewpoint's view counts
 PEEK_MIN_SEEN = 0.5  # a place must see at least half of what the best place sees
 PEEK_AIM_M = 1.5  # the point faced: this far along the middle of the view
 PEEK_ARC_FRACTION = 0.05  # directions seeing this fraction of the best one's hidden cells are swept across
@@ -178,7 +180,10 @@ class PursueLastSeen(SearchLeaf):
         r0, c0 = sg.cell(*last)
         walkable = travel_distances(free, (r0, c0), sg.resolution) <= PEEK_SPEED_MPS * p.horizon_s
         cam = self.camera_pose(robot)
-        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + 2.0, min_range_m=0.05)
+        # hidden = out of sight from here, within PEEK_SEEN_FROM_HERE_M (farther than a viewpoint may stand from
+        # what it looks at, so what is merely far is not taken for hidden)
+        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
+                             min_range_m=0.05)  # fmt: skip
         hidden = walkable & free & ~visible
         if int(hidden.sum()) < PEEK_MIN_CELLS:
             return None
@@ -192,7 +197,7 @@ class PursueLastSeen(SearchLeaf):
             return None
         xs, ys = sg.centres()
         cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
-        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + 1.0)
+        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
         travel = dist[idx[:, 0], idx[:, 1]]
         score = seen / (travel / p.speed_mps + 1.0)
