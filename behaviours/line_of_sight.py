@@ -7,7 +7,9 @@ The difference decides LOST (hold the goal, let navigation go around the obstacl
   crosses — Bresenham can step diagonally past a corner) from the camera to the target; a cell with
   occupancy ≥ 50 blocks;
 * the live lidar: a scan return along the target's bearing that is closer than the target — an obstacle
-  the map does not know about (a person, a box).
+  the map does not know about (a person, a box). A return on the target's own footprint (within
+  ``target_radius_m`` of the line from its last to its predicted position) is not an occluder: when the
+  prediction runs past a corner, the lidar still sees the target's body where it really is, in the open.
 
 Where the target may be: its last seen position, its position predicted with constant velocity from
 the track history (≤ 1 s extrapolation — it kept walking after it disappeared), and every free place
@@ -24,6 +26,7 @@ coordinator between the two.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -82,10 +85,19 @@ def first_occupied_cell(
     return None
 
 
-def scan_hit_before(scan: LaserScan, robot: Pose2D, target: tuple[float, float]) -> float | None:
+def scan_hit_before(
+    scan: LaserScan,
+    robot: Pose2D,
+    target: tuple[float, float],
+    own_path: tuple[tuple[float, float], ...] = (),
+    own_radius_m: float = 0.0,
+) -> float | None:
     """Range of the closest scan return along the target's bearing that is clearly nearer than the target.
 
-    The scan is taken in the base frame at the base origin (LaserScan's convention here).
+    A return that lands within `own_radius_m` of `own_path` (the target's last seen position and where it
+    is predicted to be: the polyline it walked along) is the target's own body, not an occluder — when the
+    prediction runs past a corner, the lidar still sees the target where it really is, nearer than the
+    prediction. The scan is taken in the base frame at the base origin (LaserScan's convention here).
     """
     dx, dy = target[0] - robot.x, target[1] - robot.y
     distance = math.hypot(dx, dy)
@@ -93,30 +105,79 @@ def scan_hit_before(scan: LaserScan, robot: Pose2D, target: tuple[float, float])
         return None
     bearing = se3.wrap_angle(math.atan2(dy, dx) - robot.yaw)
     ranges = np.asarray(scan.ranges, dtype=np.float64)
-    diff = np.abs(np.arctan2(np.sin(scan.angles - bearing), np.cos(scan.angles - bearing)))
+    angles = scan.angles
+    diff = np.abs(np.arctan2(np.sin(angles - bearing), np.cos(angles - bearing)))
     half = max(abs(scan.angle_increment), math.atan2(TARGET_HALF_WIDTH_M, distance))
     limit = min(distance - SCAN_MARGIN_M, scan.range_max)
-    hits = ranges[(diff <= half) & np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges < limit)]
+    near = (diff <= half) & np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges < limit)
+    hits, hit_angles = ranges[near], angles[near]
+    if hits.size and own_path and own_radius_m > 0:
+        world = robot.yaw + hit_angles
+        px, py = robot.x + hits * np.cos(world), robot.y + hits * np.sin(world)
+        hits = hits[_distance_to_polyline(px, py, own_path) > own_radius_m]
     return float(hits.min()) if hits.size else None
+
+
+def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """Distance of each point to the polyline through `path` (one point: to that point)."""
+    best = np.full(px.shape, np.inf)
+    pts = list(path) if len(path) > 1 else [path[0], path[0]]
+    for (ax, ay), (bx, by) in itertools.pairwise(pts):
+        vx, vy = bx - ax, by - ay
+        seg = vx * vx + vy * vy
+        t = np.zeros(px.shape) if seg < 1e-12 else np.clip(((px - ax) * vx + (py - ay) * vy) / seg, 0.0, 1.0)
+        np.minimum(best, np.hypot(px - (ax + t * vx), py - (ay + t * vy)), out=best)
+    return best
+
+
+TURNING_RAD = math.radians(60.0)  # the two halves of the window disagree this much: it was turning, no heading
+
+
+def _least_squares_velocity(recent: np.ndarray) -> tuple[float, float]:
+    t = recent[:, 0] - recent[:, 0].mean()
+    vx = float(t @ (recent[:, 1] - recent[:, 1].mean()) / (t @ t))
+    vy = float(t @ (recent[:, 2] - recent[:, 2].mean()) / (t @ t))
+    return vx, vy
+
+
+def fitted_velocity(
+    track: TargetTrack, window_s: float = 1.0, *, steady: bool = False
+) -> tuple[float, float] | None:
+    """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its history,
+    clamped to MAX_SPEED; None when too few sightings span too short a time to tell.
+
+    With `steady`, also None when the target was turning: the halves of the window point more than
+    TURNING_RAD apart. A target tracked by a marker on its face that turns at a corner moves the marker
+    round its centre, and a fit over that says it walked off the wrong way (the search then looks there)."""
+    if track.last_seen is None or len(track.history) < 3:
+        return None
+    recent = np.array([h for h in track.history if h[0] >= track.last_seen - window_s])
+    if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < 0.2:
+        return None
+    vx, vy = _least_squares_velocity(recent)
+    if steady and len(recent) >= 6:
+        half = len(recent) // 2
+        (ax, ay), (bx, by) = _least_squares_velocity(recent[:half]), _least_squares_velocity(recent[half:])
+        if math.hypot(ax, ay) > 0.05 and math.hypot(bx, by) > 0.05:
+            turn = abs(math.atan2(ax * by - ay * bx, ax * bx + ay * by))
+            if turn > TURNING_RAD:
+                return None
+    speed = math.hypot(vx, vy)
+    if speed > MAX_SPEED:
+        vx, vy = vx * MAX_SPEED / speed, vy * MAX_SPEED / speed
+    return vx, vy
 
 
 def predicted_position(
     track: TargetTrack, now: float, horizon_s: float = PREDICT_HORIZON_S
 ) -> tuple[float, float] | None:
     """Constant-velocity extrapolation (least squares over the last second of history) to `now`, ≤ horizon."""
-    if track.last_seen is None or len(track.history) < 3:
+    v = fitted_velocity(track)
+    if v is None:
         return None
-    recent = np.array([h for h in track.history if h[0] >= track.last_seen - 1.0])
-    if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < 0.2:
-        return None
-    t = recent[:, 0] - recent[:, 0].mean()
-    vx = float(t @ (recent[:, 1] - recent[:, 1].mean()) / (t @ t))
-    vy = float(t @ (recent[:, 2] - recent[:, 2].mean()) / (t @ t))
-    speed = math.hypot(vx, vy)
-    if speed > MAX_SPEED:
-        vx, vy = vx * MAX_SPEED / speed, vy * MAX_SPEED / speed
-    dt = min(max(now - track.last_seen, 0.0), horizon_s)
-    return float(recent[-1, 1] + vx * dt), float(recent[-1, 2] + vy * dt)
+    x, y = track.history[-1][1], track.history[-1][2]
+    dt = min(max(now - track.last_seen, 0.0), horizon_s)  # type: ignore[operator]  # last_seen set: v exists
+    return float(x + v[0] * dt), float(y + v[1] * dt)
 
 
 @dataclass(frozen=True)
@@ -167,6 +228,9 @@ class IsLineOfSightBlocked(MissionLeaf):
     class Params:
         target: str = port("target", "name of the target (a key of perception.targets)")
         min_misses: int = port(5, "consecutive missed frames before an occlusion is considered")
+        target_radius_m: float = port(
+            0.3, "a scan return this close to the target's last or predicted position is its own body, not an occluder"
+        )
 
     NODE_TYPE = "Condition"
     READS = (bbk.TRACKS, bbk.MAP, bbk.SCAN)
@@ -191,7 +255,13 @@ class IsLineOfSightBlocked(MissionLeaf):
         cx, cy = grid.cell_to_world(*cell)
         return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
 
-    def _blockage(self, cam: tuple[float, float], robot: Pose2D, goal: tuple[float, float]) -> Blockage | None:
+    def _blockage(
+        self,
+        cam: tuple[float, float],
+        robot: Pose2D,
+        goal: tuple[float, float],
+        own_path: tuple[tuple[float, float], ...] = (),
+    ) -> Blockage | None:
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         scan: LaserScan | None = self.read(bbk.SCAN)
         if grid is not None:
@@ -199,7 +269,7 @@ class IsLineOfSightBlocked(MissionLeaf):
             if b is not None:
                 return b
         if scan is not None:
-            hit = scan_hit_before(scan, robot, goal)
+            hit = scan_hit_before(scan, robot, goal, own_path, self.params.target_radius_m)
             if hit is not None:
                 return Blockage("scan return", hit)
         return None
@@ -213,8 +283,9 @@ class IsLineOfSightBlocked(MissionLeaf):
         pred = predicted_position(tr, self.now())
         if pred is not None:
             candidates.insert(0, ("predicted", pred))
+        own_path = tuple(p for _, p in reversed(candidates))  # last → predicted: where the target's body can be
         for label, where in candidates:
-            b = self._blockage(cam, robot, where)
+            b = self._blockage(cam, robot, where, own_path)
             if b is not None:
                 return True, (
                     f"line of sight to {label} {self.params.target} position ({where[0]:.2f}, {where[1]:.2f}) "

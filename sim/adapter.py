@@ -13,6 +13,7 @@ marker mounting jitter, target timing (speed, pauses, start delay), image and li
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -36,7 +37,7 @@ from mission.sim.geometry import Footprint, clearance
 from mission.sim.ground_truth import GroundTruth
 from mission.sim.navigator import Navigator
 from mission.sim.robot import DiffDriveBase
-from mission.sim.scenario import Scenario
+from mission.sim.scenario import MovingObstacle, Scenario
 from mission.sim.static_map import static_map
 from mission.sim.target_motion import TargetPath
 from mission.sim.world import World, intrinsics_for, static_footprints, unknown_footprints
@@ -44,6 +45,23 @@ from mission.sim.world import World, intrinsics_for, static_footprints, unknown_
 SUBSTEP_S = 0.02
 TARGET_ROBOT_GAP_M = 0.05  # the target waits rather than come closer than this to the robot
 NOISE_BANK = 12  # pre-drawn noise images, picked at random per frame (drawing per frame costs ~8 ms)
+
+
+@dataclass
+class Mover:
+    """A moving obstacle: its spec, its path, its own progress clock and where it is."""
+
+    spec: MovingObstacle
+    path: TargetPath
+    tau: float
+    pose: tuple[float, float, float]
+
+    def footprint(self, pose: tuple[float, float, float] | None = None) -> Footprint:
+        x, y, yaw = self.pose if pose is None else pose
+        ob = self.spec
+        if ob.shape == "cylinder":
+            return Footprint("circle", x, y, r=ob.radius, name=ob.name or "moving obstacle")
+        return Footprint("box", x, y, yaw, ob.size[0] / 2, ob.size[1] / 2, name=ob.name or "moving obstacle")
 
 
 class SimAdapter:
@@ -60,8 +78,8 @@ class SimAdapter:
         m = cam.mount
         self.T_base_optical = se3.transform(se3.rot_y(math.radians(m.pitch_deg)) @ se3.R_BODY_OPTICAL, (m.x, m.y, m.z))
         self.occupancy_grid: OccupancyGrid = static_map(scenario)
-        streams = np.random.SeedSequence(self.seed).spawn(4)
-        self._rng_start, self._rng_marker, self._rng_timing, self._rng_noise = (
+        streams = np.random.SeedSequence(self.seed).spawn(5)  # a fifth stream leaves the first four as they were
+        self._rng_start, self._rng_marker, self._rng_timing, self._rng_noise, self._rng_movers = (
             np.random.default_rng(s) for s in streams
         )
         self._static = static_footprints(scenario)
@@ -75,6 +93,8 @@ class SimAdapter:
         self._tau = 0.0  # the target's own progress clock (stops while the robot is in its way)
         self._target_pose = (0.0, 0.0, 0.0)
         self._target_blocked = False  # waiting because the robot stands in its way
+        self.target_gone_at: float | None = None  # when the target left the map (target.leave_at_end)
+        self.movers: list[Mover] = []
         self._cmd = Twist(0.0, 0.0)
         self._mode = "stop"  # "stop" | "twist" | "nav"
         self._goal_seq: int | None = None
@@ -106,6 +126,9 @@ class SimAdapter:
         if sc.target is not None:
             self.target_path = TargetPath(sc.target, self._rng_timing, r.timing_frac, sc.duration_s)
             self._target_pose = self.target_path.pose(0.0)
+        for ob in sc.moving_obstacles:
+            path = TargetPath(ob, self._rng_movers, r.timing_frac, sc.duration_s)
+            self.movers.append(Mover(ob, path, 0.0, path.pose(0.0)))
         self._sync_bodies()
         self._take_scan()
 
@@ -256,23 +279,44 @@ class SimAdapter:
         assert tg is not None
         return Footprint("box", x, y, yaw, tg.size[0] / 2, tg.size[1] / 2, name="target")
 
+    @property
+    def target_gone(self) -> bool:
+        return self.target_gone_at is not None
+
     def _obstacles_for_robot(self) -> list[Footprint]:
-        fps = [*self._static, *self._unknown]
-        if self.target_path is not None:
+        fps = [*self._static, *self._unknown, *(m.footprint() for m in self.movers)]
+        if self.target_path is not None and not self.target_gone:
             fps.append(self._target_footprint(*self._target_pose))
         return fps
 
+    def _would_crowd(self, now: Footprint, then: Footprint) -> bool:
+        """Moving from `now` to `then` would bring something closer than TARGET_ROBOT_GAP_M to the robot."""
+        assert self.base is not None
+        s, r = self.base.state, self.scenario.robot.radius
+        gap = then.distance(s.x, s.y) - r
+        return gap < TARGET_ROBOT_GAP_M and gap < now.distance(s.x, s.y) - r
+
     def _move_target(self, h: float) -> None:
-        if self.target_path is None or self.base is None:
+        if self.base is None:
+            return
+        for m in self.movers:  # they wait, as the target does, rather than drive into the robot
+            pose = m.path.pose(m.tau + h)
+            if pose != m.pose and self._would_crowd(m.footprint(), m.footprint(pose)):
+                continue
+            m.tau += h
+            m.pose = pose
+        if self.target_path is None or self.target_gone:
+            return
+        sc = self.scenario
+        if sc.target is not None and sc.target.leave_at_end and self._tau >= self.target_path.end_time:
+            self.target_gone_at = self.t  # through a door the map does not have: out of the world
+            self._target_blocked = False
             return
         pose = self.target_path.pose(self._tau + h)
-        s = self.base.state
-        gap = self._target_footprint(*pose).distance(s.x, s.y) - self.scenario.robot.radius
-        if gap < TARGET_ROBOT_GAP_M and pose != self._target_pose:
-            now_gap = self._target_footprint(*self._target_pose).distance(s.x, s.y) - self.scenario.robot.radius
-            if gap < now_gap:  # only wait when moving would bring it closer to the robot
-                self._target_blocked = True
-                return
+        if pose != self._target_pose and self._would_crowd(self._target_footprint(*self._target_pose),
+                                                           self._target_footprint(*pose)):  # fmt: skip
+            self._target_blocked = True
+            return
         self._target_blocked = False
         self._tau += h
         self._target_pose = pose
@@ -299,7 +343,12 @@ class SimAdapter:
         p = self.robot_pose
         self.world.set_robot_pose(p.x, p.y, p.yaw)
         if self.target_path is not None:
-            self.world.set_target_pose(*self._target_pose)
+            if self.target_gone:
+                self.world.remove_target()
+            else:
+                self.world.set_target_pose(*self._target_pose)
+        for i, m in enumerate(self.movers):
+            self.world.set_mover_pose(i, *m.pose)
 
     def _draw_start(self) -> tuple[float, float, float]:
         r, sp = self.scenario.random, self.scenario.robot
@@ -346,7 +395,7 @@ class SimAdapter:
         marker_T: np.ndarray | None = None
         all_markers: list[np.ndarray] = []
         los = fov = moving = False
-        if self.target_path is not None:
+        if self.target_path is not None and not self.target_gone:
             x, y, yaw = self._target_pose
             target = Pose2D(x, y, yaw)
             moving = self.target_path.moving(self._tau) and not self._target_blocked
@@ -372,5 +421,6 @@ class SimAdapter:
             target_in_fov=fov, T_map_dock=None if dock_T is None else dock_T.copy(), dock_in_los=dock_los,
             dock_in_fov=dock_fov, collisions=self.base.contacts, nav_status=self.navigator.status,
             T_map_target_markers=all_markers, collision_log=list(self.base.contact_log),
-            target_blocked=self._target_blocked,
+            target_blocked=self._target_blocked, target_gone=self.target_gone,
+            movers=[Pose2D(*m.pose) for m in self.movers],
         )  # fmt: skip

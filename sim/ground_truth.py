@@ -37,6 +37,8 @@ class GroundTruth:
     T_map_target_markers: list[np.ndarray] = field(default_factory=list)
     collision_log: list[str] = field(default_factory=list)  # what the robot ran into, one entry per contact
     target_blocked: bool = False  # the target is waiting because the robot stands in its way
+    target_gone: bool = False  # the target has left the map (target.leave_at_end); `target` is then None
+    movers: list[Pose2D] = field(default_factory=list)  # where each moving obstacle is
 
     @property
     def target_visible(self) -> bool:

@@ -113,6 +113,24 @@ class TargetSpec(StrictModel):
     turn_rate_dps: float = Field(120.0, gt=0)  # turning speed at waypoints (°/s)
     start_delay_s: float = Field(2.0, ge=0)  # standing still before it starts walking
     loop: bool = False  # after the last waypoint drive back to the first and around again
+    leave_at_end: bool = False  # after its last waypoint (and pause) it leaves the map: gone from the world
+
+    @model_validator(mode="after")
+    def _leaves_or_loops(self) -> TargetSpec:
+        if self.leave_at_end and self.loop:
+            raise ValueError("leave_at_end and loop cannot both be set: a looping target never reaches its end")
+        return self
+
+
+class MovingObstacle(Obstacle):
+    """An obstacle the map does not know that drives along waypoints (a cart, a person crossing): the lidar
+    and the camera see it; it waits while the robot stands in its way."""
+
+    waypoints: list[Waypoint] = Field(default_factory=list)  # its path, in order
+    speed_mps: float = Field(0.4, gt=0)  # driving speed (m/s)
+    turn_rate_dps: float = Field(90.0, gt=0)  # turning speed at waypoints (°/s)
+    start_delay_s: float = Field(0.0, ge=0)  # standing still before it starts
+    loop: bool = False  # after the last waypoint drive back to the first and around again
 
 
 class DockSpec(StrictModel):
@@ -195,10 +213,15 @@ class RandomSpec(StrictModel):
 
 
 class Success(StrictModel):
-    """What the runner checks at the end: follow (keep following), dock (docked within tolerance), mission."""
+    """What the runner checks at the end: follow, dock, mission (both), give_up (the search ends, with a reason).
 
-    kind: Literal["follow", "dock", "mission", "tree"] = "tree"  # follow, dock, both, or the tree SUCCESS
+    give_up is for a target that leaves the map (target.leave_at_end): the run succeeds when the tree fails
+    with the search's reason within give_up_within_s of the target leaving — it never searches for ever."""
+
+    kind: Literal["follow", "dock", "mission", "give_up", "tree"] = "tree"  # …, or tree: the tree's SUCCESS
     standoff_m: float = Field(0.30, gt=0)  # docking: camera-to-tag distance the dock means
+    min_tracking_fraction: float = Field(0.7, ge=0, le=1)  # follow: time in FOLLOW seeing it / the follow phase
+    give_up_within_s: float = Field(120.0, gt=0)  # give_up: the search must end with a reason this soon after
 
 
 class Blackout(StrictModel):
@@ -261,6 +284,7 @@ class Scenario(StrictModel):
     room: Room = Field(default_factory=Room)  # walls round the world
     obstacles: list[Obstacle] = Field(default_factory=list)  # static: in the pre-built map
     unknown_obstacles: list[Obstacle] = Field(default_factory=list)  # not in the map; the lidar sees them
+    moving_obstacles: list[MovingObstacle] = Field(default_factory=list)  # not in the map, driving along waypoints
     robot: RobotSpec = Field(default_factory=RobotSpec)  # our robot
     target: TargetSpec | None = None
     dock: DockSpec | None = None
@@ -312,6 +336,33 @@ def _check_point(
                     file=file,
                     key=key,
                 )
+
+
+LEG_STEP_M = 0.05
+
+
+def _check_legs(
+    sc: Scenario, start: Vec2, waypoints: list[Waypoint], loop: bool, clearance: float, key: str, file: str | None
+) -> None:
+    """Each leg of a path (start → waypoint → … → back to the start when it loops) keeps `clearance` from the
+    obstacles: nothing in the simulation stops a target walking through a cabinet, so the scenario must not
+    ask it to."""
+    points = [start, *((w.x, w.y) for w in waypoints)] + ([start] if loop and waypoints else [])
+    obstacles = [*sc.obstacles, *sc.unknown_obstacles]
+    for i in range(1, len(points)):
+        (ax, ay), (bx, by) = points[i - 1], points[i]
+        n = max(1, math.ceil(math.hypot(bx - ax, by - ay) / LEG_STEP_M))
+        for ob in obstacles:
+            for k in range(n + 1):
+                x, y = ax + (bx - ax) * k / n, ay + (by - ay) * k / n
+                if obstacle_distance(ob, x, y) < clearance:
+                    where = f"waypoints[{i - 1}]" if i <= len(waypoints) else "loop"
+                    raise ConfigError(
+                        f"the leg from ({ax:g}, {ay:g}) to ({bx:g}, {by:g}) passes through {ob.name or 'an obstacle'} "
+                        f"at ({x:.2f}, {y:.2f}) (needs {clearance:g} m clearance)",
+                        file=file,
+                        key=f"{key}.{where}",
+                    )
 
 
 def _check_code(dictionary_name: str, marker_id: int, key: str, file: str | None) -> None:
@@ -375,12 +426,25 @@ def check_geometry(sc: Scenario, file: str | None = None) -> None:
             sx, sy = sc.room.size
             if not (0 <= ob.x <= sx and 0 <= ob.y <= sy):
                 raise ConfigError(f"({ob.x:g}, {ob.y:g}) is outside the room", file=file, key=f"{group}[{i}]")
+    for i, mover in enumerate(sc.moving_obstacles):
+        key = f"moving_obstacles[{i}]"
+        reach = mover.radius if mover.shape == "cylinder" else 0.5 * math.hypot(mover.size[0], mover.size[1])
+        if mover.shape == "box" and min(mover.size) <= 0:
+            raise ConfigError(f"box size must be > 0, got {list(mover.size)}", file=file, key=f"{key}.size")
+        _check_point(sc, mover.x, mover.y, reach, key, file, unknown=False)
+        for j, wp in enumerate(mover.waypoints):
+            _check_point(sc, wp.x, wp.y, reach, f"{key}.waypoints[{j}]", file, unknown=False)
+        side = mover.radius if mover.shape == "cylinder" else 0.5 * min(mover.size[0], mover.size[1])
+        _check_legs(sc, (mover.x, mover.y), mover.waypoints, mover.loop, side, key, file)
+        if math.hypot(mover.x - sc.robot.x, mover.y - sc.robot.y) < reach + sc.robot.radius:
+            raise ConfigError("starts on top of the robot", file=file, key=key)
     if sc.target is not None:
         t = sc.target
         half = 0.5 * math.hypot(t.size[0], t.size[1])
         _check_point(sc, t.x, t.y, half, "target", file)
         for i, wp in enumerate(t.waypoints):
             _check_point(sc, wp.x, wp.y, half, f"target.waypoints[{i}]", file)
+        _check_legs(sc, (t.x, t.y), t.waypoints, t.loop, 0.5 * min(t.size[0], t.size[1]), "target", file)
         if math.hypot(t.x - sc.robot.x, t.y - sc.robot.y) < half + sc.robot.radius:
             raise ConfigError("target starts on top of the robot", file=file, key="target")
         for i, m in enumerate(t.markers):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mission.core.se3 import wrap_angle
-from mission.sim.scenario import TargetSpec
+from mission.sim.scenario import MovingObstacle, TargetSpec
 
 
 @dataclass(frozen=True)
@@ -39,9 +39,12 @@ class Segment:
 
 
 class TargetPath:
-    """Pose of the target as a function of its progress clock τ (seconds since the run started)."""
+    """Pose of the target (or of a moving obstacle) as a function of its progress clock τ (seconds since the run
+    started)."""
 
-    def __init__(self, spec: TargetSpec, rng: np.random.Generator, timing_frac: float, horizon_s: float) -> None:
+    def __init__(
+        self, spec: TargetSpec | MovingObstacle, rng: np.random.Generator, timing_frac: float, horizon_s: float
+    ) -> None:
         def jitter() -> float:
             return 1.0 + (rng.uniform(-timing_frac, timing_frac) if timing_frac > 0 else 0.0)
 

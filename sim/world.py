@@ -55,6 +55,7 @@ class WorldBodies:
     walls: list[int] = field(default_factory=list)
     obstacles: list[int] = field(default_factory=list)
     unknown: list[int] = field(default_factory=list)
+    movers: list[int] = field(default_factory=list)
     target: int | None = None
     dock: int | None = None
     dock_tag: int | None = None
@@ -119,6 +120,7 @@ class World:
                 self.bodies.walls.append(self._obstacle(ob, visual=not self.composite_room))
             self.bodies.obstacles = [self._obstacle(ob) for ob in sc.obstacles]
             self.bodies.unknown = [self._obstacle(ob) for ob in sc.unknown_obstacles]
+            self.bodies.movers = [self._obstacle(ob) for ob in sc.moving_obstacles]
             if sc.dock is not None:
                 self._build_dock()
             if sc.target is not None:
@@ -264,6 +266,17 @@ class World:
         q = self.p.getQuaternionFromEuler([0, 0, yaw])
         self.p.resetBasePositionAndOrientation(self.bodies.target, [x, y, self.sc.target.size[2] / 2], q,
                                                physicsClientId=self.cid)  # fmt: skip
+
+    def remove_target(self) -> None:
+        """The target has left the map: its body goes far below the floor, out of every camera and ray."""
+        if self.bodies.target is not None:
+            self.p.resetBasePositionAndOrientation(self.bodies.target, [0.0, 0.0, -100.0], [0, 0, 0, 1],
+                                                   physicsClientId=self.cid)  # fmt: skip
+
+    def set_mover_pose(self, i: int, x: float, y: float, yaw: float) -> None:
+        ob = self.sc.moving_obstacles[i]
+        q = self.p.getQuaternionFromEuler([0, 0, yaw])
+        self.p.resetBasePositionAndOrientation(self.bodies.movers[i], [x, y, ob.top / 2], q, physicsClientId=self.cid)
 
     def T_map_target(self, x: float, y: float, yaw: float) -> np.ndarray:
         """Pose of the target body's centre for a floor pose."""

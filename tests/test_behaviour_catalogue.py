@@ -13,7 +13,10 @@ from mission.trees.manifest import BuildContext
 CATALOGUE = {
     "PerceiveTargets": ("Action", {}),
     "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0)}),
-    "IsLineOfSightBlocked": ("Condition", {"target": (str, "target"), "min_misses": (int, 5)}),
+    "IsLineOfSightBlocked": (
+        "Condition",
+        {"target": (str, "target"), "min_misses": (int, 5), "target_radius_m": (float, 0.3)},
+    ),
     "FollowTarget": (
         "Action",
         {"target": (str, "target"), "offset_m": (float, 0.5), "window": (int, 5), "rate_hz": (float, 10.0)},
@@ -22,6 +25,73 @@ CATALOGUE = {
     "SearchSweep": (
         "Action",
         {"target": (str, "target"), "duration_s": (float, 20.0), "angular_speed": (float, 0.6)},
+    ),
+    "PursueLastSeen": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "horizon_s": (float, 2.0),
+            "speed_mps": (float, 0.35),
+            "look_s": (float, 1.0),
+            "min_timeout_s": (float, 2.0),
+            "max_timeout_s": (float, 12.0),
+            "max_standoff_m": (float, 3.0),
+            "clearance_m": (float, 0.35),
+        },
+    ),
+    "TurnToBearing": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "angular_speed": (float, 1.0),
+            "overshoot_deg": (float, 30.0),
+            "back_deg": (float, 180.0),
+            "horizon_s": (float, 2.0),
+        },
+    ),
+    "SearchBelief": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "timeout_s": (float, 25.0),
+            "target_speed_mps": (float, 1.0),
+            "view_range_m": (float, 4.0),
+            "min_mass": (float, 0.03),
+            "speed_mps": (float, 0.35),
+            "angular_speed": (float, 0.8),
+            "sweep_deg": (float, 90.0),
+            "spacing_m": (float, 0.4),
+            "max_travel_m": (float, 8.0),
+            "clearance_m": (float, 0.35),
+            "replan_s": (float, 1.0),
+        },
+    ),
+    "CoverUnseen": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "timeout_s": (float, 40.0),
+            "done_fraction": (float, 0.95),
+            "speed_mps": (float, 0.35),
+            "angular_speed": (float, 0.8),
+            "sweep_deg": (float, 90.0),
+            "spacing_m": (float, 0.4),
+            "max_travel_m": (float, 12.0),
+            "clearance_m": (float, 0.35),
+            "replan_s": (float, 1.0),
+        },
+    ),
+    "GiveUpSearch": ("Action", {"target": (str, "target")}),
+    "RotateSearch": (
+        "Action",
+        {
+            "target": (str, "target"),
+            "angle_deg": (float, 90.0),
+            "angular_speed": (float, 1.0),
+            "angular_tolerance": (float, 0.15),
+            "rounds": (int, 3),
+            "timeout_s": (float, 10.0),
+        },
     ),
     "Explore": (
         "Action",

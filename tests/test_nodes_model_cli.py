@@ -114,7 +114,7 @@ def test_an_installed_packages_behaviours_are_in_the_palette(tmp_path):
     out = tmp_path / "palette.xml"
     result = mission(["nodes-model", "-o", str(out)], site=site)
     assert result.returncode == 0, result.stderr
-    assert "TreeNodesModel of 12 behaviours" in result.stderr  # 10 shipped + Beacon + Radio
+    assert "TreeNodesModel of 18 behaviours" in result.stderr  # 16 shipped + Beacon + Radio
     models = _models(out.read_text())
     beacon = models["Beacon"]
     assert {p.get("name"): p.get("default") for p in beacon.findall("input_port")} == {"times": "3", "colour": "amber"}

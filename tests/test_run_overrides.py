@@ -32,13 +32,13 @@ def test_commas_inside_brackets_braces_or_quotes_belong_to_the_value():
 
 def test_the_run_is_prepared_with_every_kind_of_setting():
     overrides = run_overrides(["run.tick_hz=10", "camera.width=320", "sim.camera.height=240",
-                               "perception.policy=all", "HoldLastGoal.timeout_s=2"])  # fmt: skip
+                               "perception.policy=all", "PursueLastSeen.look_s=2"])  # fmt: skip
     run = prepare_run("follow_open", overrides=overrides)
     assert run.config.run.tick_hz == 10 and run.config.perception.policy == "all"
     assert (run.scenario.camera.width, run.scenario.camera.height) == (320, 240)
     assert run.scenario.camera.vfov_deg == 60.0  # a mapping merges: the rest of the section stays
     assert run.tree == "follow.xml"  # the scenario still chooses the tree: a config override sets only its keys
-    assert "HoldLastGoal" in check_prepared(run)
+    assert "PursueLastSeen" in check_prepared(run)
 
 
 def test_a_config_tree_set_on_the_command_line_wins_over_the_scenarios():
@@ -75,9 +75,9 @@ def test_the_report_trees_show_a_port_as_the_run_set_it_not_as_the_file_writes_i
     from mission.viz.probe import static_tree
 
     factory = shipped_factory()
-    factory.set_port("SearchSweep", "duration_s", 7.5)  # follow.xml writes duration_s="20"
+    factory.set_port("SearchBelief", "timeout_s", 7.5)  # follow.xml writes timeout_s="25"
     root = load_tree("follow.xml", factory)
     py_trees.trees.BehaviourTree(root)
     drawn = static_tree(root, resolve_tree_path("follow.xml"), factory)
-    search = next(n for n in drawn.walk() if n.type == "SearchSweep")
-    assert search.ports["duration_s"] == "7.5"
+    search = next(n for n in drawn.walk() if n.type == "SearchBelief")
+    assert search.ports["timeout_s"] == "7.5"

@@ -11,7 +11,10 @@ from mission.core.errors import ConfigError
 from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
 
-SHIPPED = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner", "vlm_discovery"]
+ORIGINAL = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner", "vlm_discovery"]
+# issue 15: worlds where turning in place cannot find the target again
+SEARCH_WORLDS = ["aisle", "hide_and_wait", "moving_occluder", "target_gone", "two_rooms"]
+SHIPPED = sorted(ORIGINAL + SEARCH_WORLDS)
 
 
 def write(tmp_path: Path, data: dict) -> str:
@@ -25,8 +28,8 @@ def test_the_shipped_scenarios_load_by_name_with_tag36h11_markers() -> None:
     for name in SHIPPED:
         sc = load_scenario(name)
         assert sc.name == name
-        assert sc.duration_s <= 90
-        assert sc.room.size == (8.0, 8.0)
+        assert sc.duration_s <= (150 if name == "target_gone" else 90)
+        assert name in SEARCH_WORLDS or sc.room.size == (8.0, 8.0)
         if sc.target is not None:
             assert sc.target.color[0] > 0.7 > sc.target.color[1]  # red
             assert {(m.dictionary, m.id, m.size_m) for m in sc.target.markers} == {("DICT_APRILTAG_36h11", 7, 0.20)}

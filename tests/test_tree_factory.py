@@ -165,13 +165,13 @@ def _nodes(root: py_trees.behaviour.Behaviour, cls_name: str) -> list[py_trees.b
 
 def test_a_port_set_on_a_factory_reaches_every_node_of_that_type_whatever_the_file_writes():
     factory = shipped_factory()
-    factory.set_port("SearchSweep", "angular_speed", 1)  # an int for a float port, as a user types it
-    factory.set_port("SearchSweep", "duration_s", 7.5)  # follow.xml writes duration_s="20"
-    searches = _nodes(load_tree("mission.xml", factory), "SearchSweep")
-    assert searches and all(n.params.angular_speed == 1.0 and n.params.duration_s == 7.5 for n in searches)
-    assert factory.port_values() == {"SearchSweep": {"angular_speed": 1.0, "duration_s": 7.5}}
-    untouched = _nodes(load_tree("mission.xml", shipped_factory()), "SearchSweep")
-    assert all(n.params.duration_s == 20.0 for n in untouched)  # only that factory changed; the file says 20
+    factory.set_port("SearchBelief", "angular_speed", 1)  # an int for a float port, as a user types it
+    factory.set_port("SearchBelief", "timeout_s", 7.5)  # follow.xml writes timeout_s="25"
+    searches = _nodes(load_tree("mission.xml", factory), "SearchBelief")
+    assert searches and all(n.params.angular_speed == 1.0 and n.params.timeout_s == 7.5 for n in searches)
+    assert factory.port_values() == {"SearchBelief": {"angular_speed": 1.0, "timeout_s": 7.5}}
+    untouched = _nodes(load_tree("mission.xml", shipped_factory()), "SearchBelief")
+    assert untouched and all(n.params.timeout_s == 25.0 for n in untouched)  # only that factory changed
 
 
 def test_a_port_value_out_of_its_range_is_the_trees_error_at_the_node(tmp_path):

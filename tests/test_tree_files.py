@@ -43,8 +43,8 @@ def shape(desc: TreeDescription) -> str:
 FOLLOW = (
     "ReactiveFallback:coordinator["
     "ReactiveSequence:FOLLOW[IsTargetVisible(target=target,max_misses=4),FollowTarget(target=target)],"
-    "ReactiveSequence:LOST[IsLineOfSightBlocked(target=target,min_misses=5),HoldLastGoal(target=target,timeout_s=3.0)],"
-    "SearchSweep(target=target,duration_s=20.0)]"
+    "ReactiveSequence:LOST[IsLineOfSightBlocked(target=target,min_misses=5),PursueLastSeen(target=target)],"
+    "SubTree(SearchTree)]"
 )
 CATALOGUE = {
     "explore.xml": "BehaviorTree[Explore(target=dock)]",

@@ -36,7 +36,7 @@ def test_svg_parses_and_shows_every_node_with_its_ports(tree, tmp_path):
     for name in node_names(tree):
         assert name in texts
     if tree == "follow.xml":
-        assert "max_misses = 4" in texts and "duration_s = 20.0" in texts
+        assert "max_misses = 4" in texts and "timeout_s = 25.0" in texts
 
 
 def test_text_formats_list_every_node_and_ascii_is_plain_ascii(capsys):

@@ -35,7 +35,11 @@ from mission.behaviours.lost import HoldLastGoal
 from mission.behaviours.mission_state import STATES, SetMissionState
 from mission.behaviours.perceive import PerceiveTargets
 from mission.behaviours.ports import PortsDeclared, unknown_port, wrong_type
+from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search import SearchSweep
+from mission.behaviours.search_give_up import GiveUpSearch
+from mission.behaviours.search_turn import RotateSearch, TurnToBearing
+from mission.behaviours.search_views import CoverUnseen, SearchBelief
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
 from mission.trees.builtins import BUILTINS, RESERVED_TAGS
@@ -150,7 +154,13 @@ def shipped_factory() -> BehaviourFactory:
         IsLineOfSightBlocked,
         FollowTarget,
         HoldLastGoal,
+        PursueLastSeen,
+        TurnToBearing,
+        SearchBelief,
+        CoverUnseen,
+        GiveUpSearch,
         SearchSweep,
+        RotateSearch,
         Explore,
         GoToStaging,
         VisualServoDock,

@@ -22,6 +22,8 @@ from mission.core.types import NavGoal, Pose2D, TargetTrack
 
 RANGE_BUCKETS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, 100.0))
 LOSS_STATES = (MissionState.LOST, MissionState.SEARCH)
+TRACKING_STATES = (MissionState.FOLLOW, *LOSS_STATES)  # the coordinator is in charge
+TARGET = "target"  # the followed target's name (perception.targets): the one ground truth's target is
 OCCLUSION_MIN_S = 0.5  # an occlusion this long must be detected (the design notes' latency bound)
 
 
@@ -87,7 +89,10 @@ class Occlusion:
     misclassification ("it left the view"), not a detection. A tree can call LOST a moment before the
     marker's centre is hidden (the marker's edge goes first, or the target turns away behind the obstacle):
     that occlusion counts, detected with latency 0. A sight line that breaks during SEARCH is not an
-    occlusion of a followed target.
+    occlusion of a followed target. The other way round, ground truth's line to the marker's centre can
+    graze an edge while the camera still reads the whole marker (the target walking past a door frame):
+    until the camera stops detecting it the tree cannot know, so the occlusion starts at the last detection
+    of the target when that comes after the line broke.
     """
 
     start: float  # ground truth: line of sight blocked while following (or already LOST)
@@ -133,8 +138,12 @@ class MetricsRecorder(RunObserver):
     pose_errors: dict[str, tuple[array, array]] = field(default_factory=dict)  # name → (ranges m, errors m)
     dock: DockErrors | None = None
     collisions: int = 0
+    target_gone_at: float | None = None  # ground truth: the target left the map (GroundTruth.target_gone)
+    gave_up_at: float | None = None  # the tree went from a loss state to FAILED (the search gave up)
+    gave_up_loss_start: float | None = None  # when that loss began
     _last_goal_seq: int = -1
     _last_det_stamp: dict[str, float] = field(default_factory=dict)
+    _target_seen: float | None = None  # stamp of the followed target's newest detection
     last_ground_truth: GroundTruthSample | None = None
 
     def on_tick(self, run: Any, tick: Tick) -> None:
@@ -162,10 +171,12 @@ class MetricsRecorder(RunObserver):
         self.fov.append(bool(gt.target_in_fov))
         self.target_distance.append(math.nan if gt.target is None else gt.robot.distance_to(gt.target))
         self.collisions = int(gt.collisions)
+        if self.target_gone_at is None and getattr(gt, "target_gone", False):
+            self.target_gone_at = t
         if state != prev:
             self.transitions.append((t, state))
             self._on_transition(t, prev, state, gt)
-        self._track_occlusion(t, state, gt)
+        self._track_occlusion(t, state, gt, self._target_detected(tracks))
         if nav_goal is not None and nav_goal.seq != self._last_goal_seq:
             self._last_goal_seq = nav_goal.seq
             if state == MissionState.FOLLOW:
@@ -179,13 +190,26 @@ class MetricsRecorder(RunObserver):
     def _on_transition(self, t: float, prev: str, state: str, gt: GroundTruthSample) -> None:
         if state in LOSS_STATES and prev not in LOSS_STATES:
             self.losses.append(LossEvent(start=t, state=state))
+        if state == MissionState.FAILED and prev in LOSS_STATES and self.gave_up_at is None and self.losses:
+            self.gave_up_at, self.gave_up_loss_start = t, self.losses[-1].start
         if state == MissionState.FOLLOW and self.losses and self.losses[-1].end is None:
             self.losses[-1].end = t
         if prev == MissionState.DOCK and state != MissionState.FAILED and gt.T_map_dock is not None:
             self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
 
-    def _track_occlusion(self, t: float, state: str, gt: GroundTruthSample) -> None:
+    def _target_detected(self, tracks: dict[str, TargetTrack] | None) -> float | None:
+        """The stamp of a detection of the followed target new this tick (None: no new one)."""
+        track = (tracks or {}).get(TARGET)
+        det = None if track is None else track.detection
+        if det is None or det.stamp == self._target_seen:
+            return None
+        self._target_seen = det.stamp
+        return det.stamp
+
+    def _track_occlusion(self, t: float, state: str, gt: GroundTruthSample, detected: float | None = None) -> None:
         open_occ = self.occlusions[-1] if self.occlusions and self.occlusions[-1].end is None else None
+        if open_occ is not None and open_occ.detected_at is None and detected is not None:
+            open_occ.start = max(open_occ.start, min(detected, t))  # still seen: not hidden from the camera yet
         if open_occ is None and not gt.target_in_los and gt.target is not None:
             prev_los = self.los[-2] if len(self.los) > 1 else True
             if prev_los and state == MissionState.FOLLOW:
@@ -213,8 +237,12 @@ class MetricsRecorder(RunObserver):
         ranges.append(rng)
         errors.append(float(np.linalg.norm(est - truth[:3, 3])))
 
-    def finish(self, gt: GroundTruthSample | None, final_state: str) -> None:
-        """Close open events at the end of the run (a dock that ends the run is measured here)."""
+    def finish(self, gt: GroundTruthSample | None, final_state: str, tree_failed: bool = False) -> None:
+        """Close open events at the end of the run (a dock that ends the run is measured here; a tree that
+        failed while the target was lost gave up then, whatever state its last leaf wrote)."""
+        lost = final_state in (*LOSS_STATES, MissionState.FAILED)
+        if tree_failed and lost and self.gave_up_at is None and self.losses and self.times:
+            self.gave_up_at, self.gave_up_loss_start = self.times[-1], self.losses[-1].start
         docked = final_state in (MissionState.DONE, MissionState.DOCK)
         if gt is not None and self.dock is None and docked and gt.T_map_dock is not None:
             self.dock = dock_errors(gt.T_map_optical, gt.T_map_dock, gt.robot.yaw, self.dock_standoff_m)
@@ -241,6 +269,19 @@ class MetricsRecorder(RunObserver):
                 a = xy[run[2:]]  # skip the first goals while the average settles
                 sds.append(float(math.sqrt(a[:, 0].var() + a[:, 1].var())))
         return max(sds) if sds else None
+
+    def tracking(self) -> tuple[float, float]:
+        """(seconds in FOLLOW with the target in view, seconds of the follow phase): the follow phase runs
+        from the first tick the coordinator was in charge (FOLLOW, LOST or SEARCH) to the end of the run;
+        "in view" is ground truth's — in the field of view and in line of sight."""
+        start = next((i for i, s in enumerate(self.states) if s in TRACKING_STATES), None)
+        if start is None or len(self.times) < 2:
+            return 0.0, 0.0
+        tracked = 0.0
+        for i in range(start, len(self.times) - 1):
+            if self.states[i] == MissionState.FOLLOW and self.los[i] and self.fov[i]:
+                tracked += self.times[i + 1] - self.times[i]
+        return tracked, self.times[-1] - self.times[start]
 
     def summary(self, duration: float) -> dict[str, Any]:
         latencies = [o.detected_at - o.start for o in self.occlusions if o.detected_at is not None]
@@ -279,10 +320,33 @@ class MetricsRecorder(RunObserver):
             "loss_recovery_fraction": None if not self.losses else round(1 - len(open_losses) / len(self.losses), 3),
             "reacquisition_time_s": _stats(reacq),
             "goal_jitter_sd_m": _round(self.goal_jitter_sd()),
+            **self._tracking_summary(),
+            **self._give_up_summary(),
             "detection_pose_error_by_range": pose,
             "dock": None if self.dock is None else {k: round(v, 4) for k, v in self.dock.__dict__.items()},
             "collisions": self.collisions,
         }
+
+
+    def _tracking_summary(self) -> dict[str, Any]:
+        tracked, phase = self.tracking()
+        return {
+            "tracking_s": round(tracked, 2),
+            "follow_phase_s": round(phase, 2),
+            "tracking_fraction": round(tracked / phase, 3) if phase > 0 else None,
+        }
+
+    def _give_up_summary(self) -> dict[str, Any]:
+        """When the target left the map and when (and how long after) the search gave up."""
+        out: dict[str, Any] = {"target_gone_at_s": _round(self.target_gone_at, 3), "gave_up_at_s": None,
+                               "give_up_after_loss_s": None, "give_up_after_gone_s": None}  # fmt: skip
+        if self.gave_up_at is not None:
+            out["gave_up_at_s"] = round(self.gave_up_at, 3)
+            if self.gave_up_loss_start is not None:
+                out["give_up_after_loss_s"] = round(self.gave_up_at - self.gave_up_loss_start, 3)
+            if self.target_gone_at is not None:
+                out["give_up_after_gone_s"] = round(self.gave_up_at - self.target_gone_at, 3)
+        return out
 
 
 def _xy(xs: array, ys: array) -> np.ndarray:

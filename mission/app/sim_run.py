@@ -31,7 +31,7 @@ from mission.perception_plugins.pipeline import source_statuses
 from mission.sim.adapter import SimAdapter
 from mission.sim.config import apply_overrides
 from mission.sim.faults import fault_summary, wrap_sources
-from mission.sim.scenario import Scenario, load_scenario
+from mission.sim.scenario import Scenario, Success, load_scenario
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import describe_tree
 
@@ -79,17 +79,34 @@ def choose_tree(cli_tree: str | None, config: MissionConfig, scenario: Scenario)
 
 OCCLUSION_LATENCY_S = 0.5  # design notes: detect occlusion within 0.5 s
 REACQUISITION_S = 10.0  # design notes: re-acquire the target within 10 s
+# issue 15: a follow run tracks the target (FOLLOW, in view) at least this fraction of the follow phase, and a
+# search for a target that has gone ends this soon after it went — the scenario's success keys, their defaults
+MIN_TRACKING_FRACTION: float = Success.model_fields["min_tracking_fraction"].default
+GIVE_UP_WITHIN_S: float = Success.model_fields["give_up_within_s"].default
 
 
 def evaluate(
-    kind: str, status: py_trees.common.Status, final_state: str, reason: str, summary: dict[str, Any], duration: float
+    kind: str,
+    status: py_trees.common.Status,
+    final_state: str,
+    reason: str,
+    summary: dict[str, Any],
+    duration: float,
+    *,
+    min_tracking_fraction: float = MIN_TRACKING_FRACTION,
+    give_up_within_s: float = GIVE_UP_WITHIN_S,
 ) -> tuple[bool, str]:
     """Did the mission succeed? The tree's verdict first, then the design notes' criteria on ground truth.
 
     dock: docked within 3 cm lateral / 2.5 cm distance / 10° skew. follow: every occlusion of 0.5 s or more
     called LOST within 0.5 s, every loss re-acquired within 10 s (one that began in the last 10 s of the run
-    may still be open), following at the end. mission: both.
+    may still be open), following at the end, and the target tracked — in FOLLOW and in view — for at least
+    `min_tracking_fraction` of the follow phase (a run LOST or SEARCHing most of the time did not follow).
+    mission: both. give_up: the target leaves the map; the tree must fail — the search ending with its
+    reason — within `give_up_within_s` of the target leaving, never searching on for ever.
     """
+    if kind == "give_up":
+        return _gave_up(status, final_state, reason, summary, give_up_within_s)
     if status == py_trees.common.Status.FAILURE:
         return False, reason or f"tree failed in state {final_state or '?'}"
     if summary.get("collisions", 0):
@@ -125,10 +142,39 @@ def evaluate(
             final_state != MissionState.FOLLOW and not recent
         ):
             return False, f"not following at the end (state {final_state or '?'})"
-        return True, "followed the target to the end"
+        tracked = summary.get("tracking_fraction")
+        if tracked is not None and tracked < min_tracking_fraction:
+            held, phase = summary.get("tracking_s", 0), summary.get("follow_phase_s", 0)
+            return False, (
+                f"target tracked {100 * tracked:.0f} % of the follow phase (< {100 * min_tracking_fraction:.0f} %): "
+                f"in FOLLOW with it in view {held:.0f} s of {phase:.0f} s"
+            )
+        in_view = "" if tracked is None else f", in view {100 * tracked:.0f} % of the follow phase"
+        return True, f"followed the target to the end{in_view}"
     if status == py_trees.common.Status.SUCCESS:
         return True, "tree succeeded"
     return False, f"time out after {duration:.0f} s in state {final_state or '?'}"
+
+
+def _gave_up(
+    status: py_trees.common.Status, final_state: str, reason: str, summary: dict[str, Any], within_s: float
+) -> tuple[bool, str]:
+    """give_up: the target left the map, and the tree failed soon after with the search's reason."""
+    if summary.get("collisions", 0):
+        return False, f"{summary['collisions']} collision(s)"
+    gone = summary.get("target_gone_at_s")
+    if gone is None:
+        return False, "the target never left the map (scenario: target.leave_at_end)"
+    if status != py_trees.common.Status.FAILURE:
+        return False, f"still searching {summary.get('duration_s', 0) - gone:.0f} s after the target left the map"
+    after = summary.get("give_up_after_gone_s")
+    if after is None or after < 0:
+        return False, f"the tree failed before the target left the map: {reason or final_state}"
+    if after > within_s:
+        return False, f"gave up {after:.0f} s after the target left the map (> {within_s:g} s)"
+    if not reason:
+        return False, "gave up without a reason"
+    return True, f"gave up {after:.0f} s after the target left the map: {reason}"
 
 
 @dataclass
@@ -204,6 +250,8 @@ def run_scenario(
     adapter = SimAdapter(scenario, seed=seed)
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
+    criteria = {k: float(getattr(success_spec, k)) for k in ("min_tracking_fraction", "give_up_within_s")
+                if hasattr(success_spec, k)}  # fmt: skip
     recorder = MetricsRecorder(dock_standoff_m=float(getattr(success_spec, "standoff_m", 0.30) or 0.30))
     world = adapter if robot is None else robot(adapter)
     runner = TreeRunner(config, world, prepared.tree if robot is None else None,
@@ -224,7 +272,7 @@ def run_scenario(
         status = runner.run(until=until, pacer=pacer)
         if robot is not None:
             status = world.tree_status()
-        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0)
+        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0, criteria)
         outcome.provenance = provenance
         runner.finish(outcome)
         return outcome, recorder, adapter
@@ -241,12 +289,14 @@ def _outcome(
     scenario: str,
     seed: int,
     wall0: float,
+    criteria: dict[str, float],
 ) -> RunOutcome:
     final_state = runner.get(bbk.STATE, "")
     sim_time = runner.elapsed()
-    recorder.finish(recorder.last_ground_truth, final_state)
+    recorder.finish(recorder.last_ground_truth, final_state, tree_failed=status == py_trees.common.Status.FAILURE)
     summary = recorder.summary(sim_time)
-    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time)
+    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time,
+                          **criteria)  # fmt: skip
     stats = dict(runner.get(bbk.PERCEPTION_STATS, {}) or {})
     signum = runner.stop_signal
     if signum is not None:

@@ -46,6 +46,11 @@ PERCEPTION_STATS = Key(
 
 # /target ------------------------------------------------------------------------------------------
 TRACKS = Key("/target/tracks", "dict[str, TargetTrack]", "per named target (config perception.targets)")
+BELIEFS = Key(
+    "/target/beliefs",
+    "dict[str, TargetBelief]",
+    "per named target, since it was lost: where it can be and what the camera has seen (LOST and SEARCH keep it)",
+)
 
 # /robot -------------------------------------------------------------------------------------------
 CLOCK = Key("/robot/clock", "float", "now, in the adapter's time base (sim time or ROS time), seconds")

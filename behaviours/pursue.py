@@ -1,0 +1,305 @@
+"""PursueLastSeen: the LOST state that looks — go where the target can be seen again, camera on it.
+
+When the target vanishes behind something, where it went is its last position carried on along its last
+velocity for ``horizon_s`` (the walk stops where it could not go on: a wall). The leaf drives to the
+nearest place, by the path the robot can drive, from which the camera sees that walk — its end and its
+middle, with a cell of margin, so the robot peeks round the edge of the occluder rather than stopping on
+the shadow's border — and arrives facing the predicted position. Where a place already sees it (the
+occluder has moved away, or the robot stands at the corner) that place is where the robot stands, turned
+toward it.
+
+When there is no heading to go by — the target stood still, or it was turning (a marker on the face of a
+target that turns at a corner swings round its centre, and a velocity fitted over that points the wrong
+way) — the leaf peeks round the edge instead: of the places the target could have walked to in
+``horizon_s`` that the camera cannot see from where the robot stands, it drives to the place that sees the
+most of them per second of driving, and sweeps the camera across them there.
+
+The loss timer is the detour's: its path length on the map over ``speed_mps``, plus the turn and
+``look_s`` of looking, within [``min_timeout_s``, ``max_timeout_s``] — a long way round a pillar is given
+the time it takes, a glance round a corner is not given more. It is set once per loss (when LOST is first
+entered) and counted from then; after it, or ``look_s`` after arriving, the leaf fails and SEARCH takes
+over; re-entering LOST before the target is seen again fails at once (one pursuit per loss).
+
+Every tick it keeps the loss's belief (behaviours/belief.py), so SEARCH knows what LOST has looked at.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import py_trees
+
+from mission.behaviours.approach import approach_goal, bearing_to
+from mission.behaviours.ports import port
+from mission.behaviours.search_grid import SearchGrid, dilate, ray_masses, travel_distances, view_cells
+from mission.behaviours.search_leaf import SearchLeaf, predicted_walk, turn_rate
+from mission.core import se3
+from mission.core.blackboard import MissionState
+from mission.core.types import NavGoal, NavStatus, Pose2D, TargetTrack
+
+ARRIVED_M = 0.25  # within this of the viewpoint, facing the target's way, counts as arrived
+FACING_RAD = 0.35
+MIN_STANDOFF_M = 0.7  # a viewpoint no closer than this to where the target went
+TURN_RATE = 1.0  # rad/s assumed for the loss timer's turn
+# Peeking round an edge (no heading to go by): what the target could have walked to unseen, and where from.
+PEEK_SPEED_MPS = 1.0
+PEEK_MIN_CELLS = 4  # fewer hidden cells than this: nothing to peek round
+PEEK_SPACING_M = 0.2
+PEEK_MAX_TRAVEL_M = 4.0
+PEEK_SEEN_FROM_HERE_M = 2.0  # beyond max_standoff_m: how far the robot's own view counts as seeing
+PEEK_REACH_M = 1.0  # beyond max_standoff_m: how far a viewpoint's view counts
+PEEK_MIN_SEEN = 0.5  # a place must see at least half of what the best place sees
+PEEK_AIM_M = 1.5  # the point faced: this far along the middle of the view
+PEEK_ARC_FRACTION = 0.05  # directions seeing this fraction of the best one's hidden cells are swept across
+RAYS = 72
+
+
+@dataclass
+class Pursuit:
+    """One loss's plan: where the target went, where to see it from, and the time allowed."""
+
+    episode: float  # the track's last_seen
+    last: tuple[float, float]
+    aim: tuple[float, float]  # where the target is predicted to be
+    view: Pose2D  # where to look from, facing `aim`
+    path_m: float  # the detour's length on the map
+    deadline: float
+    started: float
+    arrived_at: float | None = None
+    sweep_to: float | None = None  # peeking: after facing `aim`, turn to this heading across what it hides
+    swept: bool = False
+    done: str = ""  # why this loss's pursuit is over ('' while it goes on)
+    fallback: bool = False  # no place sees `aim`: heading for the last position instead
+
+
+class PursueLastSeen(SearchLeaf):
+    """LOST: drive to the nearest place that sees where the target went (facing it); the loss timer is the detour's."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        horizon_s: float = port(2.0, "carry the target on along its last velocity this long (stopping at walls)")
+        speed_mps: float = port(0.35, "the robot's average speed on a detour: the loss timer is path / speed + …")
+        look_s: float = port(1.0, "look from the viewpoint this long before SEARCH takes over")
+        min_timeout_s: float = port(2.0, "the loss timer is at least this")
+        max_timeout_s: float = port(12.0, "and at most this")
+        max_standoff_m: float = port(3.0, "the viewpoint is at most this far from where the target went")
+        clearance_m: float = port(0.35, "viewpoints keep this far from the map's obstacles (robot radius + margin)")
+
+        def __post_init__(self) -> None:
+            if min(self.horizon_s, self.look_s, self.min_timeout_s) < 0 or self.speed_mps <= 0:
+                raise ValueError("expected horizon_s, look_s, min_timeout_s ≥ 0 and speed_mps > 0")
+            if self.max_timeout_s < self.min_timeout_s:
+                raise ValueError(f"max_timeout_s {self.max_timeout_s:g} < min_timeout_s {self.min_timeout_s:g}")
+
+    NODE_TYPE = "Action"
+    params: Params
+
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.pursuit: Pursuit | None = None
+        self._goal: NavGoal | None = None
+
+    def initialise(self) -> None:
+        self._goal = None
+        self.feedback_message = f"LOST: {self.params.target}"
+
+    # -- planning ---------------------------------------------------------------------------------
+    def _plan(self, track: TargetTrack, robot: Pose2D, now: float) -> Pursuit:
+        p = self.params
+        assert track.pose_map is not None and track.last_seen is not None
+        last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
+        sg = self.grid()
+        if sg is None:  # no map: hold the last position (the old LOST), for the shortest timer
+            goal = approach_goal((robot.x, robot.y), last, 0.5)
+            return Pursuit(track.last_seen, last, last, goal, 0.0, now + p.min_timeout_s, now, fallback=True)
+        _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
+        peek = self._peek(sg, robot, last) if aim == last else None
+        sweep_to = None
+        if peek is not None:  # no heading to go by: look round the edge it vanished behind
+            view, path_m, sweep_to = peek
+            aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
+        else:
+            view, path_m = self._viewpoint(sg, robot, last, aim)
+        fallback = view is None
+        if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
+            view = approach_goal((robot.x, robot.y), aim, 0.5)
+            path_m = math.hypot(view.x - robot.x, view.y - robot.y)
+        turn = abs(se3.wrap_angle(view.yaw - robot.yaw)) / TURN_RATE
+        if sweep_to is not None:
+            turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
+        timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + turn + p.look_s))
+        return Pursuit(track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback,
+                       sweep_to=sweep_to)  # fmt: skip
+
+    def _viewpoint(
+        self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float], aim: tuple[float, float]
+    ) -> tuple[Pose2D | None, float]:
+        """The nearest place (path length) that sees `aim` and the middle of the walk to it, and the path length."""
+        p = self.params
+        blocked = self.sight_blocked(sg, robot)
+        mid = ((last[0] + aim[0]) / 2, (last[1] + aim[1]) / 2)
+        sees = np.ones(sg.shape, dtype=bool)
+        for point in (aim, mid):  # the places a point is seen from are the places it sees (same rays)
+            sees &= view_cells(sg, blocked, point, 0.0, 2 * math.pi, p.max_standoff_m, min_range_m=0.05)
+        sees &= ~dilate(~sees, 1)  # a cell of margin: the camera sees round the corner, not along its edge
+        xs, ys = sg.centres()
+        near = np.hypot(xs - aim[0], ys - aim[1])
+        drivable = sg.robot_free(p.clearance_m) & ~blocked
+        candidates = drivable & sees & (near >= MIN_STANDOFF_M)
+        if not candidates.any():
+            return None, 0.0
+        dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
+        cost = np.where(candidates, dist + 0.1 * near, np.inf)  # nearest by path; of equals, nearer the aim
+        r, c = np.unravel_index(int(np.argmin(cost)), cost.shape)
+        if not np.isfinite(cost[r, c]):
+            return None, 0.0
+        x, y = float(xs[r, c]), float(ys[r, c])
+        here = math.hypot(x - robot.x, y - robot.y) <= sg.resolution * 1.5
+        if here:
+            x, y = robot.x, robot.y
+        return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c])
+
+    def _peek(
+        self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float]
+    ) -> tuple[Pose2D, float, float | None] | None:
+        """Where to look round the edge the target vanished behind, when there is no heading to go by.
+
+        The places it could have walked to in ``horizon_s`` (at PEEK_SPEED_MPS, by the paths it can walk)
+        that the robot cannot see from where it stands are where it went; the place to drive to is the one
+        that sees most of them, turning, per second of driving (ties: the nearer). Returns that
+        place facing one edge of what it hides, the path length, and the heading of the other edge when
+        they are wider apart than the camera's field of view (to sweep across them), else None. None when
+        the robot sees all of them already (it vanished in plain view: nothing to peek round)."""
+        p = self.params
+        blocked = self.sight_blocked(sg, robot)
+        free = sg.target_free()
+        r0, c0 = sg.cell(*last)
+        walkable = travel_distances(free, (r0, c0), sg.resolution) <= PEEK_SPEED_MPS * p.horizon_s
+        cam = self.camera_pose(robot)
+        # hidden = out of sight from here, within PEEK_SEEN_FROM_HERE_M (farther than a viewpoint may stand from
+        # what it looks at, so what is merely far is not taken for hidden)
+        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
+                             min_range_m=0.05)  # fmt: skip
+        hidden = walkable & free & ~visible
+        if int(hidden.sum()) < PEEK_MIN_CELLS:
+            return None
+        drivable = sg.robot_free(p.clearance_m) & ~blocked
+        dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
+        rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
+        step = max(1, round(PEEK_SPACING_M / sg.resolution))
+        cand = drivable & (rows % step == 0) & (cols % step == 0) & (dist <= PEEK_MAX_TRAVEL_M)
+        idx = np.argwhere(cand)
+        if not len(idx):
+            return None
+        xs, ys = sg.centres()
+        cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
+        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
+        seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
+        travel = dist[idx[:, 0], idx[:, 1]]
+        score = seen / (travel / p.speed_mps + 1.0)
+        score[seen < PEEK_MIN_SEEN * max(float(seen.max()), 1e-9)] = 0.0
+        i = int(np.argmax(score))
+        if not score[i] > 0:
+            return None
+        x, y = float(cx[i]), float(cy[i])
+        ray = 2 * math.pi / RAYS
+        lo, hi = _arc(masses[i] > PEEK_ARC_FRACTION * float(masses[i].max()))
+        half = self.hfov() / 2
+        if (hi - lo) * ray <= 2 * half:  # one look covers it: face its middle
+            return Pose2D(x, y, se3.wrap_angle((lo + hi + 1) / 2 * ray)), float(travel[i]), None
+        edges = (se3.wrap_angle(lo * ray + half), se3.wrap_angle((hi + 1) * ray - half))
+        arrive = math.atan2(y - robot.y, x - robot.x)  # start at the edge nearer the way it arrives
+        first, second = sorted(edges, key=lambda a: abs(se3.wrap_angle(a - arrive)))
+        return Pose2D(x, y, first), float(travel[i]), second
+
+    # -- ticking ----------------------------------------------------------------------------------
+    def _look(self, plan: Pursuit, robot: Pose2D, now: float) -> bool:
+        """Peeking: turn across what the edge hides; True while turning (the look timer starts after)."""
+        if plan.sweep_to is None or plan.swept:
+            return False
+        error = se3.wrap_angle(plan.sweep_to - robot.yaw)
+        if abs(error) <= 0.1:
+            plan.swept, plan.arrived_at = True, now
+            return False
+        self.drive(0.0, turn_rate(error, 0.8))
+        self.feedback_message = f"LOST: looking round the edge it went behind, {math.degrees(abs(error)):.0f}° to go"
+        return True
+
+    def update(self) -> py_trees.common.Status:
+        p = self.params
+        track = self.track(p.target)
+        if track is None or track.last_seen is None or track.pose_map is None:
+            return self.fail(f"LOST: {p.target} was never placed in the map, nowhere to look")
+        state = self.robot()
+        if state is None:
+            return self.fail(self.waiting_for_pose("LOST: "))
+        now = self.now()
+        plan = self.pursuit
+        if plan is None or plan.episode != track.last_seen:
+            plan = self.pursuit = self._plan(track, state.pose, now)
+            self._goal = None
+        if plan.done:
+            return self.fail(plan.done)
+        self.set_state(MissionState.LOST)
+        belief = self.belief(track)
+        where = f"({plan.aim[0]:.2f}, {plan.aim[1]:.2f})"
+        if now > plan.deadline:
+            return self._finish(plan, belief, f"LOST: {p.target} not seen again within the loss timer "
+                                f"{plan.deadline - plan.started:.1f} s ({plan.path_m:.1f} m detour to see {where})")
+        v = plan.view
+        robot = state.pose
+        close = math.hypot(v.x - robot.x, v.y - robot.y) <= ARRIVED_M
+        facing = abs(bearing_to(robot, plan.aim)) <= FACING_RAD
+        if plan.arrived_at is None and close and facing:
+            plan.arrived_at = now
+        if plan.arrived_at is not None:
+            if self._look(plan, robot, now):
+                return py_trees.common.Status.RUNNING
+            if now - plan.arrived_at >= p.look_s:
+                seen_from = f"({v.x:.2f}, {v.y:.2f})"
+                return self._finish(plan, belief, f"LOST: looked from {seen_from} toward {where}, where "
+                                    f"{p.target} went: not there")
+            self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8) if not facing and not plan.swept else 0.0)
+            self.feedback_message = f"LOST: looking toward {where}, {now - plan.arrived_at:.1f} s of {p.look_s:g} s"
+            return py_trees.common.Status.RUNNING
+        if self._goal is None:
+            self._goal = self.navigate(v)
+        else:
+            outcome = self.nav_outcome(self._goal)
+            if outcome == NavStatus.FAILED:
+                return self._finish(plan, belief, f"LOST: cannot reach ({v.x:.2f}, {v.y:.2f}) to see {where}: "
+                                    f"{self.nav_reason() or 'navigation failed'}")
+            if outcome == NavStatus.SUCCEEDED and not facing:  # arrived not quite facing: turn on the spot
+                self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8))
+            else:
+                self.resend_goal(self._goal)
+        what = "the last position (nothing sees where it went)" if plan.fallback else f"see where it went, {where}"
+        self.feedback_message = (
+            f"LOST: to ({v.x:.2f}, {v.y:.2f}) to {what}; {plan.path_m:.1f} m detour, "
+            f"{now - plan.started:.1f} s of {plan.deadline - plan.started:.1f} s"
+        )
+        return py_trees.common.Status.RUNNING
+
+    def _finish(self, plan: Pursuit, belief: Any, why: str) -> py_trees.common.Status:
+        plan.done = why
+        if belief is not None:
+            belief.log.append(f"LOST went {plan.path_m:.1f} m to look ({self.now() - plan.started:.0f} s)")
+        return self.fail(why)
+
+
+def _arc(mask: np.ndarray) -> tuple[int, int]:
+    """(first, last) index of the shortest circular run of directions holding every True of `mask` (last may
+    exceed len(mask): it wraps)."""
+    on = np.flatnonzero(mask)
+    n = len(mask)
+    if len(on) == 0:
+        return 0, 0
+    gaps = np.diff(np.concatenate([on, [on[0] + n]]))  # gap after each on-direction to the next
+    k = int(np.argmax(gaps))  # the widest gap is outside the arc
+    first = int(on[(k + 1) % len(on)])
+    last = int(on[k]) if on[k] >= first else int(on[k]) + n
+    return first, last

@@ -1,0 +1,122 @@
+"""What the LOST and SEARCH leaves share: the loss's belief, the camera's pose and field of view, turning.
+
+Every leaf that runs while the target is lost keeps the one :class:`~mission.behaviours.belief.TargetBelief`
+of the loss up to date (it grows with time, the camera's view clears it), so each rung of the search ladder
+starts from what the ones before it saw. The camera is where the robot pose and the camera extrinsics put
+it; its horizontal field of view comes from the newest frame's intrinsics.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from mission.behaviours.belief import DEFAULT_SPEED_MPS, DEFAULT_VIEW_RANGE_M, TargetBelief
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.line_of_sight import fitted_velocity
+from mission.behaviours.search_grid import SearchGrid, search_grid, walk
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.blackboard import Key
+from mission.core.types import Frame, LaserScan, OccupancyGrid, Pose2D, TargetTrack
+
+DEFAULT_HFOV = math.radians(70.0)  # when no frame with intrinsics has arrived yet
+# The velocity a lost target walks on with is fitted over its last 0.6 s: a second (what the line-of-sight
+# check uses) still holds the leg before a corner the target has just turned, and points the search there.
+HEADING_WINDOW_S = 0.6
+
+
+class SearchLeaf(MissionLeaf):
+    """A leaf of the LOST / SEARCH states: commands the base and keeps the loss's belief."""
+
+    READS: ClassVar[tuple[Key, ...]] = (bbk.TRACKS, bbk.MAP, bbk.SCAN, bbk.FRAME)
+    WRITES: ClassVar[tuple[Key, ...]] = (bbk.BELIEFS,)
+    COMMANDS = True
+
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self._looked_at: float | None = None
+
+    # -- the camera ---------------------------------------------------------------------------------
+    def camera_pose(self, robot: Pose2D) -> tuple[float, float, float]:
+        """(x, y, yaw) of the camera's optical centre and viewing direction in the map."""
+        T = se3.planar(robot.x, robot.y, robot.yaw) @ self.extrinsics()
+        return float(T[0, 3]), float(T[1, 3]), math.atan2(float(T[1, 2]), float(T[0, 2]))
+
+    def hfov(self) -> float:
+        """The camera's horizontal field of view (rad), from the newest frame's intrinsics."""
+        frame: Frame | None = self.read(bbk.FRAME)
+        k = None if frame is None else frame.intrinsics
+        if k is None or not k.fx > 0 or not k.width:
+            return DEFAULT_HFOV
+        return 2.0 * math.atan2(k.width / 2.0, k.fx)
+
+    # -- the map ------------------------------------------------------------------------------------
+    def grid(self) -> SearchGrid | None:
+        occupancy: OccupancyGrid | None = self.read(bbk.MAP)
+        return None if occupancy is None else search_grid(occupancy)
+
+    def sight_blocked(self, sg: SearchGrid, robot: Pose2D) -> np.ndarray:
+        """What hides things from the camera now: the map's obstacles and whatever the lidar sees."""
+        scan: LaserScan | None = self.read(bbk.SCAN)
+        return sg.occupied | sg.scan_cells(scan, robot)
+
+    # -- the belief ---------------------------------------------------------------------------------
+    def belief(
+        self,
+        track: TargetTrack,
+        speed_mps: float | None = None,
+        view_range_m: float | None = None,
+    ) -> TargetBelief | None:
+        """This loss's belief (made now if no leaf made it yet), brought up to this tick's camera view.
+
+        `speed_mps` / `view_range_m`, when given, are the ones the rest of the loss uses (SearchBelief's
+        ports); until then the belief grows at DEFAULT_SPEED_MPS. None without a map or a robot pose."""
+        state = self.robot()
+        sg = self.grid()
+        if state is None or sg is None or track.last_seen is None or track.pose_map is None:
+            return None
+        beliefs: dict[str, TargetBelief] = dict(self.read(bbk.BELIEFS) or {})
+        belief = beliefs.get(track.name)
+        now = self.now()
+        if belief is None or belief.episode != track.last_seen or belief.grid is not sg:
+            last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
+            belief = TargetBelief.start(
+                track.name, track.last_seen, last, fitted_velocity(track, HEADING_WINDOW_S, steady=True), sg, now,
+                speed_mps=DEFAULT_SPEED_MPS if speed_mps is None else speed_mps,
+                view_range_m=DEFAULT_VIEW_RANGE_M if view_range_m is None else view_range_m,
+            )  # fmt: skip
+            beliefs[track.name] = belief
+            self.write(bbk.BELIEFS, beliefs)
+            self._looked_at = None
+        if speed_mps is not None:
+            belief.speed_mps = speed_mps
+        if view_range_m is not None:
+            belief.view_range_m = view_range_m
+        if self._looked_at != now:
+            cx, cy, yaw = self.camera_pose(state.pose)
+            belief.look(now, (cx, cy), yaw, self.hfov(), self.sight_blocked(sg, state.pose))
+            self._looked_at = now
+        return belief
+
+
+def turn_rate(error: float, max_rate: float, min_rate: float = 0.25) -> float:
+    """A turn command toward `error` (rad): proportional near the end, `max_rate` far from it."""
+    rate = min(max_rate, max(min_rate, 2.0 * abs(error)))
+    return math.copysign(rate, error)
+
+
+def predicted_walk(
+    sg: SearchGrid, free: np.ndarray, track: TargetTrack, horizon_s: float
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(last position, where the target is after walking on along its last velocity for `horizon_s`, stopped
+    at the first place it cannot walk through). The same point twice when it stood still."""
+    assert track.pose_map is not None
+    last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
+    v = fitted_velocity(track, HEADING_WINDOW_S, steady=True)
+    if v is None:
+        return last, last
+    end = (last[0] + v[0] * horizon_s, last[1] + v[1] * horizon_s)
+    return last, walk(free, sg, last, end)

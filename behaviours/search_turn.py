@@ -1,0 +1,259 @@
+"""Searching by turning in place: the ladder's first rung, and Nav2's following server's rotation (a baseline).
+
+* :class:`TurnToBearing` (SEARCH a) turns toward where the target went, the nearer way first, past it by
+  ``overshoot_deg``, then back the other way until ``back_deg`` beyond the bearing on the other side.
+  Where the target went is its last position carried on along its last velocity (``horizon_s``, stopped at
+  walls); when that bearing is within a few degrees of straight ahead, its sign says little, and the way
+  the target was crossing the view decides (it was last seen walking off to that side). A turn stops early
+  when the directions still to turn would show little of where the target can be (the loss's belief): where
+  turning in place cannot show the target, the rung hands over to the viewpoint search at once.
+* :class:`RotateSearch` is opennav_following's ``rotateToObject`` (Nav2, Kilted), the baseline the ladder
+  is measured against: from the heading it starts at, turn to +``angle_deg`` then to −``angle_deg`` (within
+  ``angular_tolerance``), up to ``rounds`` times (its ``max_retries``), each within ``timeout_s``
+  (``rotate_to_object_timeout``); then fail. Every round turns about the heading the search started at,
+  so it never looks more than ``angle_deg`` away from it (it "only rotates ±π/2", as issue 15 puts it).
+
+Both integrate the rotation from odometry (the robot's yaw), so a slow base still turns its full angle.
+One loss, one search: re-entered before the target is seen again, they go on where they were.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import py_trees
+
+from mission.behaviours.approach import bearing_to
+from mission.behaviours.belief import TargetBelief
+from mission.behaviours.leaf import MissionLeaf
+from mission.behaviours.line_of_sight import fitted_velocity
+from mission.behaviours.ports import port
+from mission.behaviours.search_grid import ray_masses
+from mission.behaviours.search_leaf import HEADING_WINDOW_S, SearchLeaf, predicted_walk, turn_rate
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.blackboard import MissionState
+
+AHEAD_RAD = math.radians(8.0)  # a predicted bearing this close to 0 says nothing about which way to turn
+RAYS = 72  # directions of the belief's mass round the robot (5° each)
+# A turn whose remaining directions would show less than this fraction of everywhere the target can be is
+# cut short: most of it is where turning here cannot look (behind the obstacle), and moving is what finds it.
+WORTH_FRACTION = 0.15
+
+
+@dataclass
+class Turn:
+    """One loss's turn in place: the two legs as cumulative angles (CCW +) from the start heading."""
+
+    episode: float | None
+    start_yaw: float
+    legs: list[float]  # cumulative angle to reach, leg by leg
+    directions: list[float]  # +1 (CCW) or -1 each leg turns
+    leg: int = 0
+    turned: float = 0.0  # cumulative signed rotation so far
+    yaw_prev: float | None = None
+    started: float = 0.0
+    skipped: int = 0  # legs cut short because nothing could be seen there
+    why: str = ""
+
+
+class TurnToBearing(SearchLeaf):
+    """SEARCH a: turn toward where the target went the nearer way, then the other way; FAILURE when both
+    turns are done."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        angular_speed: float = port(1.0, "rotation rate (rad/s)")
+        overshoot_deg: float = port(30.0, "turn this far past the predicted bearing before turning back")
+        back_deg: float = port(180.0, "then turn the other way until this far past the bearing on the other side")
+        horizon_s: float = port(2.0, "where the target went: its last velocity carried on this long")
+
+        def __post_init__(self) -> None:
+            if self.angular_speed <= 0 or self.overshoot_deg < 0 or self.back_deg < 0 or self.horizon_s < 0:
+                raise ValueError("expected angular_speed > 0 and overshoot_deg, back_deg, horizon_s ≥ 0")
+
+    NODE_TYPE = "Action"
+    params: Params
+
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.turn: Turn | None = None
+
+    def initialise(self) -> None:
+        track = self.track(self.params.target)
+        state = self.robot()
+        episode = None if track is None else track.last_seen
+        if self.turn is not None and self.turn.episode == episode and episode is not None:
+            self.turn.yaw_prev = None if state is None else state.pose.yaw
+            return  # re-entered within the same loss: go on with the same turn
+        yaw = state.pose.yaw if state is not None else 0.0
+        bearing, side = self._bearing()
+        o, b = math.radians(self.params.overshoot_deg), math.radians(self.params.back_deg)
+        legs = [side * (abs(bearing) + o), side * (abs(bearing) - b)]
+        self.turn = Turn(episode, yaw, legs, [side, -side], yaw_prev=None if state is None else yaw,
+                         started=self.now())  # fmt: skip
+        self.turn.why = f"predicted bearing {math.degrees(bearing):+.0f}°"
+
+    def _bearing(self) -> tuple[float, float]:
+        """(bearing of where the target went, relative to the robot's heading; the side to turn first: ±1)."""
+        track = self.track(self.params.target)
+        state = self.robot()
+        sg = self.grid()
+        if track is None or state is None or track.pose_map is None:
+            return 0.0, 1.0
+        if sg is not None:
+            _, aim = predicted_walk(sg, sg.target_free(), track, self.params.horizon_s)
+        else:
+            aim = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
+        bearing = bearing_to(state.pose, aim)
+        if abs(bearing) >= AHEAD_RAD:
+            return bearing, math.copysign(1.0, bearing)
+        v = fitted_velocity(track, HEADING_WINDOW_S, steady=True)
+        if v is not None and math.hypot(*v) > 0.05:  # crossing the view: it walked off to that side
+            across = math.sin(math.atan2(v[1], v[0]) - state.pose.yaw)
+            return bearing, 1.0 if across >= 0 else -1.0
+        return bearing, 1.0 if bearing >= 0 else -1.0
+
+    def _leg_empty(self, belief: TargetBelief | None, turn: Turn) -> bool:
+        """The directions the current leg still has to turn through show little of where the target can be."""
+        if belief is None:
+            return False
+        everywhere = belief.mass()
+        if everywhere <= 0:
+            return True
+        state = self.robot()
+        sg = self.grid()
+        if state is None or sg is None:
+            return False
+        cx, cy, cam_yaw = self.camera_pose(state.pose)
+        blocked = self.sight_blocked(sg, state.pose)
+        masses = ray_masses(sg, blocked, belief.weights(), np.array([cx]), np.array([cy]), RAYS, belief.view_range_m)[0]
+        half = self.hfov() / 2
+        target = turn.legs[turn.leg]
+        direction = turn.directions[turn.leg]
+        a0 = cam_yaw + direction * half  # the far edge of the view now
+        a1 = cam_yaw + (target - turn.turned) + direction * half
+        lo, hi = min(a0, a1), max(a0, a1)
+        if hi - lo >= 2 * math.pi:
+            return False
+        angles = np.arange(RAYS) * (2 * math.pi / RAYS)
+        inside = np.mod(angles - lo, 2 * math.pi) <= hi - lo
+        return float(masses[inside].sum()) < WORTH_FRACTION * everywhere
+
+    def update(self) -> py_trees.common.Status:
+        self.set_state(MissionState.SEARCH)
+        p = self.params
+        track = self.track(p.target)
+        turn = self.turn
+        assert turn is not None
+        belief = self.belief(track) if track is not None else None
+        state = self.robot()
+        if state is not None and turn.yaw_prev is not None:
+            turn.turned += se3.wrap_angle(state.pose.yaw - turn.yaw_prev)
+        turn.yaw_prev = state.pose.yaw if state is not None else None
+        while turn.leg < len(turn.legs):
+            if (turn.turned - turn.legs[turn.leg]) * turn.directions[turn.leg] >= -0.02:  # this leg is turned
+                turn.leg += 1
+                continue
+            if self._leg_empty(belief, turn):
+                turn.skipped += 1
+                turn.leg += 1
+                continue
+            break
+        if turn.leg >= len(turn.legs):
+            took = self.now() - turn.started
+            done = f"SEARCH a: turned toward {p.target}'s {turn.why} and back the other way ({took:.0f} s)"
+            if turn.skipped:
+                done += f"; {turn.skipped} turn(s) cut short: nothing it could be was left that way"
+            if belief is not None and not (belief.log and belief.log[-1].startswith("turned")):
+                belief.log.append(f"turned toward its bearing ({self.now() - turn.started:.0f} s)")
+            return self.fail(done)
+        error = turn.legs[turn.leg] - turn.turned
+        self.drive(0.0, turn_rate(error, p.angular_speed, 0.3))
+        side = "left" if error > 0 else "right"
+        self.feedback_message = (
+            f"SEARCH a: turning {side} ({'toward' if turn.leg == 0 else 'back past'} the {turn.why}), "
+            f"{math.degrees(abs(error)):.0f}° to go"
+        )
+        return py_trees.common.Status.RUNNING
+
+
+@dataclass
+class Rotation:
+    episode: float | None
+    round: int
+    start_yaw: float
+    heading: int  # 0: to +angle, 1: to −angle
+    round_started: float
+
+
+class RotateSearch(MissionLeaf):
+    """SEARCH (baseline): Nav2 opennav_following's rotation — to ±angle_deg of the start heading, `rounds`
+    times; then FAILURE."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        target: str = port("target", "name of the target (a key of perception.targets)")
+        angle_deg: float = port(90.0, "search_angle: turn to this far left, then this far right, of the start heading")
+        angular_speed: float = port(1.0, "rotation rate (rad/s)")
+        angular_tolerance: float = port(0.15, "a heading within this (rad) is reached")
+        rounds: int = port(3, "max_retries: rounds of ±angle_deg before giving up")
+        timeout_s: float = port(10.0, "rotate_to_object_timeout: one round's limit")
+
+        def __post_init__(self) -> None:
+            if self.angular_speed <= 0 or self.rounds < 1 or self.timeout_s <= 0 or self.angular_tolerance <= 0:
+                raise ValueError("expected angular_speed > 0, rounds ≥ 1, timeout_s > 0, angular_tolerance > 0")
+
+    NODE_TYPE = "Action"
+    READS = (bbk.TRACKS,)
+    COMMANDS = True
+    params: Params
+
+    def __init__(self, name: str | None = None, **ports: Any) -> None:
+        super().__init__(name, **ports)
+        self.rotation: Rotation | None = None
+
+    def initialise(self) -> None:
+        track = self.track(self.params.target)
+        episode = None if track is None else track.last_seen
+        if self.rotation is not None and self.rotation.episode == episode and episode is not None:
+            return
+        state = self.robot()
+        self.rotation = Rotation(episode, 1, state.pose.yaw if state is not None else 0.0, 0, self.now())
+
+    def update(self) -> py_trees.common.Status:
+        self.set_state(MissionState.SEARCH)
+        p = self.params
+        rot = self.rotation
+        state = self.robot()
+        assert rot is not None
+        if state is None:
+            self.halt()
+            self.feedback_message = self.waiting_for_pose("SEARCH (rotate): ")
+            return py_trees.common.Status.RUNNING
+        now = self.now()
+        if now - rot.round_started > p.timeout_s:
+            return self.fail(f"SEARCH (rotate ±{p.angle_deg:g}°): timed out rotating, round {rot.round} of {p.rounds}")
+        a = math.radians(p.angle_deg)
+        goal = rot.start_yaw + (a if rot.heading == 0 else -a)
+        error = se3.wrap_angle(goal - state.pose.yaw)
+        if abs(error) < p.angular_tolerance:
+            if rot.heading == 0:
+                rot.heading = 1
+            elif rot.round >= p.rounds:
+                return self.fail(f"SEARCH (rotate ±{p.angle_deg:g}°): {p.target} not found after {p.rounds} round(s)")
+            else:
+                rot.round, rot.heading, rot.round_started = rot.round + 1, 0, now  # ±angle of the same heading
+            goal = rot.start_yaw + (a if rot.heading == 0 else -a)
+            error = se3.wrap_angle(goal - state.pose.yaw)
+        self.drive(0.0, turn_rate(error, p.angular_speed, 0.2))
+        side = "left" if rot.heading == 0 else "right"
+        self.feedback_message = (
+            f"SEARCH (rotate): round {rot.round} of {p.rounds}, to {p.angle_deg:g}° {side}, "
+            f"{math.degrees(abs(error)):.0f}° to go"
+        )
+        return py_trees.common.Status.RUNNING

@@ -1,0 +1,322 @@
+"""The search ladder, rung by rung: LOST that looks (PursueLastSeen), SEARCH a (TurnToBearing), the belief of
+where a lost target can be, SEARCH b (SearchBelief: viewpoints by belief per second of travel), SEARCH d
+(GiveUpSearch), the opennav_following-style baseline (RotateSearch), and the own-footprint scan filter."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import py_trees
+import pytest
+from behaviour_world import EXTRINSICS, Scene, board, grid_with_boxes, marker_facing, read, scan_with_wall, tick
+
+from mission.behaviours.belief import TargetBelief
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked
+from mission.behaviours.pursue import PursueLastSeen
+from mission.behaviours.search_give_up import GiveUpSearch
+from mission.behaviours.search_grid import line_clear, search_grid
+from mission.behaviours.search_turn import RotateSearch, TurnToBearing
+from mission.behaviours.search_views import SearchBelief
+from mission.core import blackboard as bbk
+from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
+
+S = py_trees.common.Status
+
+
+def lost_at(x: float, y: float, *, last_seen: float = 0.0, walking: tuple[float, float] | None = None) -> TargetTrack:
+    """A target last seen at (x, y) at `last_seen`, walking at `walking` (m/s) for the second before."""
+    track = TargetTrack("target", last_seen=last_seen, misses=9, pose_map=marker_facing(x, y, math.pi))
+    if walking is not None:
+        vx, vy = walking
+        track.history = [(last_seen - 1.0 + 0.1 * i, x - vx * (1.0 - 0.1 * i), y - vy * (1.0 - 0.1 * i))
+                         for i in range(11)]  # fmt: skip
+    bbk.set_(board(), bbk.TRACKS, {"target": track})
+    return track
+
+
+def turns(scene: Scene, node: py_trees.behaviour.Behaviour, ticks: int) -> tuple[list[float], list[S]]:
+    """Cycle the node; the yaw rate it commanded and its status, tick by tick."""
+    rates, statuses = [], []
+    for _ in range(ticks):
+        statuses.append(scene.cycle(node))
+        twist = read(bbk.TWIST)
+        rates.append(twist.w if isinstance(twist, Twist) else 0.0)
+        if statuses[-1] != S.RUNNING:
+            break
+    return rates, statuses
+
+
+def legs(rates: list[float]) -> list[int]:
+    """The directions turned, in order: +1 left, −1 right (consecutive ticks the same way are one leg)."""
+    out: list[int] = []
+    for w in rates:
+        if abs(w) > 1e-9 and (not out or out[-1] != math.copysign(1, w)):
+            out.append(int(math.copysign(1, w)))
+    return out
+
+
+# ------------------------------------------------------------------------------------ SEARCH a
+def test_turn_to_bearing_turns_toward_the_target_the_nearer_way_first_then_back_the_other_way():
+    for (x, y), first in [((1.0, -2.0), -1), ((1.0, 2.0), +1)]:
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.1)
+        lost_at(x, y)
+        node = TurnToBearing(angular_speed=1.0)
+        rates, statuses = turns(scene, node, 200)
+        assert legs(rates) == [first, -first]
+        assert statuses[-1] == S.FAILURE and S.FAILURE not in statuses[:-1]
+        assert read(bbk.REASON).startswith(
+            f"SEARCH a: turned toward target's predicted bearing {math.degrees(math.atan2(y, x)):+.0f}° and back "
+            "the other way"
+        )
+
+
+def test_turn_to_bearing_goes_past_the_bearing_by_the_overshoot_before_turning_back():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.05)
+    lost_at(1.0, -1.0)  # 45° right
+    node = TurnToBearing(angular_speed=1.0, overshoot_deg=30.0)
+    yaws = []
+    for _ in range(400):
+        if scene.cycle(node) != S.RUNNING:
+            break
+        yaws.append(scene.robot.yaw)
+    assert math.degrees(min(yaws)) == pytest.approx(-75.0, abs=3.0)  # 45° + 30° to the right, then back left
+    assert scene.robot.yaw > math.radians(100)  # … to 180° − 45° = 135° past the start on the other side
+
+
+def test_straight_ahead_the_turn_follows_the_way_the_target_was_walking_across_the_view():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.1)
+    lost_at(2.0, 0.05, walking=(0.0, -0.6))  # 1° left of ahead, but it was walking off to the right
+    node = TurnToBearing()
+    scene.cycle(node)
+    assert read(bbk.TWIST).w < 0
+    assert node.feedback_message.startswith("SEARCH a: turning right (toward the predicted bearing")
+
+
+# ------------------------------------------------------------------------------------ the belief
+WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
+
+
+def test_the_belief_grows_with_the_targets_top_speed_and_does_not_go_through_walls():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+
+    def possible(x: float, y: float) -> bool:
+        return bool(belief.possible[sg.cell(x, y)])
+
+    assert possible(0.0, -1.0) and not possible(0.0, 0.5)  # at first: where it was last seen
+    belief.grow(2.0)  # two seconds at 1 m/s: 2.3 m round the last position
+    assert possible(0.0, 0.5) and possible(-1.5, -1.0) and not possible(-2.8, -1.0)
+    assert not possible(2.0, -1.0)  # 2 m away in a straight line, but through the wall: a long way round
+    belief.grow(9.0)
+    assert possible(2.0, -1.0)  # by now it could have walked round the north end
+
+
+def test_what_the_camera_sees_is_no_longer_where_the_target_can_be():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    unlooked = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    unlooked.grow(3.0)
+    belief.look(3.0, camera=(-2.0, -1.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    assert not belief.possible[sg.cell(0.0, -1.0)] and not belief.possible[sg.cell(0.5, -1.2)]  # in view
+    assert belief.possible[sg.cell(-2.0, 0.5)] and belief.possible[sg.cell(0.0, 1.8)]  # beside and beyond the view
+    assert belief.mass() < 0.9 * unlooked.mass()  # as much grew, less is left: the camera's view is cleared
+    assert 0 < belief.seen_fraction() < 1
+
+
+CORRIDOR = [(-7.0, 0.5, 7.0, 0.7), (-7.0, -0.7, 7.0, -0.5)]  # a corridor 1 m wide along x
+
+
+def test_the_target_cannot_get_past_the_camera_unseen():
+    # the robot looks down a corridor toward where the target was lost, beyond what its camera can read
+    sg = search_grid(grid_with_boxes(CORRIDOR, size_m=16.0))
+    belief = TargetBelief.start("target", 0.0, (5.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for k in range(1, 81):  # 8 s of looking, 10 looks a second
+        belief.look(0.1 * k, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    assert belief.radius_m > 6.5  # near enough by walking: the reach alone would allow it behind the robot
+    assert not belief.possible[sg.cell(-1.5, 0.0)]  # but only through the camera's view
+    assert not belief.possible[sg.cell(2.0, 0.0)]  # in view
+    assert belief.possible[sg.cell(6.5, 0.0)]  # beyond the view's range it can be
+
+
+def test_a_target_missed_in_plain_view_is_looked_for_where_the_camera_has_not_looked():
+    sg = search_grid(grid_with_boxes([]))
+    belief = TargetBelief.start("target", 0.0, (2.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for t in (0.1, 0.2, 0.3):  # everywhere it could have walked is in view, and it is not seen
+        belief.look(t, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    belief.grow(2.0)
+    assert (belief.possible & ~belief.seen).any()  # not nowhere: somewhere it has not looked
+
+
+def test_a_place_looked_at_fills_again_once_the_target_could_have_walked_back_into_it():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (-1.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    belief.grow(1.0)
+    belief.look(1.0, camera=(-3.0, -1.0), yaw=0.0, hfov=math.radians(30), blocked=sg.occupied)
+    here, aside = sg.cell(-1.0, -1.0), sg.cell(-1.0, -2.6)
+    assert not belief.possible[here]
+    belief.grow(4.0)  # no more looks: from either side of the narrow view it can have walked back
+    assert belief.possible[here] and belief.possible[aside]
+    w = belief.weights()
+    assert 0 < w[here] < w[aside] / belief.prior[aside] * belief.prior[here]  # looked at 3 s ago: worth less
+
+
+# ------------------------------------------------------------------------------------ SEARCH b
+def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belief_per_second():
+    # the target went behind the wall at (2, −1); round the north end is 2 m of driving, round the south end 6 m
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, clock=2.0)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = SearchBelief(target_speed_mps=0.6)
+    assert scene.cycle(node) == S.RUNNING
+    goal = read(bbk.NAV_GOAL)
+    assert goal is not None and read(bbk.STATE) == "SEARCH"
+    assert goal.pose.y > 0.6  # the north end: the south end sees the same place but costs three times the drive
+    sg = search_grid(grid)
+    assert line_clear(sg.occupied, sg, (goal.pose.x, goal.pose.y), (2.0, -1.0))  # it sees where the target went
+    assert node.feedback_message.startswith(f"SEARCH b: to ({goal.pose.x:.2f}, {goal.pose.y:.2f}) to look at where "
+                                            "it can be")  # fmt: skip
+
+
+def test_search_belief_gives_up_with_a_reason_when_its_time_is_up():
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL]), clock=2.0, dt=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = SearchBelief(timeout_s=3.0)
+    statuses = [scene.cycle(node) for _ in range(8)]
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON).startswith("SEARCH b: target not found in 3 s (searched where it could be for")
+
+
+# ------------------------------------------------------------------------------------ SEARCH d
+def test_give_up_search_fails_with_where_it_was_lost_what_was_tried_and_how_much_was_seen():
+    sg = search_grid(grid_with_boxes([WALL]))
+    track = lost_at(2.0, -1.0, last_seen=5.0)
+    belief = TargetBelief.start("target", track.last_seen, (2.0, -1.0), None, sg, now=5.0)
+    belief.log += ["LOST went 2.4 m to look (6 s)", "searched where it could be for 25 s, 4 viewpoint(s)"]
+    belief.seen[:, : sg.shape[1] // 2] = True  # the camera has seen half of the map
+    bbk.set_(board(), bbk.BELIEFS, {"target": belief})
+    w = board()
+    bbk.set_(w, bbk.CLOCK, 65.0)
+    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 65.0))
+    node = GiveUpSearch()
+    assert tick(node) == S.FAILURE
+    reason = read(bbk.REASON)
+    assert reason.startswith("SEARCH gave up: target not found 60 s after it was last seen at (2.00, -1.00): "
+                             "LOST went 2.4 m to look (6 s); searched where it could be for 25 s, 4 viewpoint(s); "
+                             "the camera saw ")  # fmt: skip
+    assert reason.endswith("% of where it could have walked — it has left, or hides where this robot cannot look")
+    assert read(bbk.STATE) == "FAILED" and read(bbk.TWIST) == Twist(0.0, 0.0)
+
+
+def test_give_up_search_says_so_when_the_target_was_never_seen():
+    bbk.set_(board(), bbk.TRACKS, {})
+    bbk.set_(board(), bbk.CLOCK, 1.0)
+    node = GiveUpSearch()
+    assert tick(node) == S.FAILURE and read(bbk.REASON) == "SEARCH gave up: target was never seen"
+
+
+# ------------------------------------------------------------------------------------ LOST that looks
+def test_lost_drives_to_where_the_camera_sees_where_the_target_went_facing_it_with_a_timer_for_the_detour():
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, clock=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0, walking=(0.0, -0.5))  # behind the wall, walking south
+    node = PursueLastSeen(speed_mps=0.35)
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    goal = read(bbk.NAV_GOAL)
+    plan = node.pursuit
+    sg = search_grid(grid)
+    assert line_clear(sg.occupied, sg, (goal.pose.x, goal.pose.y), plan.aim)  # from there it sees the target's way
+    aim_bearing = math.atan2(plan.aim[1] - goal.pose.y, plan.aim[0] - goal.pose.x)
+    assert abs(math.remainder(goal.pose.yaw - aim_bearing, 2 * math.pi)) < 1e-6  # and arrives facing it
+    assert plan.aim[1] < -1.0  # where it went: on along its last velocity, not where it was last seen
+    timer = plan.deadline - plan.started
+    assert timer >= plan.path_m / 0.35 and plan.path_m > 2.0  # a timer long enough for the detour
+    assert f"{plan.path_m:.1f} m detour" in node.feedback_message
+
+
+def test_with_no_heading_lost_peeks_round_the_edge_the_target_went_behind_sweeping_across_it():
+    # last seen at the wall's north end, standing still: it can have gone on round the end, out of sight
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(-0.5, -1.5, math.radians(60)), grid=grid, clock=0.5)
+    lost_at(0.9, 1.3, last_seen=0.0)
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    plan = node.pursuit
+    sg = search_grid(grid)
+    behind = (1.5, 0.6)  # round the end, on the far side of the wall: hidden from where the robot stands
+    assert not line_clear(sg.occupied, sg, (-0.5, -1.5), behind)
+    assert line_clear(sg.occupied, sg, (plan.view.x, plan.view.y), behind)  # from where it goes, in sight
+    assert plan.sweep_to is not None or abs(math.remainder(
+        math.atan2(behind[1] - plan.view.y, behind[0] - plan.view.x) - plan.view.yaw, 2 * math.pi)) < math.radians(35)
+
+
+def test_a_longer_detour_gets_a_longer_loss_timer():
+    timers = []
+    for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
+        bbk.set_(board(), bbk.BELIEFS, {})
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([wall]), clock=0.5)
+        lost_at(2.0, -1.0, last_seen=0.0)
+        node = PursueLastSeen()
+        scene.cycle(node)
+        timers.append(node.pursuit.deadline - node.pursuit.started)
+    assert timers[1] > timers[0] + 3.0
+
+
+def test_lost_hands_over_to_search_when_the_detour_takes_longer_than_its_timer():
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL]), clock=0.5, dt=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = PursueLastSeen(max_timeout_s=3.0)  # the navigator never moves the robot here
+    statuses = [scene.cycle(node) for _ in range(8)]
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON).startswith("LOST: target not seen again within the loss timer 3.0 s")
+    assert scene.cycle(node) == S.FAILURE  # one pursuit per loss: re-entered, it fails at once
+
+
+# ------------------------------------------------------------------------------------ the baseline
+def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_fails():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.05)
+    lost_at(2.0, 0.0)
+    node = RotateSearch()
+    yaws = []
+    statuses = []
+    for _ in range(2000):
+        statuses.append(scene.cycle(node))
+        yaws.append(scene.robot.yaw)
+        if statuses[-1] != S.RUNNING:
+            break
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON) == "SEARCH (rotate ±90°): target not found after 3 round(s)"
+    assert 80 < math.degrees(max(yaws)) < 95 and -95 < math.degrees(min(yaws)) < -80  # ±90° within 0.15 rad
+    rates = [b - a for a, b in itertools.pairwise(yaws)]
+    assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds about the start heading
+
+
+# ------------------------------------------------------------------------------------ no false occlusion
+def walked_away_with_a_scan_return_at(distance: float) -> None:
+    """The target walked straight away from the robot at 1 m/s to (3, 0), last seen a second ago; the lidar
+    sees something `distance` ahead."""
+    track = TargetTrack("target", last_seen=9.0, misses=6, pose_map=marker_facing(3.0, 0.0, math.pi))
+    track.history = [(8.0 + 0.1 * i, 2.0 + 0.1 * i, 0.0) for i in range(11)]
+    w = board()
+    bbk.set_(w, bbk.CLOCK, 10.0)
+    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 10.0))
+    bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
+    bbk.set_(w, bbk.TRACKS, {"target": track})
+    bbk.set_(w, bbk.MAP, grid_with_boxes([]))
+    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=distance))
+
+
+def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
+    # walking away at 1 m/s; it turned its marker away and stopped at (3.1, 0). A second later the prediction
+    # says (4, 0): the lidar sees its body at 3.1 m, nearer than the prediction — but that is the target
+    walked_away_with_a_scan_return_at(3.1)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.FAILURE and "left the view" in node.feedback_message
+    unfiltered = IsLineOfSightBlocked(target_radius_m=0.0)  # the check before the filter: a false occlusion
+    assert tick(unfiltered) == S.SUCCESS and "scan return 3.10 m away" in unfiltered.feedback_message
+
+
+def test_a_box_between_robot_and_target_is_still_an_occluder():
+    walked_away_with_a_scan_return_at(1.5)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS and "scan return 1.50 m away" in node.feedback_message
