@@ -46,6 +46,7 @@ MIN_STANDOFF_M = 0.7  # a viewpoint no closer than this to where the target went
 TURN_RATE = 1.0  # rad/s assumed for the loss timer's turn
 # Peeking round an edge (no heading to go by): what the target could have walked to unseen, and where from.
 PEEK_SPEED_MPS = 1.0
+STAY_M = 0.5  # a heading's viewpoint nearer than this (by path) is where the robot stands: peek instead
 PEEK_MIN_CELLS = 4  # fewer hidden cells than this: nothing to peek round
 PEEK_SPACING_M = 0.2
 PEEK_MAX_TRAVEL_M = 4.0
@@ -117,13 +118,18 @@ class PursueLastSeen(SearchLeaf):
             goal = approach_goal((robot.x, robot.y), last, 0.5)
             return Pursuit(track.last_seen, last, last, goal, 0.0, now + p.min_timeout_s, now, fallback=True)
         _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
-        peek = self._peek(sg, robot, last) if aim == last else None
-        sweep_to = None
-        if peek is not None:  # no heading to go by: look round the edge it vanished behind
-            view, path_m, sweep_to = peek
-            aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
-        else:
+        view, path_m, sweep_to = None, 0.0, None
+        if aim != last:
             view, path_m = self._viewpoint(sg, robot, last, aim)
+        # No heading, or one whose walk is seen from where the robot stands already (it ended at the corner):
+        # look round the edge it vanished behind.
+        if view is None or path_m < STAY_M:
+            peek = self._peek(sg, robot, last)
+            if peek is not None:
+                view, path_m, sweep_to = peek
+                aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
+            elif view is None:  # nothing hidden to peek round: where the last position is seen from
+                view, path_m = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
