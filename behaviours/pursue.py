@@ -46,6 +46,7 @@ MIN_STANDOFF_M = 0.7  # a viewpoint no closer than this to where the target went
 TURN_RATE = 1.0  # rad/s assumed for the loss timer's turn
 # Peeking round an edge (no heading to go by): what the target could have walked to unseen, and where from.
 PEEK_SPEED_MPS = 1.0
+STAY_M = 0.5  # a heading's viewpoint nearer than this (by path) is where the robot stands: peek instead
 PEEK_MIN_CELLS = 4  # fewer hidden cells than this: nothing to peek round
 PEEK_SPACING_M = 0.2
 PEEK_MAX_TRAVEL_M = 4.0
@@ -54,6 +55,8 @@ PEEK_REACH_M = 1.0  # beyond max_standoff_m: how far a viewpoint's view counts
 PEEK_MIN_SEEN = 0.5  # a place must see at least half of what the best place sees
 PEEK_AIM_M = 1.5  # the point faced: this far along the middle of the view
 PEEK_ARC_FRACTION = 0.05  # directions seeing this fraction of the best one's hidden cells are swept across
+PEEK_EDGE_RAD = math.radians(10.0)  # a sweep ends this far inside the view past the arc's edge: a marker must
+# be whole in the image to be read, so the image's outer strip does not count as seeing
 RAYS = 72
 
 
@@ -117,13 +120,18 @@ class PursueLastSeen(SearchLeaf):
             goal = approach_goal((robot.x, robot.y), last, 0.5)
             return Pursuit(track.last_seen, last, last, goal, 0.0, now + p.min_timeout_s, now, fallback=True)
         _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
-        peek = self._peek(sg, robot, last) if aim == last else None
-        sweep_to = None
-        if peek is not None:  # no heading to go by: look round the edge it vanished behind
-            view, path_m, sweep_to = peek
-            aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
-        else:
+        view, path_m, sweep_to = None, 0.0, None
+        if aim != last:
             view, path_m = self._viewpoint(sg, robot, last, aim)
+        # No heading, or one whose walk is seen from where the robot stands already (it ended at the corner):
+        # look round the edge it vanished behind.
+        if view is None or path_m < STAY_M:
+            peek = self._peek(sg, robot, last)
+            if peek is not None:
+                view, path_m, sweep_to = peek
+                aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
+            elif view is None:  # nothing hidden to peek round: where the last position is seen from
+                view, path_m = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
@@ -170,23 +178,21 @@ class PursueLastSeen(SearchLeaf):
 
         The places it could have walked to in ``horizon_s`` (at PEEK_SPEED_MPS, by the paths it can walk)
         that the robot cannot see from where it stands are where it went; the place to drive to is the one
-        that sees most of them, turning, per second of driving (ties: the nearer). Returns that
-        place facing one edge of what it hides, the path length, and the heading of the other edge when
-        they are wider apart than the camera's field of view (to sweep across them), else None. None when
-        the robot sees all of them already (it vanished in plain view: nothing to peek round)."""
+        that sees most of them, turning, per second of driving (ties: the nearer). (Sizing that walk by the
+        time the robot takes to get there was tried: behind a long wall it makes the hidden set the whole far
+        side, and the peek a slow half-turn sweep instead of a glance.) Returns that place facing one edge of
+        what it hides, the path length, and the heading of the other edge when they are wider apart than the
+        camera's field of view (to sweep across them), else None. None when the robot sees all of them already
+        (it vanished in plain view: nothing to peek round)."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
         free = sg.target_free()
-        r0, c0 = sg.cell(*last)
-        walkable = travel_distances(free, (r0, c0), sg.resolution) <= PEEK_SPEED_MPS * p.horizon_s
+        walk_m = travel_distances(free, sg.cell(*last), sg.resolution)
         cam = self.camera_pose(robot)
         # hidden = out of sight from here, within PEEK_SEEN_FROM_HERE_M (farther than a viewpoint may stand from
         # what it looks at, so what is merely far is not taken for hidden)
         visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
                              min_range_m=0.05)  # fmt: skip
-        hidden = walkable & free & ~visible
-        if int(hidden.sum()) < PEEK_MIN_CELLS:
-            return None
         drivable = sg.robot_free(p.clearance_m) & ~blocked
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
@@ -197,9 +203,12 @@ class PursueLastSeen(SearchLeaf):
             return None
         xs, ys = sg.centres()
         cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
+        travel = dist[idx[:, 0], idx[:, 1]]
+        hidden = (walk_m <= PEEK_SPEED_MPS * p.horizon_s) & free & ~visible
+        if int(hidden.sum()) < PEEK_MIN_CELLS:
+            return None
         masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
-        travel = dist[idx[:, 0], idx[:, 1]]
         score = seen / (travel / p.speed_mps + 1.0)
         score[seen < PEEK_MIN_SEEN * max(float(seen.max()), 1e-9)] = 0.0
         i = int(np.argmax(score))
@@ -208,7 +217,7 @@ class PursueLastSeen(SearchLeaf):
         x, y = float(cx[i]), float(cy[i])
         ray = 2 * math.pi / RAYS
         lo, hi = _arc(masses[i] > PEEK_ARC_FRACTION * float(masses[i].max()))
-        half = self.hfov() / 2
+        half = self.hfov() / 2 - PEEK_EDGE_RAD
         if (hi - lo) * ray <= 2 * half:  # one look covers it: face its middle
             return Pose2D(x, y, se3.wrap_angle((lo + hi + 1) / 2 * ray)), float(travel[i]), None
         edges = (se3.wrap_angle(lo * ray + half), se3.wrap_angle((hi + 1) * ray - half))

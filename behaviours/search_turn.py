@@ -5,8 +5,9 @@
   Where the target went is its last position carried on along its last velocity (``horizon_s``, stopped at
   walls); when that bearing is within a few degrees of straight ahead, its sign says little, and the way
   the target was crossing the view decides (it was last seen walking off to that side). A turn stops early
-  when the directions still to turn would show little of where the target can be (the loss's belief): where
-  turning in place cannot show the target, the rung hands over to the viewpoint search at once.
+  when the directions still to turn would show little of what a whole turn here could of where the target
+  can be (the loss's belief), and where turning in place cannot show the target at all (a whole turn would
+  show little of it), the rung hands over to the viewpoint search at once.
 * :class:`RotateSearch` is opennav_following's ``rotateToObject`` (Nav2, Kilted), the baseline the ladder
   is measured against: from the heading it starts at, turn to +``angle_deg`` then to −``angle_deg`` (within
   ``angular_tolerance``), up to ``rounds`` times (its ``max_retries``), each within ``timeout_s``
@@ -39,9 +40,20 @@ from mission.core.blackboard import MissionState
 
 AHEAD_RAD = math.radians(8.0)  # a predicted bearing this close to 0 says nothing about which way to turn
 RAYS = 72  # directions of the belief's mass round the robot (5° each)
-# A turn whose remaining directions would show less than this fraction of everywhere the target can be is
-# cut short: most of it is where turning here cannot look (behind the obstacle), and moving is what finds it.
+# Turning here is cut short when a whole turn would show less than WORTH_FRACTION of everywhere the target can
+# be (most of it is where turning here cannot look, behind the obstacle, and moving is what finds it), and a
+# leg is when the directions it still has to turn through (more than LEG_MIN_DEG of them) show less than
+# LEG_FRACTION of what a whole turn here would (what is left of the belief lies the other way).
 WORTH_FRACTION = 0.15
+LEG_FRACTION = 0.1
+LEG_MIN_DEG = 45.0  # a leg with less than this left is finished, not cut: under a second of turning
+# The first leg goes on past the predicted bearing's overshoot while the directions just beyond the view's edge
+# hold at least EDGE_FRACTION of the heaviest direction's share of the belief (the target turned a corner and
+# walked on past where the bearing said), by EDGE_STEP_DEG at a time and up to EDGE_MAX_DEG more.
+EDGE_FRACTION = 0.25
+EDGE_SPAN = 3  # rays beyond the edge looked at (15°)
+EDGE_STEP_DEG = 15.0
+EDGE_MAX_DEG = 90.0
 
 
 @dataclass
@@ -52,6 +64,7 @@ class Turn:
     start_yaw: float
     legs: list[float]  # cumulative angle to reach, leg by leg
     directions: list[float]  # +1 (CCW) or -1 each leg turns
+    extended: float = 0.0  # how far the first leg went on past its planned end (rad)
     leg: int = 0
     turned: float = 0.0  # cumulative signed rotation so far
     yaw_prev: float | None = None
@@ -118,6 +131,32 @@ class TurnToBearing(SearchLeaf):
             return bearing, 1.0 if across >= 0 else -1.0
         return bearing, 1.0 if bearing >= 0 else -1.0
 
+    def _ray_masses(self, belief: TargetBelief) -> tuple[np.ndarray, float] | None:
+        """(the belief's weight each direction round the camera sees, the camera's yaw); None without a pose
+        or map."""
+        state = self.robot()
+        sg = self.grid()
+        if state is None or sg is None:
+            return None
+        cx, cy, cam_yaw = self.camera_pose(state.pose)
+        blocked = self.sight_blocked(sg, state.pose)
+        weights = belief.weights()
+        return ray_masses(sg, blocked, weights, np.array([cx]), np.array([cy]), RAYS, belief.view_range_m)[0], cam_yaw
+
+    def _edge_holds(self, belief: TargetBelief | None, turn: Turn) -> bool:
+        """The directions just past the view's edge, the way the first leg turns, hold where the target can be."""
+        if belief is None or turn.leg != 0 or turn.extended >= math.radians(EDGE_MAX_DEG):
+            return False
+        rays = self._ray_masses(belief)
+        if rays is None or not rays[0].max() > 0:
+            return False
+        masses, cam_yaw = rays
+        direction = turn.directions[0]
+        edge = cam_yaw + direction * self.hfov() / 2
+        first = edge / (2 * math.pi / RAYS)
+        beyond = [math.floor(first + direction * (k + 0.5)) % RAYS for k in range(EDGE_SPAN)]
+        return float(masses[beyond].max()) >= EDGE_FRACTION * float(masses.max())
+
     def _leg_empty(self, belief: TargetBelief | None, turn: Turn) -> bool:
         """The directions the current leg still has to turn through show little of where the target can be."""
         if belief is None:
@@ -125,13 +164,13 @@ class TurnToBearing(SearchLeaf):
         everywhere = belief.mass()
         if everywhere <= 0:
             return True
-        state = self.robot()
-        sg = self.grid()
-        if state is None or sg is None:
+        rays = self._ray_masses(belief)
+        if rays is None:
             return False
-        cx, cy, cam_yaw = self.camera_pose(state.pose)
-        blocked = self.sight_blocked(sg, state.pose)
-        masses = ray_masses(sg, blocked, belief.weights(), np.array([cx]), np.array([cy]), RAYS, belief.view_range_m)[0]
+        masses, cam_yaw = rays
+        here = float(masses.sum())
+        if here < WORTH_FRACTION * everywhere:
+            return True
         half = self.hfov() / 2
         target = turn.legs[turn.leg]
         direction = turn.directions[turn.leg]
@@ -142,7 +181,7 @@ class TurnToBearing(SearchLeaf):
             return False
         angles = np.arange(RAYS) * (2 * math.pi / RAYS)
         inside = np.mod(angles - lo, 2 * math.pi) <= hi - lo
-        return float(masses[inside].sum()) < WORTH_FRACTION * everywhere
+        return float(masses[inside].sum()) < LEG_FRACTION * here
 
     def update(self) -> py_trees.common.Status:
         self.set_state(MissionState.SEARCH)
@@ -156,10 +195,16 @@ class TurnToBearing(SearchLeaf):
             turn.turned += se3.wrap_angle(state.pose.yaw - turn.yaw_prev)
         turn.yaw_prev = state.pose.yaw if state is not None else None
         while turn.leg < len(turn.legs):
-            if (turn.turned - turn.legs[turn.leg]) * turn.directions[turn.leg] >= -0.02:  # this leg is turned
+            to_go = (turn.legs[turn.leg] - turn.turned) * turn.directions[turn.leg]
+            step = math.radians(EDGE_STEP_DEG)
+            if turn.leg == 0 and to_go < step and self._edge_holds(belief, turn):
+                turn.legs[0] += turn.directions[0] * step  # what is just past the view is where it can be: go on
+                turn.extended += step
+                break
+            if to_go <= 0.02:  # this leg is turned
                 turn.leg += 1
                 continue
-            if self._leg_empty(belief, turn):
+            if to_go > math.radians(LEG_MIN_DEG) and self._leg_empty(belief, turn):
                 turn.skipped += 1
                 turn.leg += 1
                 continue
@@ -175,10 +220,11 @@ class TurnToBearing(SearchLeaf):
         error = turn.legs[turn.leg] - turn.turned
         self.drive(0.0, turn_rate(error, p.angular_speed, 0.3))
         side = "left" if error > 0 else "right"
-        self.feedback_message = (
-            f"SEARCH a: turning {side} ({'toward' if turn.leg == 0 else 'back past'} the {turn.why}), "
-            f"{math.degrees(abs(error)):.0f}° to go"
-        )
+        if turn.leg == 0 and turn.extended:
+            how = f"on {math.degrees(turn.extended):.0f}° past the {turn.why}: where it can be goes on that way"
+        else:
+            how = f"{'toward' if turn.leg == 0 else 'back past'} the {turn.why}"
+        self.feedback_message = f"SEARCH a: turning {side} ({how}), {math.degrees(abs(error)):.0f}° to go"
         return py_trees.common.Status.RUNNING
 
 

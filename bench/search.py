@@ -24,7 +24,10 @@ Knobs (environment): ``MISSION_BENCH_SEEDS`` (ladder seeds per scenario, default
 ``MISSION_BENCH_BASELINE_SEEDS`` (the baselines', default the same), ``MISSION_BENCH_SCENARIOS``
 (comma-separated; default all ten), ``MISSION_BENCH_SEARCHES`` (default ``ladder,sweep,rotate``),
 ``MISSION_BENCH_WORKERS`` (default one per core), ``MISSION_BENCH_BUDGET_S`` (stop starting runs after this
-many wall seconds in all; what finished is reported). The full acceptance run is ``mission bench --only search``.
+many wall seconds in all; what finished is reported). The full acceptance run is ``mission bench --only search``:
+about four hours on two cores, so it resumes — each sweep directory keeps the runs it finished while the code
+(the installed mission's source, by content), the tree and the run length stay the same, and starts afresh
+otherwise; run the same command again to go on.
 """
 
 from __future__ import annotations
@@ -42,6 +45,8 @@ from bench.common import Figure, pct, progress, save_figure
 from bench.missions import aggregate
 from mission.app.sweep.engine import run_sweep
 from mission.app.sweep.plan import SweepPlan
+from mission.app.sweep.store import SweepStore
+from mission.app.sweep.table import read_jsonl
 from mission.core.files import atomic_write_text
 from mission.trees.loader import TREES_DIR
 
@@ -113,16 +118,43 @@ def sweeps(
         if n <= 0 or (left is not None and left <= 0):
             continue
         trees = variant_trees(search, out)
-        tree_path = None if search == "ladder" else str(trees / tree)
+        tree_path = None if search == "ladder" else _relative(trees / tree)
         sweep_dir = out / "search_sweeps" / f"{search}__{Path(tree).stem}"
-        shutil.rmtree(sweep_dir, ignore_errors=True)  # a benchmark measures, it never resumes
         plan = SweepPlan(tuple(group), tuple(range(n)), tree=tree_path, max_duration=max_duration, pictures="all")
-        progress(f"search: {search} on {', '.join(group)} × {n} seeds ({tree})")
+        kept = _resumable(sweep_dir, plan)
+        progress(f"search: {search} on {', '.join(group)} × {n} seeds ({tree})"
+                 + (f"; {kept} runs of the same code finished before, kept" if kept else ""))  # fmt: skip
         outcome = run_sweep(plan, sweep_dir, workers=workers, progress=True, budget_s=left)
         dirs.append(sweep_dir.relative_to(out).as_posix())
+        wanted = {r.run_id for r in plan.runs()}
         for r in outcome.rows:
-            rows.append({**r, "search": search, "sweep_dir": sweep_dir.relative_to(out).as_posix()})
+            if r["run_id"] in wanted:
+                rows.append({**r, "search": search, "sweep_dir": sweep_dir.relative_to(out).as_posix()})
     return rows, dirs
+
+
+def _relative(path: Path) -> str:
+    """`path` relative to the working directory when it is under it: a sweep's identity holds the tree's path,
+    and a checkout elsewhere (a fresh clone resuming committed rows) must give the same one."""
+    try:
+        return path.resolve().relative_to(Path.cwd().resolve()).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def _resumable(sweep_dir: Path, plan: SweepPlan) -> int:
+    """How many runs `sweep_dir` holds that this plan can keep; a directory made by other code, another tree
+    or another --max-duration is emptied first (a benchmark never mixes two versions of the code).
+
+    The acceptance run is hours on two cores: it may be cut (MISSION_BENCH_BUDGET_S, a stopped session) and
+    resumed, and each sweep directory's runs.jsonl and sweep.json may be committed to carry the finished rows
+    to another checkout (bench/results/search_sweeps/*/runs/ — reports and pictures — is not committed)."""
+    store = SweepStore(sweep_dir)
+    if store.info().get("identity") != plan.identity():
+        shutil.rmtree(sweep_dir, ignore_errors=True)
+        return 0
+    wanted = {r.run_id for r in plan.runs()}
+    return sum(1 for r in read_jsonl(store.rows_path) if r.get("run_id") in wanted)
 
 
 def summarise(name: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -253,6 +285,25 @@ def _plot(cells: dict[str, dict[str, Any]], out: Path) -> str | None:
     return name
 
 
+def _trajectories(row: dict[str, Any], search: str, out: Path) -> Path:
+    """The run's trajectories picture; for a row carried over from another checkout (its report folder was
+    not committed) the run is made again, into ``<out>/search_typical/`` — the simulation is deterministic
+    per seed, and a run made again that ends otherwise than its row is an error (the rows are not of this
+    code)."""
+    picture = out / row["sweep_dir"] / row["report_dir"] / "trajectories.png"
+    if picture.is_file():
+        return picture
+    tree = None if search == "ladder" else _relative(variant_trees(search, out) / _tree_of(row["scenario"]))
+    plan = SweepPlan((row["scenario"],), (int(row["seed"]),), tree=tree, pictures="all")
+    again = run_sweep(plan, out / "search_typical" / search, workers=1, progress=False, summary=False)
+    redo = next(iter(again.rows))
+    picture = out / "search_typical" / search / redo["report_dir"] / "trajectories.png"
+    if redo["success"] != row["success"] or redo["reason"] != row["reason"]:
+        raise RuntimeError(f"{search} {row['scenario']} seed {row['seed']}: made again, it gave '{redo['reason']}' "
+                           f"where the recorded row says '{row['reason']}' — the rows are not of this code")
+    return picture
+
+
 def _typical(rows: list[dict[str, Any]], out: Path) -> str | None:
     """The trajectories of one run of TYPICAL_SCENARIO, a seed every search ran, side by side: the seed whose
     ladder re-acquisition time is the median of the ladder's runs (a typical search, not the best)."""
@@ -273,7 +324,7 @@ def _typical(rows: list[dict[str, Any]], out: Path) -> str | None:
     fig, axes = plt.subplots(1, len(searches), figsize=(5.5 * len(searches), 3.8))
     for ax, search in zip(np.atleast_1d(axes), searches, strict=True):
         r = next(o for o in rows if o["search"] == search and o["scenario"] == TYPICAL_SCENARIO and o["seed"] == seed)
-        ax.imshow(plt.imread(out / r["sweep_dir"] / r["report_dir"] / "trajectories.png"))
+        ax.imshow(plt.imread(_trajectories(r, search, out)))
         ax.set_axis_off()
         verdict = "succeeded" if r["success"] else "failed"
         ax.set_title(f"{search}: {verdict}\n{str(r['reason'])[:70]}", fontsize=7)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
 import py_trees
 import pytest
 from behaviour_world import EXTRINSICS, Scene, board, grid_with_boxes, marker_facing, read, scan_with_wall, tick
@@ -91,6 +92,33 @@ def test_straight_ahead_the_turn_follows_the_way_the_target_was_walking_across_t
     scene.cycle(node)
     assert read(bbk.TWIST).w < 0
     assert node.feedback_message.startswith("SEARCH a: turning right (toward the predicted bearing")
+
+
+def test_the_first_turn_goes_on_past_the_overshoot_while_what_is_beside_the_view_is_where_the_target_can_be():
+    # lost 18° to the right: the first leg is planned to 18° + 30°. Where the target can be is fixed (a belief that
+    # does not grow): a patch ahead on the left, and — or not — a strip far round to the right (a corridor it
+    # walked down after turning a corner).
+    def lowest_yaw(strip: bool) -> float:
+        grid = grid_with_boxes([])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(1.5, -0.5, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (1.5, -0.5), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        front = (np.hypot(xs - 1.5, ys - 2.5) < 0.8)  # ahead on the left
+        if strip:
+            front |= (np.abs(xs - 0.2) < 0.3) & (ys < -1.0) & (ys > -3.5)  # round to the right, -85° or so
+        belief.front = front
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = TurnToBearing(angular_speed=1.0, overshoot_deg=30.0)
+        lowest = 0.0
+        for _ in range(60):  # 3 s: the first leg and the start of the second
+            scene.cycle(node)
+            lowest = min(lowest, scene.robot.yaw)
+        return math.degrees(lowest)
+
+    assert lowest_yaw(strip=True) < -48.0 - 15.0  # it turned on until the strip came into view
+    assert lowest_yaw(strip=False) > -48.0 - 4.0  # nothing there: no further than planned (here: not at all)
 
 
 # ------------------------------------------------------------------------------------ the belief

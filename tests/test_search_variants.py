@@ -74,3 +74,17 @@ def test_a_moving_obstacle_may_not_drive_through_a_static_one():
             "moving_obstacles": [{"name": "cart", "shape": "box", "x": 2.0, "y": 4.0, "size": [0.6, 0.4, 1.0],
                                   "waypoints": [{"x": 6.0, "y": 4.0}]}],
         })  # fmt: skip
+
+
+def test_the_acceptance_run_keeps_the_finished_runs_of_the_same_code_and_drops_any_other(tmp_path):
+    from bench.search import _resumable
+    from mission.app.sweep.engine import run_sweep
+    from mission.app.sweep.plan import SweepPlan
+
+    plan = SweepPlan(("follow_open",), (0,), max_duration=1.0, pictures="none")
+    assert _resumable(tmp_path / "sweep", plan) == 0  # nothing yet
+    run_sweep(plan, tmp_path / "sweep", workers=1, progress=False, summary=False)
+    assert _resumable(tmp_path / "sweep", plan) == 1  # cut here (a stopped session): this run is kept
+    assert _resumable(tmp_path / "sweep", SweepPlan(("follow_open",), (0, 1), max_duration=1.0, pictures="none")) == 1
+    other = SweepPlan(("follow_open",), (0,), max_duration=2.0, pictures="none")  # not the same runs
+    assert _resumable(tmp_path / "sweep", other) == 0 and not (tmp_path / "sweep").exists()

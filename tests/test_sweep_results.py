@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 
 from mission import cli
+from mission.app.provenance import files_fingerprint, source_fingerprint
 from mission.app.sweep.compare import compare_sweeps
 from mission.app.sweep.plan import SweepPlan, parse_seeds
 from mission.app.sweep.stats import Rate, compare
@@ -84,6 +86,33 @@ def test_a_sweep_directory_resumes_only_with_what_its_outcomes_depend_on(tmp_pat
     SweepStore(tmp_path).open(SweepPlan.from_args("follow_open", "0-9", max_duration=5.0))  # more seeds: fine
     with pytest.raises(Exception, match=r"holds a sweep made with another max_duration_s .*5\.0.*this one.*None"):
         SweepStore(tmp_path).open(SweepPlan.from_args("follow_open", "0-1"))
+
+
+def test_a_sweep_directory_made_by_other_code_is_not_resumed(tmp_path):
+    plan = SweepPlan.from_args("follow_open", "0-1")
+    SweepStore(tmp_path).open(plan)
+    sweep = json.loads((tmp_path / "sweep.json").read_text())
+    assert sweep["identity"]["source"] == source_fingerprint()
+    sweep["identity"]["source"] = "0" * 64  # what another version of mission wrote
+    (tmp_path / "sweep.json").write_text(json.dumps(sweep))
+    with pytest.raises(Exception, match=r"holds a sweep made with another source"):
+        SweepStore(tmp_path).open(plan)
+
+
+def test_the_source_fingerprint_changes_with_the_code_and_only_with_the_code(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "t.xml").write_text("<root/>\n")
+    first = files_fingerprint([("pkg", pkg)])
+    (pkg / "notes.png").write_bytes(b"not source")
+    assert files_fingerprint([("pkg", pkg)]) == first  # a picture is not code
+    (pkg / "sub" / "t.xml").write_text("<root BTCPP_format='4'/>\n")
+    assert files_fingerprint([("pkg", pkg)]) != first  # a tree is
+    (pkg / "sub" / "t.xml").write_text("<root/>\n")
+    assert files_fingerprint([("pkg", pkg)]) == first
+    (pkg / "a.py").rename(pkg / "b.py")
+    assert files_fingerprint([("pkg", pkg)]) != first  # the same bytes under another name are other code
 
 
 def test_rates_carry_wilson_intervals_and_flipped_seeds_decide_a_paired_comparison():

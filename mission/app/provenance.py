@@ -18,6 +18,7 @@ import platform
 import subprocess
 import sys
 from collections.abc import Iterable
+from functools import lru_cache
 from importlib import metadata
 from importlib.util import find_spec
 from pathlib import Path
@@ -71,6 +72,39 @@ def run_provenance(
         "packages": package_versions(),
         "source": source_revision(),
     }
+
+
+# The packages whose source decides a run's outcome, and the files of theirs that are source.
+SOURCE_PACKAGES = ("mission", "mission.behaviours", "mission.trees", "mission.perception_plugins", "mission.sim")
+SOURCE_SUFFIXES = (".py", ".xml", ".yaml")
+
+
+@lru_cache(maxsize=1)
+def source_fingerprint() -> str:
+    """SHA-256 over the source of the installed mission (every .py, .xml and .yaml of its packages, by path
+    within its package): equal when the code that decides a run is the same, whatever commit holds it.
+
+    The commit alone would not do: committing a sweep's finished rows makes a new commit of the same code,
+    and a work tree with changes has the commit of other code."""
+    roots: list[tuple[str, Path]] = []
+    for name in SOURCE_PACKAGES:
+        spec = find_spec(name)
+        if spec is not None and spec.submodule_search_locations:
+            roots += [(name, Path(root)) for root in spec.submodule_search_locations]
+    return files_fingerprint(roots)
+
+
+def files_fingerprint(roots: Iterable[tuple[str, Path]]) -> str:
+    """SHA-256 over the source files (SOURCE_SUFFIXES) under each (label, directory): their paths within it,
+    under its label, and their bytes."""
+    digest = hashlib.sha256()
+    for label, base in roots:
+        files = sorted(f for f in base.rglob("*") if f.suffix in SOURCE_SUFFIXES and "__pycache__" not in f.parts)
+        for f in files:
+            digest.update(f"{label}/{f.relative_to(base).as_posix()}\0".encode())
+            with contextlib.suppress(OSError):
+                digest.update(hashlib.sha256(f.read_bytes()).digest())
+    return digest.hexdigest()
 
 
 def file_record(path: str | Path) -> dict[str, Any]:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from mission.app.overrides import RunOverrides, Setting, parse_settings
-from mission.app.provenance import file_record
+from mission.app.provenance import file_record, source_fingerprint
 from mission.app.sim_run import check_prepared, prepare_run, unused_ports
 from mission.core.errors import ConfigError, MissionError
 
@@ -149,9 +149,13 @@ class SweepPlan:
         ]
 
     def identity(self) -> dict[str, Any]:
-        """What a run's outcome depends on beyond its name: a sweep directory resumes only with the same."""
+        """What a run's outcome depends on beyond its name: a sweep directory resumes only with the same —
+        the same config and tree (by content), --max-duration, and mission source (provenance.source_fingerprint:
+        a run of other code would not be the same run)."""
         config = file_record(self.config_file) if self.config_file else None
-        return {"config": config, "tree": self.tree, "max_duration_s": self.max_duration}
+        tree = file_record(self.tree)["sha256"] if self.tree else None
+        return {"config": config, "tree": self.tree, "tree_sha256": tree, "max_duration_s": self.max_duration,
+                "source": source_fingerprint()}  # fmt: skip
 
     def check(self) -> None:
         """Every cell's config, scenario and tree checked as its runs' set-up will check them, before anything
