@@ -99,8 +99,9 @@ def _groups(scenarios: tuple[str, ...]) -> dict[str, list[str]]:
 def sweeps(
     searches: tuple[str, ...], scenarios: tuple[str, ...], seeds: int, baseline_seeds: int, out: Path,
     workers: int, budget_s: float | None, max_duration: float | None,
-) -> tuple[list[dict[str, Any]], list[str]]:  # fmt: skip
-    """Every run, each row tagged with its ``search``; and the sweep directories, in the order they ran."""
+) -> tuple[list[dict[str, Any]], list[str], int]:  # fmt: skip
+    """Every run, each row tagged with its ``search``; the sweep directories, in the order they ran; and how many
+    runs were planned (more than the rows when the budget cut the run short)."""
     rows: list[dict[str, Any]] = []
     dirs: list[str] = []
     searched = tuple(s for s in scenarios if s not in DOCK_ONLY)
@@ -112,6 +113,7 @@ def sweeps(
     docks = [s for s in scenarios if s in DOCK_ONLY]
     if docks:
         jobs.append(("ladder", "explore_dock.xml", docks, 1))  # once: the search is not in this tree
+    planned = sum(len(group) * n for _, _, group, n in jobs)
     t0 = time.perf_counter()
     for search, tree, group, n in jobs:
         left = None if budget_s is None else budget_s - (time.perf_counter() - t0)
@@ -130,7 +132,7 @@ def sweeps(
         for r in outcome.rows:
             if r["run_id"] in wanted:
                 rows.append({**r, "search": search, "sweep_dir": sweep_dir.relative_to(out).as_posix()})
-    return rows, dirs
+    return rows, dirs, planned
 
 
 def _relative(path: Path) -> str:
@@ -224,7 +226,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     budget = float(env("MISSION_BENCH_BUDGET_S")) if env("MISSION_BENCH_BUDGET_S") else None  # type: ignore[arg-type]
     max_duration = QUICK_MAX_DURATION_S if quick else None
     t0 = time.perf_counter()
-    rows, dirs = sweeps(searches, scenarios, seeds, baseline_seeds, out, workers, budget, max_duration)
+    rows, dirs, planned = sweeps(searches, scenarios, seeds, baseline_seeds, out, workers, budget, max_duration)
     wall = time.perf_counter() - t0
     atomic_write_text(out / "search_runs.jsonl", "".join(json.dumps(r, default=str) + "\n" for r in rows))
     cells: dict[str, dict[str, Any]] = {}
@@ -240,11 +242,13 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     return {
         "title": "Finding the target again: the search ladder vs the in-place sweep vs a ±90° rotation, same seeds"
         + (" (QUICK: runs cut at 12 s simulated — a smoke test)" if quick else "")
-        + (" — REDUCED run: fewer seeds than the acceptance's 20" if reduced and not quick else ""),
+        + (" — REDUCED run: fewer seeds than the acceptance's 20" if reduced and not quick else "")
+        + (f" — CUT SHORT: {len(rows)} of {planned} runs finished (MISSION_BENCH_BUDGET_S); the same command goes on"
+           if len(rows) < planned and not quick else ""),
         "figures": [f.to_json() for f in figures],
         "details": {"searches": {s: DESCRIBE[s] for s in searches}, "by_search": cells,
                     "seeds_ladder": seeds, "seeds_baselines": baseline_seeds, "scenarios": list(scenarios),
-                    "runs_finished": len(rows), "workers": workers, "wall_s": round(wall, 1),
+                    "runs_finished": len(rows), "runs_planned": planned, "workers": workers, "wall_s": round(wall, 1),
                     "max_duration_s": max_duration, "reduced": reduced, "full_run": "mission bench --only search",
                     "runs_log": "search_runs.jsonl", "sweep_dirs": dirs,
                     "engine": "mission sweep (mission/app/sweep), Dask LocalCluster on 127.0.0.1"},
