@@ -299,9 +299,12 @@ def _trajectories(row: dict[str, Any], search: str, out: Path) -> Path:
         return picture
     tree = None if search == "ladder" else _relative(variant_trees(search, out) / _tree_of(row["scenario"]))
     plan = SweepPlan((row["scenario"],), (int(row["seed"]),), tree=tree, pictures="all")
-    again = run_sweep(plan, out / "search_typical" / search, workers=1, progress=False, summary=False)
-    redo = next(iter(again.rows))
-    picture = out / "search_typical" / search / redo["report_dir"] / "trajectories.png"
+    where = out / "search_typical" / search
+    _resumable(where, plan)  # another code's or tree's picture run there: start afresh
+    again = run_sweep(plan, where, workers=1, progress=False, summary=False)
+    run_id = plan.runs()[0].run_id
+    redo = next(r for r in again.rows if r["run_id"] == run_id)  # the directory may hold other seeds' runs
+    picture = where / redo["report_dir"] / "trajectories.png"
     if redo["success"] != row["success"] or redo["reason"] != row["reason"]:
         raise RuntimeError(f"{search} {row['scenario']} seed {row['seed']}: made again, it gave '{redo['reason']}' "
                            f"where the recorded row says '{row['reason']}' — the rows are not of this code")
