@@ -44,6 +44,8 @@ OCCUPIED = 50  # nav_msgs/OccupancyGrid value from which a cell is an obstacle
 END_MARGIN_M = 0.15  # stop the ray short of the target: the target itself may sit in a wall-adjacent cell
 SCAN_MARGIN_M = 0.30  # a scan return must be this much closer than the target (the target's own body)
 TARGET_HALF_WIDTH_M = 0.15  # angular window of scan rays that "look at" the target
+WIDE_MARGIN_M = 0.03  # a thing wider than the target hides it when it is this much nearer (range noise)
+SEGMENT_GAP_M = 0.1  # neighbouring scan returns further apart than this (+ beam spacing) are different things
 PREDICT_HORIZON_S = 1.0
 MAX_SPEED = 2.0  # m/s: a faster fitted velocity is noise, clamp it
 RING_DIRECTIONS = 16  # hypotheses per ring round the last seen position
@@ -91,13 +93,18 @@ def scan_hit_before(
     target: tuple[float, float],
     own_path: tuple[tuple[float, float], ...] = (),
     own_radius_m: float = 0.0,
+    grid: OccupancyGrid | None = None,
 ) -> float | None:
     """Range of the closest scan return along the target's bearing that is clearly nearer than the target.
 
     A return that lands within `own_radius_m` of `own_path` (the target's last seen position and where it
-    is predicted to be: the polyline it walked along) is the target's own body, not an occluder — when the
-    prediction runs past a corner, the lidar still sees the target where it really is, nearer than the
-    prediction. The scan is taken in the base frame at the base origin (LaserScan's convention here).
+    is predicted to be: the polyline it walked along) on a thing no wider than the target (2 × own_radius_m)
+    is the target's own body, not an occluder — when the prediction runs past a corner, the lidar still sees
+    the target where it really is, nearer than the prediction. A wider thing there is something else: it
+    hides the target even when it stands just in front of it (WIDE_MARGIN_M, not SCAN_MARGIN_M: a cart
+    passing right in front of the target). Returns on the map's own obstacles (`grid`) are not part of any
+    thing's width: a target standing against a wall is still target-sized. The scan is taken in the base
+    frame at the base origin (LaserScan's convention here).
     """
     dx, dy = target[0] - robot.x, target[1] - robot.y
     distance = math.hypot(dx, dy)
@@ -108,14 +115,69 @@ def scan_hit_before(
     angles = scan.angles
     diff = np.abs(np.arctan2(np.sin(angles - bearing), np.cos(angles - bearing)))
     half = max(abs(scan.angle_increment), math.atan2(TARGET_HALF_WIDTH_M, distance))
-    limit = min(distance - SCAN_MARGIN_M, scan.range_max)
+    filtered = bool(own_path) and own_radius_m > 0
+    margin = WIDE_MARGIN_M if filtered else SCAN_MARGIN_M
+    limit = min(distance - margin, scan.range_max)
     near = (diff <= half) & np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges < limit)
-    hits, hit_angles = ranges[near], angles[near]
-    if hits.size and own_path and own_radius_m > 0:
-        world = robot.yaw + hit_angles
-        px, py = robot.x + hits * np.cos(world), robot.y + hits * np.sin(world)
-        hits = hits[_distance_to_polyline(px, py, own_path) > own_radius_m]
-    return float(hits.min()) if hits.size else None
+    index = np.flatnonzero(near)
+    if index.size and filtered:
+        xs, ys, valid = scan_points(scan, robot, grid)
+        wide = np.array([segment_width(xs, ys, valid, ranges, scan.angle_increment, int(i)) > 2 * own_radius_m
+                         for i in index])  # fmt: skip
+        clear = ranges[index] < distance - SCAN_MARGIN_M
+        on_path = _distance_to_polyline(xs[index], ys[index], own_path) <= own_radius_m
+        index = index[wide | (clear & ~on_path)]
+    return float(ranges[index].min()) if index.size else None
+
+
+def scan_points(
+    scan: LaserScan, robot: Pose2D, grid: OccupancyGrid | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Map x, y of every return, and which are returns on something the map does not hold.
+
+    A return in or next to a map cell ≥ OCCUPIED is the map's own obstacle (a wall); inf, NaN and
+    out-of-range beams are no return."""
+    ranges = np.asarray(scan.ranges, dtype=np.float64)
+    valid = np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges < scan.range_max)
+    world = robot.yaw + scan.angles
+    r = np.where(valid, ranges, 0.0)
+    xs, ys = robot.x + r * np.cos(world), robot.y + r * np.sin(world)
+    if grid is not None:
+        rows, cols = grid.world_to_cells(xs, ys)
+        h, w = grid.data.shape
+        on_map = np.zeros(valid.shape, dtype=bool)
+        for dr, dc in itertools.product((-1, 0, 1), repeat=2):
+            rr, cc = rows + dr, cols + dc
+            inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+            on_map[inside] |= grid.data[rr[inside], cc[inside]] >= OCCUPIED
+        valid &= ~on_map
+    return xs, ys, valid
+
+
+def segment_width(
+    xs: np.ndarray, ys: np.ndarray, valid: np.ndarray, ranges: np.ndarray, angle_increment: float, i: int
+) -> float:
+    """Width (m) of the thing return `i` lies on: the neighbouring returns that continue its surface.
+
+    Two neighbouring returns belong to one thing when they are closer than SEGMENT_GAP_M plus three beam
+    spacings at their range (a face seen at a grazing angle spreads its returns); the width is the
+    greatest distance from either end of that run of returns to any of its points."""
+    n = len(xs)
+
+    def run(step: int) -> int:
+        j = i
+        for _ in range(n - 1):
+            k = (j + step) % n
+            gap = SEGMENT_GAP_M + 3.0 * abs(angle_increment) * max(ranges[j], ranges[k])
+            if not valid[k] or math.hypot(xs[k] - xs[j], ys[k] - ys[j]) > gap:
+                break
+            j = k
+        return j
+
+    first, last = run(-1), run(+1)
+    members = np.arange(first, first + (last - first) % n + 1) % n
+    px, py = xs[members], ys[members]
+    return float(max(np.hypot(px - px[0], py - py[0]).max(), np.hypot(px - px[-1], py - py[-1]).max()))
 
 
 def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[float, float], ...]) -> np.ndarray:
@@ -229,7 +291,9 @@ class IsLineOfSightBlocked(MissionLeaf):
         target: str = port("target", "name of the target (a key of perception.targets)")
         min_misses: int = port(5, "consecutive missed frames before an occlusion is considered")
         target_radius_m: float = port(
-            0.3, "a scan return this close to the target's last or predicted position is its own body, not an occluder"
+            0.3,
+            "a scan return this close to the target's last or predicted position, on a thing no wider than twice "
+            "this, is its own body, not an occluder",
         )
 
     NODE_TYPE = "Condition"
@@ -269,7 +333,7 @@ class IsLineOfSightBlocked(MissionLeaf):
             if b is not None:
                 return b
         if scan is not None:
-            hit = scan_hit_before(scan, robot, goal, own_path, self.params.target_radius_m)
+            hit = scan_hit_before(scan, robot, goal, own_path, self.params.target_radius_m, grid)
             if hit is not None:
                 return Blockage("scan return", hit)
         return None

@@ -93,11 +93,7 @@ class SearchGrid:
 
     def _cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(rows, cols) of the points inside the grid."""
-        g = self.geometry
-        c, s = math.cos(-g.origin.yaw), math.sin(-g.origin.yaw)
-        dx, dy = xs - g.origin.x, ys - g.origin.y
-        cols = np.floor((c * dx - s * dy) / g.resolution).astype(np.int64)
-        rows = np.floor((s * dx + c * dy) / g.resolution).astype(np.int64)
+        rows, cols = self.geometry.world_to_cells(xs, ys)
         h, w = self.shape
         ok = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
         return rows[ok], cols[ok]
@@ -179,13 +175,9 @@ def _ray_samples(
 
     Samples every `step` metres along each ray from `min_range_m` to `range_m`."""
     ranges = np.arange(max(min_range_m, step / 2), range_m, step)
-    g = sg.geometry
-    c, s = math.cos(-g.origin.yaw), math.sin(-g.origin.yaw)
     px = xs[:, None, None] + ranges[None, None, :] * np.cos(angles)[None, :, None]
     py = ys[:, None, None] + ranges[None, None, :] * np.sin(angles)[None, :, None]
-    dx, dy = px - g.origin.x, py - g.origin.y
-    cols = np.floor((c * dx - s * dy) / g.resolution).astype(np.int64)
-    rows = np.floor((s * dx + c * dy) / g.resolution).astype(np.int64)
+    rows, cols = sg.geometry.world_to_cells(px, py)
     h, w = sg.shape
     inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
     flat = np.where(inside, rows * w + cols, 0)

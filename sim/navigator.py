@@ -110,11 +110,7 @@ class Costmap:
         self._recompute()
 
     def _cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        g = self.grid
-        c, s = math.cos(-g.origin.yaw), math.sin(-g.origin.yaw)
-        dx, dy = xs - g.origin.x, ys - g.origin.y
-        cols = np.floor((c * dx - s * dy) / self.res).astype(int)
-        rows = np.floor((s * dx + c * dy) / self.res).astype(int)
+        rows, cols = self.grid.world_to_cells(xs, ys)
         ok = (rows >= 0) & (rows < self.static.shape[0]) & (cols >= 0) & (cols < self.static.shape[1])
         return rows[ok], cols[ok]
 

@@ -244,6 +244,15 @@ class OccupancyGrid:
         lx, ly = c * dx - s * dy, s * dx + c * dy
         return ly / self.resolution, lx / self.resolution
 
+    def world_to_cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) of the cells containing map points (xs, ys), any shape; may be outside the grid."""
+        c = math.cos(-self.origin.yaw)
+        s = math.sin(-self.origin.yaw)
+        dx, dy = np.asarray(xs) - self.origin.x, np.asarray(ys) - self.origin.y
+        cols = np.floor((c * dx - s * dy) / self.resolution).astype(np.int64)
+        rows = np.floor((s * dx + c * dy) / self.resolution).astype(np.int64)
+        return rows, cols
+
     def world_to_cell(self, x: float, y: float) -> tuple[int, int]:
         """(row, col) of the cell containing map point (x, y); may be outside the grid."""
         c = math.cos(-self.origin.yaw)
