@@ -49,6 +49,7 @@ DEFAULT_VIEW_RANGE_M = 4.0  # how far the camera can read the target's marker
 SEED_RADIUS_M = 0.3  # the belief starts as the cells this close to the last position
 PRIOR_FLOOR = 0.05  # prior weight far from the predicted walk (never zero: the target may turn)
 PRIOR_SIGMA_M = 1.0  # width of the band round the predicted walk
+BEHIND_FLOOR = 0.2  # behind the last position the floor fades to this fraction of PRIOR_FLOOR (see _prior)
 PRIOR_HORIZON_S = 4.0  # how far along its last velocity the predicted walk goes
 REFILL_S = 15.0  # a cell seen this long ago counts in full again when the front walks back into it
 
@@ -196,12 +197,21 @@ class TargetBelief:
 def _prior(
     xs: np.ndarray, ys: np.ndarray, last: tuple[float, float], velocity: tuple[float, float] | None
 ) -> np.ndarray:
-    """PRIOR_FLOOR everywhere, up to 1 + PRIOR_FLOOR on the target's predicted walk (last velocity)."""
+    """PRIOR_FLOOR everywhere, up to 1 + PRIOR_FLOOR on the target's predicted walk (last velocity).
+
+    Behind the last position (against its last velocity) the floor fades to BEHIND_FLOOR of itself within
+    PRIOR_SIGMA_M: a walking target seldom turns back the way it came, which is also the way the robot
+    followed it and looked. Without the fade, the wide area behind at the floor weight outweighs the small
+    place round the corner it went behind, and the search looks back first."""
+    floor = np.full(xs.shape, PRIOR_FLOOR)
     if velocity is None or math.hypot(*velocity) < 0.05:
         d = np.hypot(xs - last[0], ys - last[1])
     else:
         ex, ey = last[0] + velocity[0] * PRIOR_HORIZON_S, last[1] + velocity[1] * PRIOR_HORIZON_S
         vx, vy = ex - last[0], ey - last[1]
-        t = np.clip(((xs - last[0]) * vx + (ys - last[1]) * vy) / (vx * vx + vy * vy), 0.0, 1.0)
+        along = ((xs - last[0]) * vx + (ys - last[1]) * vy) / (vx * vx + vy * vy)
+        t = np.clip(along, 0.0, 1.0)
         d = np.hypot(xs - (last[0] + t * vx), ys - (last[1] + t * vy))
-    return (PRIOR_FLOOR + np.exp(-(d**2) / (2 * PRIOR_SIGMA_M**2))).astype(np.float32)
+        behind = np.maximum(-along, 0.0) * math.hypot(vx, vy)  # metres behind the last position
+        floor *= BEHIND_FLOOR + (1.0 - BEHIND_FLOOR) * np.exp(-(behind**2) / (2 * PRIOR_SIGMA_M**2))
+    return (floor + np.exp(-(d**2) / (2 * PRIOR_SIGMA_M**2))).astype(np.float32)

@@ -6,7 +6,9 @@ nearest place, by the path the robot can drive, from which the camera sees that 
 middle, with a cell of margin, so the robot peeks round the edge of the occluder rather than stopping on
 the shadow's border — and arrives facing the predicted position. Where a place already sees it (the
 occluder has moved away, or the robot stands at the corner) that place is where the robot stands, turned
-toward it.
+toward it. The walk is a guess — a target that went through a doorway and turned along the wall is not on
+it — so of the places that see it, one that also sees more of where the target could have walked unseen (the
+peek's hidden set, below) per second of driving is taken instead, and swept across from the walk's side.
 
 When there is no heading to go by — the target stood still, or it was turning (a marker on the face of a
 target that turns at a corner swings round its centre, and a velocity fitted over that points the wrong
@@ -122,7 +124,9 @@ class PursueLastSeen(SearchLeaf):
         _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
         view, path_m, sweep_to = None, 0.0, None
         if aim != last:
-            view, path_m = self._viewpoint(sg, robot, last, aim)
+            view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
+            if sweep_to is not None or (view is not None and abs(bearing_to(view, aim)) > FACING_RAD):
+                aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))  # type: ignore[union-attr]
         # No heading, or one whose walk is seen from where the robot stands already (it ended at the corner):
         # look round the edge it vanished behind.
         if view is None or path_m < STAY_M:
@@ -131,7 +135,7 @@ class PursueLastSeen(SearchLeaf):
                 view, path_m, sweep_to = peek
                 aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
             elif view is None:  # nothing hidden to peek round: where the last position is seen from
-                view, path_m = self._viewpoint(sg, robot, last, aim)
+                view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
@@ -145,8 +149,10 @@ class PursueLastSeen(SearchLeaf):
 
     def _viewpoint(
         self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float], aim: tuple[float, float]
-    ) -> tuple[Pose2D | None, float]:
-        """The nearest place (path length) that sees `aim` and the middle of the walk to it, and the path length."""
+    ) -> tuple[Pose2D | None, float, float | None]:
+        """The nearest place (path length) that sees `aim` and the middle of the walk to it, the path length,
+        and None; or a place a little farther that also sees round the edge, facing the edge nearer the walk,
+        and the heading to sweep on to (see _sees_more_round_the_edge)."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
         mid = ((last[0] + aim[0]) / 2, (last[1] + aim[1]) / 2)
@@ -159,17 +165,64 @@ class PursueLastSeen(SearchLeaf):
         drivable = sg.robot_free(p.clearance_m) & ~blocked
         candidates = drivable & sees & (near >= MIN_STANDOFF_M)
         if not candidates.any():
-            return None, 0.0
+            return None, 0.0, None
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
         cost = np.where(candidates, dist + 0.1 * near, np.inf)  # nearest by path; of equals, nearer the aim
         r, c = np.unravel_index(int(np.argmin(cost)), cost.shape)
         if not np.isfinite(cost[r, c]):
-            return None, 0.0
+            return None, 0.0, None
+        better = self._sees_more_round_the_edge(sg, robot, blocked, last, aim, candidates, dist, (int(r), int(c)))
+        if better is not None:
+            (r, c), first, sweep_to = better
+            return Pose2D(float(xs[r, c]), float(ys[r, c]), first), float(dist[r, c]), sweep_to
         x, y = float(xs[r, c]), float(ys[r, c])
         here = math.hypot(x - robot.x, y - robot.y) <= sg.resolution * 1.5
         if here:
             x, y = robot.x, robot.y
-        return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c])
+        return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c]), None
+
+    def _hidden(self, sg: SearchGrid, robot: Pose2D, blocked: np.ndarray, last: tuple[float, float]) -> np.ndarray:
+        """Bool H×W: the places the target could have walked to from `last` in ``horizon_s`` (at
+        PEEK_SPEED_MPS, by the paths it can walk) that the camera cannot see from where the robot stands —
+        within PEEK_SEEN_FROM_HERE_M beyond the standoff (what is merely far is not taken for hidden)."""
+        p = self.params
+        free = sg.target_free()
+        walk_m = travel_distances(free, sg.cell(*last), sg.resolution)
+        cam = self.camera_pose(robot)
+        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
+                             min_range_m=0.05)  # fmt: skip
+        return (walk_m <= PEEK_SPEED_MPS * p.horizon_s) & free & ~visible
+
+    def _sees_more_round_the_edge(
+        self, sg: SearchGrid, robot: Pose2D, blocked: np.ndarray, last: tuple[float, float],
+        aim: tuple[float, float], candidates: np.ndarray, dist: np.ndarray, nearest: tuple[int, int],
+    ) -> tuple[tuple[int, int], float, float | None] | None:  # fmt: skip
+        """Of the places that see the predicted walk, the one that also sees, turning across it, most of what
+        the target could have walked to unseen per second of driving — its cell, the heading to face first
+        (the edge nearer the walk) and the one to sweep on to; None when that is the nearest.
+
+        The walk is a guess: a target that turned at the corner it vanished behind (through a doorway and
+        along the wall) is not on it. The nearest place that sees the walk often sees it through the gap
+        only; one a little farther, in the gap, sees round both edges as well."""
+        p = self.params
+        hidden = self._hidden(sg, robot, blocked, last)
+        if int(hidden.sum()) < PEEK_MIN_CELLS:
+            return None
+        rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
+        step = max(1, round(PEEK_SPACING_M / sg.resolution))
+        lattice = candidates & (rows % step == 0) & (cols % step == 0) & (dist <= PEEK_MAX_TRAVEL_M)
+        lattice[nearest] = True
+        idx = np.argwhere(lattice)
+        xs, ys = sg.centres()
+        cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
+        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
+        score = masses.sum(axis=1) / (dist[idx[:, 0], idx[:, 1]] / p.speed_mps + 1.0)
+        here = int(np.flatnonzero((idx[:, 0] == nearest[0]) & (idx[:, 1] == nearest[1]))[0])
+        i = int(np.argmax(score))
+        if not score[i] > score[here]:
+            return None
+        first, second = self._across(masses[i], math.atan2(aim[1] - cy[i], aim[0] - cx[i]))  # from the walk's side
+        return (int(idx[i, 0]), int(idx[i, 1])), first, second
 
     def _peek(
         self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float]
@@ -186,13 +239,6 @@ class PursueLastSeen(SearchLeaf):
         (it vanished in plain view: nothing to peek round)."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
-        free = sg.target_free()
-        walk_m = travel_distances(free, sg.cell(*last), sg.resolution)
-        cam = self.camera_pose(robot)
-        # hidden = out of sight from here, within PEEK_SEEN_FROM_HERE_M (farther than a viewpoint may stand from
-        # what it looks at, so what is merely far is not taken for hidden)
-        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
-                             min_range_m=0.05)  # fmt: skip
         drivable = sg.robot_free(p.clearance_m) & ~blocked
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
@@ -204,7 +250,7 @@ class PursueLastSeen(SearchLeaf):
         xs, ys = sg.centres()
         cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
         travel = dist[idx[:, 0], idx[:, 1]]
-        hidden = (walk_m <= PEEK_SPEED_MPS * p.horizon_s) & free & ~visible
+        hidden = self._hidden(sg, robot, blocked, last)
         if int(hidden.sum()) < PEEK_MIN_CELLS:
             return None
         masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
@@ -215,15 +261,21 @@ class PursueLastSeen(SearchLeaf):
         if not score[i] > 0:
             return None
         x, y = float(cx[i]), float(cy[i])
+        first, second = self._across(masses[i], math.atan2(y - robot.y, x - robot.x))  # from the way it arrives
+        return Pose2D(x, y, first), float(travel[i]), second
+
+    def _across(self, masses: np.ndarray, start_near: float) -> tuple[float, float | None]:
+        """(the heading to face first, the heading to sweep on to or None) to look across what `masses` (one
+        place's directions) holds: its middle when one look covers it, else from the edge nearer
+        `start_near` to the other."""
         ray = 2 * math.pi / RAYS
-        lo, hi = _arc(masses[i] > PEEK_ARC_FRACTION * float(masses[i].max()))
+        lo, hi = _arc(masses > PEEK_ARC_FRACTION * float(masses.max()))
         half = self.hfov() / 2 - PEEK_EDGE_RAD
         if (hi - lo) * ray <= 2 * half:  # one look covers it: face its middle
-            return Pose2D(x, y, se3.wrap_angle((lo + hi + 1) / 2 * ray)), float(travel[i]), None
+            return se3.wrap_angle((lo + hi + 1) / 2 * ray), None
         edges = (se3.wrap_angle(lo * ray + half), se3.wrap_angle((hi + 1) * ray - half))
-        arrive = math.atan2(y - robot.y, x - robot.x)  # start at the edge nearer the way it arrives
-        first, second = sorted(edges, key=lambda a: abs(se3.wrap_angle(a - arrive)))
-        return Pose2D(x, y, first), float(travel[i]), second
+        first, second = sorted(edges, key=lambda a: abs(se3.wrap_angle(a - start_near)))
+        return first, second
 
     # -- ticking ----------------------------------------------------------------------------------
     def _look(self, plan: Pursuit, robot: Pose2D, now: float) -> bool:

@@ -44,7 +44,7 @@ RAYS = 72  # directions of the belief's mass round the robot (5° each)
 # be (most of it is where turning here cannot look, behind the obstacle, and moving is what finds it), and a
 # leg is when the directions it still has to turn through (more than LEG_MIN_DEG of them) show less than
 # LEG_FRACTION of what a whole turn here would (what is left of the belief lies the other way).
-WORTH_FRACTION = 0.15
+WORTH_FRACTION = 0.35
 LEG_FRACTION = 0.1
 LEG_MIN_DEG = 45.0  # a leg with less than this left is finished, not cut: under a second of turning
 # The first leg goes on past the predicted bearing's overshoot while the directions just beyond the view's edge
@@ -70,6 +70,7 @@ class Turn:
     yaw_prev: float | None = None
     started: float = 0.0
     skipped: int = 0  # legs cut short because nothing could be seen there
+    handed_over: bool = False  # stopped because turning here could show little of where the target can be
     why: str = ""
 
 
@@ -157,20 +158,27 @@ class TurnToBearing(SearchLeaf):
         beyond = [math.floor(first + direction * (k + 0.5)) % RAYS for k in range(EDGE_SPAN)]
         return float(masses[beyond].max()) >= EDGE_FRACTION * float(masses.max())
 
-    def _leg_empty(self, belief: TargetBelief | None, turn: Turn) -> bool:
-        """The directions the current leg still has to turn through show little of where the target can be."""
+    def _not_worth_turning(self, belief: TargetBelief | None) -> bool:
+        """A whole turn here would show little of where the target can be: moving is what finds it."""
         if belief is None:
             return False
         everywhere = belief.mass()
         if everywhere <= 0:
             return True
         rays = self._ray_masses(belief)
+        return rays is not None and float(rays[0].sum()) < WORTH_FRACTION * everywhere
+
+    def _leg_empty(self, belief: TargetBelief | None, turn: Turn) -> bool:
+        """The directions the current leg still has to turn through show little of where the target can be."""
+        if belief is None:
+            return False
+        if belief.mass() <= 0:
+            return True
+        rays = self._ray_masses(belief)
         if rays is None:
             return False
         masses, cam_yaw = rays
         here = float(masses.sum())
-        if here < WORTH_FRACTION * everywhere:
-            return True
         half = self.hfov() / 2
         target = turn.legs[turn.leg]
         direction = turn.directions[turn.leg]
@@ -194,6 +202,10 @@ class TurnToBearing(SearchLeaf):
         if state is not None and turn.yaw_prev is not None:
             turn.turned += se3.wrap_angle(state.pose.yaw - turn.yaw_prev)
         turn.yaw_prev = state.pose.yaw if state is not None else None
+        if turn.leg < len(turn.legs) and self._not_worth_turning(belief):
+            turn.skipped += len(turn.legs) - turn.leg
+            turn.leg = len(turn.legs)
+            turn.handed_over = True
         while turn.leg < len(turn.legs):
             to_go = (turn.legs[turn.leg] - turn.turned) * turn.directions[turn.leg]
             step = math.radians(EDGE_STEP_DEG)
@@ -212,7 +224,10 @@ class TurnToBearing(SearchLeaf):
         if turn.leg >= len(turn.legs):
             took = self.now() - turn.started
             done = f"SEARCH a: turned toward {p.target}'s {turn.why} and back the other way ({took:.0f} s)"
-            if turn.skipped:
+            if turn.handed_over:
+                done = (f"SEARCH a: a whole turn here would show under {100 * WORTH_FRACTION:.0f} % of where "
+                        f"{p.target} can be: moving instead ({took:.0f} s of turning, toward its {turn.why})")
+            elif turn.skipped:
                 done += f"; {turn.skipped} turn(s) cut short: nothing it could be was left that way"
             if belief is not None and not (belief.log and belief.log[-1].startswith("turned")):
                 belief.log.append(f"turned toward its bearing ({self.now() - turn.started:.0f} s)")

@@ -13,10 +13,14 @@ of path (and the robot's own place). For each, the weight seen in every directio
 (rays stopped by the map's obstacles and what the lidar sees) gives the best window of the camera's field
 of view plus ``sweep_deg``; its score is that weight over the time to get there and sweep it (path length
 over ``speed_mps``, the sweep at ``angular_speed``, a second of overhead). The robot drives to the best
-(the navigator's goal, facing the window's first edge), sweeps the window, and ranks again; while it
+(the navigator's goal, facing the window's heavier edge: the heaviest directions are looked at first),
+sweeps the window, and ranks again; while it
 drives it re-ranks every ``replan_s`` and changes its mind only for a place scoring 30 % better (and at
 once when the camera has seen on the way what it was going to look at). A place it cannot reach is not
-chosen again in this loss. The camera's view clears the belief on every tick, driving or sweeping.
+chosen again in this loss, and the next sweep is made at least ``RESWEEP_M`` from the last one while any place
+there sees something (the front grows back beside a sweep at once, and a look at that from where the robot
+stands is cheap, so a greedy ranking would sweep the same place again and again). The camera's view clears
+the belief on every tick, driving or sweeping.
 
 Each fails with a reason after ``timeout_s``, or when nothing is left to look at (SearchBelief: the belief
 fell below ``min_mass`` of what it was, or no place sees any of it; CoverUnseen: ``done_fraction`` of the
@@ -46,6 +50,7 @@ ARRIVED_M = 0.25
 FACING_RAD = 0.3
 OVERHEAD_S = 1.0  # per visit: stopping, settling, the navigator's final turn
 BAD_RADIUS_M = 0.3  # goals the navigator failed on: no candidate this close in this loss
+RESWEEP_M = 0.6  # no sweep this close to where the last one was made, while any place farther sees something
 MIN_SEEN = 0.5  # a window seeing less than half a cell's weight is not worth a visit
 
 
@@ -53,8 +58,8 @@ MIN_SEEN = 0.5  # a window seeing less than half a cell's weight is not worth a 
 class Visit:
     """Where a search is going and what it will look at there."""
 
-    pose: Pose2D  # facing the window's first edge
-    sweep_rad: float  # then turn CCW this much
+    pose: Pose2D  # facing the window's heavier edge
+    sweep_rad: float  # then turn this much (CCW +, CW −) to its other edge
     mass: float  # the weight its window sees (when chosen)
     score: float  # mass per second
 
@@ -73,6 +78,7 @@ class Hunt:
     yaw_prev: float | None = None
     visits: int = 0
     bad: list[tuple[float, float]] = field(default_factory=list)
+    swept_at: tuple[float, float] | None = None  # where the last sweep was made
     done: str = ""
 
 
@@ -146,6 +152,7 @@ class ViewpointSearch(SearchLeaf):
             if self._sweep(hunt, belief, robot):
                 return py_trees.common.Status.RUNNING
             hunt.phase = "plan"
+            hunt.swept_at = (robot.x, robot.y)
         if hunt.phase == "plan":
             visit = self._best(belief, robot)
             if visit is None:
@@ -193,15 +200,12 @@ class ViewpointSearch(SearchLeaf):
         v = visit.pose
         outcome = None if hunt.goal is None else self.nav_outcome(hunt.goal)
         close = math.hypot(v.x - robot.x, v.y - robot.y) <= ARRIVED_M
-        facing = abs(se3.wrap_angle(v.yaw - robot.yaw)) <= FACING_RAD
         if outcome == NavStatus.FAILED:
             hunt.bad.append((v.x, v.y))
             hunt.phase = "plan"
             return
-        if outcome == NavStatus.SUCCEEDED or (close and facing):
-            hunt.phase = "sweep"
-            hunt.sweep_turned = 0.0
-            hunt.yaw_prev = robot.yaw
+        if outcome == NavStatus.SUCCEEDED or close:
+            self._aim_on_arrival(hunt, belief, robot)
             return
         if now - hunt.planned_at >= self.params.replan_s:
             hunt.planned_at = now
@@ -224,7 +228,7 @@ class ViewpointSearch(SearchLeaf):
             hunt.sweep_turned += se3.wrap_angle(robot.yaw - hunt.yaw_prev)
         hunt.yaw_prev = robot.yaw
         left = visit.sweep_rad - hunt.sweep_turned
-        if left <= 0.05:
+        if math.copysign(left, visit.sweep_rad) <= 0.05:
             return False
         self.drive(0.0, turn_rate(left, self.params.angular_speed, 0.3))
         self.feedback_message = f"SEARCH {self.RUNG}: sweeping {self.WHAT}, {math.degrees(left):.0f}° to go"
@@ -266,6 +270,11 @@ class ViewpointSearch(SearchLeaf):
         masses = ray_masses(sg, blocked, weights, cx, cy, RAYS, belief.view_range_m)
         width, sweep = self._windows()
         seen, start = best_window(masses, width)
+        swept = self.hunt.swept_at if self.hunt is not None else None
+        if swept is not None:  # what grew back beside the last sweep is cheap to look at and seldom where it is
+            near = np.hypot(cx - swept[0], cy - swept[1]) < RESWEEP_M
+            if (seen[~near] >= MIN_SEEN).any():
+                seen = np.where(near, 0.0, seen)
         time = travel / p.speed_mps + sweep / p.angular_speed + OVERHEAD_S
         # Where it stands the robot first turns on the spot to the window (elsewhere the drive there turns it).
         turn = abs(se3.wrap_angle((start[0] + 0.5) * (2 * math.pi / RAYS) + self.hfov() / 2 - robot.yaw))
@@ -274,10 +283,36 @@ class ViewpointSearch(SearchLeaf):
         i = int(np.argmax(score))
         if seen[i] < MIN_SEEN:
             return None
-        first = (start[i] + 0.5) * (2 * math.pi / RAYS) + self.hfov() / 2
-        sweep_rad = max(0.0, (width - 1) * (2 * math.pi / RAYS) - self.hfov())
+        first, sweep_rad = self._orient(masses[i], int(start[i]), width)
         x, y = float(cx[i]), float(cy[i])
-        return Visit(Pose2D(x, y, se3.wrap_angle(first)), sweep_rad, float(seen[i]), float(score[i]))
+        return Visit(Pose2D(x, y, first), sweep_rad, float(seen[i]), float(score[i]))
+
+    def _orient(self, masses: np.ndarray, start: int, width: int) -> tuple[float, float]:
+        """(the yaw to face first, the signed sweep from there) for the window of `width` rays from `start`:
+        from its heavier end, so the most likely directions are looked at first."""
+        step = 2 * math.pi / RAYS
+        sweep_rad = max(0.0, (width - 1) * step - self.hfov())
+        window = masses[(start + np.arange(width)) % RAYS]
+        half = width // 2
+        if window[width - half :].sum() > window[:half].sum():  # heavier at its CCW end: start there, sweep CW
+            return se3.wrap_angle((start + width - 0.5) * step - self.hfov() / 2), -sweep_rad
+        return se3.wrap_angle((start + 0.5) * step + self.hfov() / 2), sweep_rad
+
+    def _aim_on_arrival(self, hunt: Hunt, belief: TargetBelief, robot: Pose2D) -> None:
+        """Arrived: choose the window again from here, for what is left now (the drive has looked at some of
+        what it was going to), then turn to its heavier edge and sweep."""
+        visit = hunt.visit
+        assert visit is not None
+        sg = belief.grid
+        blocked = self.sight_blocked(sg, robot)
+        masses = ray_masses(sg, blocked, self.weights(belief), np.array([robot.x]), np.array([robot.y]), RAYS,
+                            belief.view_range_m)  # fmt: skip
+        width, _ = self._windows()
+        seen, start = best_window(masses, width)
+        if seen[0] >= MIN_SEEN:
+            yaw, sweep_rad = self._orient(masses[0], int(start[0]), width)
+            hunt.visit = Visit(Pose2D(robot.x, robot.y, yaw), sweep_rad, float(seen[0]), visit.score)
+        hunt.phase, hunt.goal = "face", None
 
     def _score_of(self, belief: TargetBelief, robot: Pose2D, visit: Visit) -> Visit | None:
         """The chosen visit's score now (its window seen from its place, with the path left to it)."""

@@ -121,6 +121,27 @@ def test_the_first_turn_goes_on_past_the_overshoot_while_what_is_beside_the_view
     assert lowest_yaw(strip=False) > -48.0 - 4.0  # nothing there: no further than planned (here: not at all)
 
 
+def test_turning_in_place_hands_over_at_once_when_a_whole_turn_would_show_little_of_where_it_can_be():
+    # lost just ahead on the right, so the first turn is short; where the target can be is mostly behind the
+    # wall, which no heading from here sees through — or, the other way round, mostly in the open
+    def first_tick(behind_the_wall: bool) -> S:
+        grid = grid_with_boxes([WALL])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(0.8, -1.2, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.8, -1.2), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        patch = np.hypot(xs - 0.6, ys - 0.0) < 0.3  # in sight, ahead on the left
+        far = (xs > 1.4) & (xs < 3.0) & (ys > -3.5) & (ys < 0.5) if behind_the_wall else (xs < -0.3) & (ys > 0.0)
+        belief.front = patch | far
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        return scene.cycle(TurnToBearing())
+
+    assert first_tick(behind_the_wall=True) == S.FAILURE
+    assert "moving instead" in read(bbk.REASON)
+    assert first_tick(behind_the_wall=False) == S.RUNNING
+
+
 # ------------------------------------------------------------------------------------ the belief
 WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
 
@@ -206,6 +227,41 @@ def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belie
                                             "it can be")  # fmt: skip
 
 
+def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_likely_is():
+    # two places it can be, 2 m away at 30° and at 120°, out of the camera's view (it faces south): one large, one
+    # small. The sweep starts at the large one's end of the window, whichever that is.
+    grid = grid_with_boxes([])
+    sg = search_grid(grid)
+    xs, ys = sg.centres()
+
+    def patch(deg: float, radius: float) -> np.ndarray:
+        a = math.radians(deg)
+        return np.hypot(xs - 2.0 * math.cos(a), ys - 2.0 * math.sin(a)) < radius
+
+    for heavy_at, light_at, turns_cw in [(120.0, 30.0, True), (30.0, 120.0, False)]:
+        scene = Scene(robot=Pose2D(0.0, 0.0, -math.pi / 2), grid=grid, clock=0.5)
+        track = lost_at(0.0, 0.0, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=0.5, speed_mps=0.0)
+        belief.front = patch(heavy_at, 0.6) | patch(light_at, 0.25)
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = SearchBelief()
+        scene.cycle(node)
+        visit = node.hunt.visit
+        assert (visit.sweep_rad < 0) == turns_cw
+        facing_first = math.degrees(visit.pose.yaw)
+        assert abs(facing_first - heavy_at) < abs(facing_first - light_at)
+
+
+def test_where_it_can_be_weighs_less_behind_it_than_beside_it():
+    sg = search_grid(grid_with_boxes([]))
+    belief = TargetBelief.start("target", 0.0, (0.0, 0.0), (1.0, 0.0), sg, now=0.5)  # it was walking east
+    row, col = sg.cell(-3.0, 0.0)
+    behind = belief.prior[row, col]
+    row, col = sg.cell(0.0, 3.0)
+    beside = belief.prior[row, col]
+    assert behind < 0.5 * beside  # the way it came, which the robot followed it along
+
+
 def test_search_belief_gives_up_with_a_reason_when_its_time_is_up():
     scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL]), clock=2.0, dt=0.5)
     lost_at(2.0, -1.0, last_seen=0.0)
@@ -276,6 +332,27 @@ def test_with_no_heading_lost_peeks_round_the_edge_the_target_went_behind_sweepi
     assert line_clear(sg.occupied, sg, (plan.view.x, plan.view.y), behind)  # from where it goes, in sight
     assert plan.sweep_to is not None or abs(math.remainder(
         math.atan2(behind[1] - plan.view.y, behind[0] - plan.view.x) - plan.view.yaw, 2 * math.pi)) < math.radians(35)
+
+
+DOORWAY = [(1.0, -4.0, 1.2, -0.5), (1.0, 0.5, 1.2, 4.0)]  # a wall at x ≈ 1.1 with a 1 m doorway at y = 0
+
+
+def test_lost_goes_into_the_doorway_the_target_went_through_and_looks_round_both_edges():
+    # the target walked east through the doorway; from the nearest place that sees where it was going the robot
+    # would look through the gap, and a target that turned along the wall on the far side is not there
+    grid = grid_with_boxes(DOORWAY)
+    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
+    lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    plan = node.pursuit
+    sg = search_grid(grid)
+    view = (plan.view.x, plan.view.y)
+    for along_the_wall in [(1.5, 1.8), (1.5, -1.8)]:  # round the north edge, round the south edge
+        assert not line_clear(sg.occupied, sg, (-1.5, 0.0), along_the_wall)
+        assert line_clear(sg.occupied, sg, view, along_the_wall)
+    assert plan.sweep_to is not None  # wider than one look: it sweeps across them
+    assert plan.deadline - plan.started >= plan.path_m / 0.35
 
 
 def test_a_longer_detour_gets_a_longer_loss_timer():
