@@ -228,7 +228,7 @@ class ViewpointSearch(SearchLeaf):
             hunt.sweep_turned += se3.wrap_angle(robot.yaw - hunt.yaw_prev)
         hunt.yaw_prev = robot.yaw
         left = visit.sweep_rad - hunt.sweep_turned
-        if math.copysign(left, visit.sweep_rad) <= 0.05:
+        if left * math.copysign(1.0, visit.sweep_rad) <= 0.05:  # what is left to turn, its way
             return False
         self.drive(0.0, turn_rate(left, self.params.angular_speed, 0.3))
         self.feedback_message = f"SEARCH {self.RUNG}: sweeping {self.WHAT}, {math.degrees(left):.0f}° to go"

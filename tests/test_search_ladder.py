@@ -10,7 +10,17 @@ import math
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import EXTRINSICS, Scene, board, grid_with_boxes, marker_facing, read, scan_with_wall, tick
+from behaviour_world import (
+    EXTRINSICS,
+    Scene,
+    ScriptedNavigator,
+    board,
+    grid_with_boxes,
+    marker_facing,
+    read,
+    scan_with_wall,
+    tick,
+)
 
 from mission.behaviours.belief import TargetBelief
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked, scan_points, segment_width
@@ -18,7 +28,7 @@ from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
-from mission.behaviours.search_views import SearchBelief
+from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
 from mission.core.types import LaserScan, Pose2D, RobotState, TargetTrack, Twist
 
@@ -239,9 +249,9 @@ def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_l
         return np.hypot(xs - 2.0 * math.cos(a), ys - 2.0 * math.sin(a)) < radius
 
     for heavy_at, light_at, turns_cw in [(120.0, 30.0, True), (30.0, 120.0, False)]:
-        scene = Scene(robot=Pose2D(0.0, 0.0, -math.pi / 2), grid=grid, clock=0.5)
-        track = lost_at(0.0, 0.0, last_seen=0.0)
-        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=0.5, speed_mps=0.0)
+        scene = Scene(robot=Pose2D(0.0, 0.0, -math.pi / 2), grid=grid, clock=3.0, navigator=ScriptedNavigator())
+        track = lost_at(0.0, 0.0, last_seen=0.0)  # 3 s ago: both are within its reach
+        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=3.0)
         belief.front = patch(heavy_at, 0.6) | patch(light_at, 0.25)
         bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
         node = SearchBelief()
@@ -250,6 +260,27 @@ def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_l
         assert (visit.sweep_rad < 0) == turns_cw
         facing_first = math.degrees(visit.pose.yaw)
         assert abs(facing_first - heavy_at) < abs(facing_first - light_at)
+
+
+def test_a_sweep_turns_through_its_angle_whichever_way_it_goes():
+    for sweep_rad in (-1.2, 1.2):
+        grid = grid_with_boxes([])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, clock=3.0, dt=0.05)
+        track = lost_at(0.0, 0.0, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=3.0)
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = SearchBelief()
+        scene.cycle(node)
+        hunt = node.hunt
+        hunt.visit = Visit(Pose2D(0.0, 0.0, scene.robot.yaw), sweep_rad, 10.0, 1.0)
+        hunt.phase, hunt.sweep_turned, hunt.yaw_prev = "sweep", 0.0, scene.robot.yaw
+        swept = 0.0
+        while hunt.phase == "sweep" and abs(swept) < 7.0:
+            yaw = scene.robot.yaw
+            scene.cycle(node)
+            swept += math.remainder(scene.robot.yaw - yaw, 2 * math.pi)
+        assert swept == pytest.approx(sweep_rad, abs=0.1)
 
 
 def test_where_it_can_be_weighs_less_behind_it_than_beside_it():
