@@ -333,9 +333,39 @@ class Navigator:
         ld = max(math.hypot(dx, dy), 1e-3)
         w = max(-self.max_w, min(self.max_w, 2.0 * v * math.sin(alpha) / ld))
         if self._unsafe(pose, v, w):
-            self._planned_at = -math.inf  # replan next period; meanwhile turn towards the aim point
+            self._planned_at = -math.inf  # replan next period; meanwhile edge away, or turn towards the aim point
+            escape = self._escape(pose, (lx, ly))
+            if escape is not None:
+                return escape
             return Twist(0.0, math.copysign(min(self.max_w, max(0.3, 1.5 * abs(alpha))), alpha))
         return Twist(v, w)
+
+    def _escape(self, pose: Pose2D, aim: tuple[float, float]) -> Twist | None:
+        """A safe twist that gets the robot on when pure pursuit's is not: the best of a few sampled arcs by
+        progress toward `aim` plus clearance gained, or backing straight off; None when none is safe and useful.
+
+        Pure pursuit aims along the path, and a path that starts beside something (a cart that stopped next to
+        the robot) grazes it: the safety stop then holds the robot turning on the spot for ever, while a
+        slightly different arc, or a step back, would free it (what Nav2's DWB controller finds by sampling)."""
+        if self.costmap.clearance_at(pose.x, pose.y) >= self.costmap.robot_radius + self.spec.inflation_m:
+            return None  # not hemmed in: turning to the aim point is the right thing
+        best, best_score = None, 0.0
+        before = math.hypot(aim[0] - pose.x, aim[1] - pose.y)
+        clear0 = self.costmap.clearance_at(pose.x, pose.y)
+        for v, w in [*((v, w) for v in (0.5 * self.max_v, 0.25 * self.max_v)
+                       for w in np.linspace(-0.8 * self.max_w, 0.8 * self.max_w, 9)), (-0.1, 0.0)]:  # fmt: skip
+            if self._unsafe(pose, v, w):
+                continue
+            x, y, yaw = pose.x, pose.y, pose.yaw
+            for _ in range(6):
+                yaw += w * SAFETY_HORIZON_S / 6
+                x += v * SAFETY_HORIZON_S / 6 * math.cos(yaw)
+                y += v * SAFETY_HORIZON_S / 6 * math.sin(yaw)
+            gained = self.costmap.clearance_at(x, y) - clear0
+            score = (before - math.hypot(aim[0] - x, aim[1] - y)) + 0.5 * gained if v > 0 else gained
+            if score > best_score + 1e-6:
+                best, best_score = Twist(float(v), float(w)), score
+        return best
 
     def _unsafe(self, pose: Pose2D, v: float, w: float) -> bool:
         """Would driving (v, ω) for the safety horizon bring the robot closer to an obstacle than allowed?
