@@ -126,14 +126,14 @@ class PursueLastSeen(SearchLeaf):
         if aim != last:
             view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
             if sweep_to is not None or (view is not None and abs(bearing_to(view, aim)) > FACING_RAD):
-                aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))  # type: ignore[union-attr]
+                aim = _faced(view)  # type: ignore[arg-type]
         # No heading, or one whose walk is seen from where the robot stands already (it ended at the corner):
         # look round the edge it vanished behind.
         if view is None or path_m < STAY_M:
             peek = self._peek(sg, robot, last)
             if peek is not None:
                 view, path_m, sweep_to = peek
-                aim = (view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw))
+                aim = _faced(view)
             elif view is None:  # nothing hidden to peek round: where the last position is seen from
                 view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
@@ -350,6 +350,11 @@ class PursueLastSeen(SearchLeaf):
         if belief is not None:
             belief.log.append(f"LOST went {plan.path_m:.1f} m to look ({self.now() - plan.started:.0f} s)")
         return self.fail(why)
+
+
+def _faced(view: Pose2D) -> tuple[float, float]:
+    """The point a look from `view` is aimed at: PEEK_AIM_M along its heading (arrival waits to face it)."""
+    return view.x + PEEK_AIM_M * math.cos(view.yaw), view.y + PEEK_AIM_M * math.sin(view.yaw)
 
 
 def _arc(mask: np.ndarray) -> tuple[int, int]:

@@ -144,11 +144,10 @@ class TurnToBearing(SearchLeaf):
         weights = belief.weights()
         return ray_masses(sg, blocked, weights, np.array([cx]), np.array([cy]), RAYS, belief.view_range_m)[0], cam_yaw
 
-    def _edge_holds(self, belief: TargetBelief | None, turn: Turn) -> bool:
+    def _edge_holds(self, rays: tuple[np.ndarray, float] | None, turn: Turn) -> bool:
         """The directions just past the view's edge, the way the first leg turns, hold where the target can be."""
-        if belief is None or turn.leg != 0 or turn.extended >= math.radians(EDGE_MAX_DEG):
+        if turn.leg != 0 or turn.extended >= math.radians(EDGE_MAX_DEG):
             return False
-        rays = self._ray_masses(belief)
         if rays is None or not rays[0].max() > 0:
             return False
         masses, cam_yaw = rays
@@ -158,23 +157,21 @@ class TurnToBearing(SearchLeaf):
         beyond = [math.floor(first + direction * (k + 0.5)) % RAYS for k in range(EDGE_SPAN)]
         return float(masses[beyond].max()) >= EDGE_FRACTION * float(masses.max())
 
-    def _not_worth_turning(self, belief: TargetBelief | None) -> bool:
-        """A whole turn here would show little of where the target can be: moving is what finds it."""
-        if belief is None:
+    def _not_worth_turning(self, everywhere: float | None, rays: tuple[np.ndarray, float] | None) -> bool:
+        """A whole turn here would show little of where the target can be (`everywhere`: the belief's mass):
+        moving is what finds it."""
+        if everywhere is None:
             return False
-        everywhere = belief.mass()
         if everywhere <= 0:
             return True
-        rays = self._ray_masses(belief)
         return rays is not None and float(rays[0].sum()) < WORTH_FRACTION * everywhere
 
-    def _leg_empty(self, belief: TargetBelief | None, turn: Turn) -> bool:
+    def _leg_empty(self, everywhere: float | None, rays: tuple[np.ndarray, float] | None, turn: Turn) -> bool:
         """The directions the current leg still has to turn through show little of where the target can be."""
-        if belief is None:
+        if everywhere is None:
             return False
-        if belief.mass() <= 0:
+        if everywhere <= 0:
             return True
-        rays = self._ray_masses(belief)
         if rays is None:
             return False
         masses, cam_yaw = rays
@@ -202,21 +199,24 @@ class TurnToBearing(SearchLeaf):
         if state is not None and turn.yaw_prev is not None:
             turn.turned += se3.wrap_angle(state.pose.yaw - turn.yaw_prev)
         turn.yaw_prev = state.pose.yaw if state is not None else None
-        if turn.leg < len(turn.legs) and self._not_worth_turning(belief):
+        # what the belief holds, and what each direction round the camera sees of it: once a tick, for every check
+        everywhere = belief.mass() if belief is not None else None
+        rays = self._ray_masses(belief) if belief is not None and everywhere and turn.leg < len(turn.legs) else None
+        if turn.leg < len(turn.legs) and self._not_worth_turning(everywhere, rays):
             turn.skipped += len(turn.legs) - turn.leg
             turn.leg = len(turn.legs)
             turn.handed_over = True
         while turn.leg < len(turn.legs):
             to_go = (turn.legs[turn.leg] - turn.turned) * turn.directions[turn.leg]
             step = math.radians(EDGE_STEP_DEG)
-            if turn.leg == 0 and to_go < step and self._edge_holds(belief, turn):
+            if turn.leg == 0 and to_go < step and self._edge_holds(rays, turn):
                 turn.legs[0] += turn.directions[0] * step  # what is just past the view is where it can be: go on
                 turn.extended += step
                 break
             if to_go <= 0.02:  # this leg is turned
                 turn.leg += 1
                 continue
-            if to_go > math.radians(LEG_MIN_DEG) and self._leg_empty(belief, turn):
+            if to_go > math.radians(LEG_MIN_DEG) and self._leg_empty(everywhere, rays, turn):
                 turn.skipped += 1
                 turn.leg += 1
                 continue

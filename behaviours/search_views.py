@@ -303,31 +303,30 @@ class ViewpointSearch(SearchLeaf):
         what it was going to), then turn to its heavier edge and sweep."""
         visit = hunt.visit
         assert visit is not None
-        sg = belief.grid
-        blocked = self.sight_blocked(sg, robot)
-        masses = ray_masses(sg, blocked, self.weights(belief), np.array([robot.x]), np.array([robot.y]), RAYS,
-                            belief.view_range_m)  # fmt: skip
-        width, _ = self._windows()
-        seen, start = best_window(masses, width)
-        if seen[0] >= MIN_SEEN:
-            yaw, sweep_rad = self._orient(masses[0], int(start[0]), width)
-            hunt.visit = Visit(Pose2D(robot.x, robot.y, yaw), sweep_rad, float(seen[0]), visit.score)
+        masses, seen, start = self._window_at(belief, robot, robot.x, robot.y)
+        if seen >= MIN_SEEN:
+            yaw, sweep_rad = self._orient(masses, start, self._windows()[0])
+            hunt.visit = Visit(Pose2D(robot.x, robot.y, yaw), sweep_rad, seen, visit.score)
         hunt.phase, hunt.goal = "face", None
+
+    def _window_at(self, belief: TargetBelief, robot: Pose2D, x: float, y: float) -> tuple[np.ndarray, float, int]:
+        """From the place (x, y): the weight each direction sees, the most its best window sees, and that window's
+        first direction (what _best ranks every candidate by, for one place)."""
+        sg = belief.grid
+        masses = ray_masses(sg, self.sight_blocked(sg, robot), self.weights(belief), np.array([x]), np.array([y]),
+                            RAYS, belief.view_range_m)  # fmt: skip
+        seen, start = best_window(masses, self._windows()[0])
+        return masses[0], float(seen[0]), int(start[0])
 
     def _score_of(self, belief: TargetBelief, robot: Pose2D, visit: Visit) -> Visit | None:
         """The chosen visit's score now (its window seen from its place, with the path left to it)."""
         p = self.params
-        sg = belief.grid
-        blocked = self.sight_blocked(sg, robot)
-        masses = ray_masses(sg, blocked, self.weights(belief), np.array([visit.pose.x]), np.array([visit.pose.y]),
-                            RAYS, belief.view_range_m)  # fmt: skip
-        width, sweep = self._windows()
-        seen, _ = best_window(masses, width)
-        if seen[0] < MIN_SEEN:
+        _, seen, _ = self._window_at(belief, robot, visit.pose.x, visit.pose.y)
+        if seen < MIN_SEEN:
             return None
         left = math.hypot(visit.pose.x - robot.x, visit.pose.y - robot.y)  # a lower bound of the path left
-        score = float(seen[0]) / (left / p.speed_mps + sweep / p.angular_speed + OVERHEAD_S)
-        return Visit(visit.pose, visit.sweep_rad, float(seen[0]), score)
+        score = seen / (left / p.speed_mps + self._windows()[1] / p.angular_speed + OVERHEAD_S)
+        return Visit(visit.pose, visit.sweep_rad, seen, score)
 
 
 class SearchBelief(ViewpointSearch):

@@ -347,20 +347,16 @@ class Navigator:
         Pure pursuit aims along the path, and a path that starts beside something (a cart that stopped next to
         the robot) grazes it: the safety stop then holds the robot turning on the spot for ever, while a
         slightly different arc, or a step back, would free it (what Nav2's DWB controller finds by sampling)."""
-        if self.costmap.clearance_at(pose.x, pose.y) >= self.costmap.robot_radius + self.spec.inflation_m:
+        clear0 = self.costmap.clearance_at(pose.x, pose.y)
+        if clear0 >= self.costmap.robot_radius + self.spec.inflation_m:
             return None  # not hemmed in: turning to the aim point is the right thing
         best, best_score = None, 0.0
         before = math.hypot(aim[0] - pose.x, aim[1] - pose.y)
-        clear0 = self.costmap.clearance_at(pose.x, pose.y)
         for v, w in [*((v, w) for v in (0.5 * self.max_v, 0.25 * self.max_v)
                        for w in np.linspace(-0.8 * self.max_w, 0.8 * self.max_w, 9)), (-0.1, 0.0)]:  # fmt: skip
             if self._unsafe(pose, v, w):
                 continue
-            x, y, yaw = pose.x, pose.y, pose.yaw
-            for _ in range(6):
-                yaw += w * SAFETY_HORIZON_S / 6
-                x += v * SAFETY_HORIZON_S / 6 * math.cos(yaw)
-                y += v * SAFETY_HORIZON_S / 6 * math.sin(yaw)
+            x, y = _rollout(pose, v, w)[-1]
             gained = self.costmap.clearance_at(x, y) - clear0
             score = (before - math.hypot(aim[0] - x, aim[1] - y)) + 0.5 * gained if v > 0 else gained
             if score > best_score + 1e-6:
@@ -374,15 +370,22 @@ class Navigator:
         something (the grid is coarser than the world) can still drive away from it.
         """
         cm = self.costmap
-        x, y, yaw = pose.x, pose.y, pose.yaw
-        steps = 6
-        dt = SAFETY_HORIZON_S / steps
-        now = cm.clearance_at(x, y)
-        for _ in range(steps):
-            yaw += w * dt
-            x += v * dt * math.cos(yaw)
-            y += v * dt * math.sin(yaw)
+        now = cm.clearance_at(pose.x, pose.y)
+        for x, y in _rollout(pose, v, w):
             ahead = cm.clearance_at(x, y)
             if ahead < cm.lethal_radius and ahead < now - 0.005:
                 return True
         return False
+
+
+def _rollout(pose: Pose2D, v: float, w: float, steps: int = 6) -> list[tuple[float, float]]:
+    """Where driving (v, ω) from `pose` puts the robot over the safety horizon, in `steps` steps."""
+    x, y, yaw = pose.x, pose.y, pose.yaw
+    dt = SAFETY_HORIZON_S / steps
+    out = []
+    for _ in range(steps):
+        yaw += w * dt
+        x += v * dt * math.cos(yaw)
+        y += v * dt * math.sin(yaw)
+        out.append((x, y))
+    return out
