@@ -38,14 +38,14 @@ from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.ports import port
 from mission.core import blackboard as bbk
 from mission.core import se3
+from mission.core.scan import OCCUPIED, scan_points, segment_width
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack
+from mission.core.velocity import least_squares_velocity
 
-OCCUPIED = 50  # nav_msgs/OccupancyGrid value from which a cell is an obstacle
 END_MARGIN_M = 0.15  # stop the ray short of the target: the target itself may sit in a wall-adjacent cell
 SCAN_MARGIN_M = 0.30  # a scan return must be this much closer than the target (the target's own body)
 TARGET_HALF_WIDTH_M = 0.15  # angular window of scan rays that "look at" the target
 WIDE_MARGIN_M = 0.03  # a thing wider than the target hides it when it is this much nearer (range noise)
-SEGMENT_GAP_M = 0.1  # neighbouring scan returns further apart than this (+ beam spacing) are different things
 PREDICT_HORIZON_S = 1.0
 MAX_SPEED = 2.0  # m/s: a faster fitted velocity is noise, clamp it
 RING_DIRECTIONS = 16  # hypotheses per ring round the last seen position
@@ -130,56 +130,6 @@ def scan_hit_before(
     return float(ranges[index].min()) if index.size else None
 
 
-def scan_points(
-    scan: LaserScan, robot: Pose2D, grid: OccupancyGrid | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Map x, y of every return, and which are returns on something the map does not hold.
-
-    A return in or next to a map cell ≥ OCCUPIED is the map's own obstacle (a wall); inf, NaN and
-    out-of-range beams are no return."""
-    ranges = np.asarray(scan.ranges, dtype=np.float64)
-    valid = np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges < scan.range_max)
-    world = robot.yaw + scan.angles
-    r = np.where(valid, ranges, 0.0)
-    xs, ys = robot.x + r * np.cos(world), robot.y + r * np.sin(world)
-    if grid is not None:
-        rows, cols = grid.world_to_cells(xs, ys)
-        h, w = grid.data.shape
-        on_map = np.zeros(valid.shape, dtype=bool)
-        for dr, dc in itertools.product((-1, 0, 1), repeat=2):
-            rr, cc = rows + dr, cols + dc
-            inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-            on_map[inside] |= grid.data[rr[inside], cc[inside]] >= OCCUPIED
-        valid &= ~on_map
-    return xs, ys, valid
-
-
-def segment_width(
-    xs: np.ndarray, ys: np.ndarray, valid: np.ndarray, ranges: np.ndarray, angle_increment: float, i: int
-) -> float:
-    """Width (m) of the thing return `i` lies on: the neighbouring returns that continue its surface.
-
-    Two neighbouring returns belong to one thing when they are closer than SEGMENT_GAP_M plus three beam
-    spacings at their range (a face seen at a grazing angle spreads its returns); the width is the
-    greatest distance from either end of that run of returns to any of its points."""
-    n = len(xs)
-
-    def run(step: int) -> int:
-        j = i
-        for _ in range(n - 1):
-            k = (j + step) % n
-            gap = SEGMENT_GAP_M + 3.0 * abs(angle_increment) * max(ranges[j], ranges[k])
-            if not valid[k] or math.hypot(xs[k] - xs[j], ys[k] - ys[j]) > gap:
-                break
-            j = k
-        return j
-
-    first, last = run(-1), run(+1)
-    members = np.arange(first, first + (last - first) % n + 1) % n
-    px, py = xs[members], ys[members]
-    return float(max(np.hypot(px - px[0], py - py[0]).max(), np.hypot(px - px[-1], py - py[-1]).max()))
-
-
 def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[float, float], ...]) -> np.ndarray:
     """Distance of each point to the polyline through `path` (one point: to that point)."""
     best = np.full(px.shape, np.inf)
@@ -193,13 +143,6 @@ def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[floa
 
 
 TURNING_RAD = math.radians(60.0)  # the two halves of the window disagree this much: it was turning, no heading
-
-
-def _least_squares_velocity(recent: np.ndarray) -> tuple[float, float]:
-    t = recent[:, 0] - recent[:, 0].mean()
-    vx = float(t @ (recent[:, 1] - recent[:, 1].mean()) / (t @ t))
-    vy = float(t @ (recent[:, 2] - recent[:, 2].mean()) / (t @ t))
-    return vx, vy
 
 
 def fitted_velocity(
@@ -216,10 +159,10 @@ def fitted_velocity(
     recent = np.array([h for h in track.history if h[0] >= track.last_seen - window_s])
     if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < 0.2:
         return None
-    vx, vy = _least_squares_velocity(recent)
+    vx, vy = least_squares_velocity(recent)
     if steady and len(recent) >= 6:
         half = len(recent) // 2
-        (ax, ay), (bx, by) = _least_squares_velocity(recent[:half]), _least_squares_velocity(recent[half:])
+        (ax, ay), (bx, by) = least_squares_velocity(recent[:half]), least_squares_velocity(recent[half:])
         if math.hypot(ax, ay) > 0.05 and math.hypot(bx, by) > 0.05:
             turn = abs(math.atan2(ax * by - ay * bx, ax * bx + ay * by))
             if turn > TURNING_RAD:

@@ -155,14 +155,15 @@ class PursueLastSeen(SearchLeaf):
         and the heading to sweep on to (see _sees_more_round_the_edge)."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
+        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
         mid = ((last[0] + aim[0]) / 2, (last[1] + aim[1]) / 2)
         sees = np.ones(sg.shape, dtype=bool)
         for point in (aim, mid):  # the places a point is seen from are the places it sees (same rays)
-            sees &= view_cells(sg, blocked, point, 0.0, 2 * math.pi, p.max_standoff_m, min_range_m=0.05)
+            sees &= view_cells(sg, through, point, 0.0, 2 * math.pi, p.max_standoff_m, min_range_m=0.05)
         sees &= ~dilate(~sees, 1)  # a cell of margin: the camera sees round the corner, not along its edge
         xs, ys = sg.centres()
         near = np.hypot(xs - aim[0], ys - aim[1])
-        drivable = sg.robot_free(p.clearance_m) & ~blocked
+        drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
         candidates = drivable & sees & (near >= MIN_STANDOFF_M)
         if not candidates.any():
             return None, 0.0, None
@@ -215,7 +216,8 @@ class PursueLastSeen(SearchLeaf):
         idx = np.argwhere(lattice)
         xs, ys = sg.centres()
         cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
-        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
+        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
+        masses = ray_masses(sg, through, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         score = masses.sum(axis=1) / (dist[idx[:, 0], idx[:, 1]] / p.speed_mps + 1.0)
         here = int(np.flatnonzero((idx[:, 0] == nearest[0]) & (idx[:, 1] == nearest[1]))[0])
         i = int(np.argmax(score))
@@ -239,7 +241,7 @@ class PursueLastSeen(SearchLeaf):
         (it vanished in plain view: nothing to peek round)."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
-        drivable = sg.robot_free(p.clearance_m) & ~blocked
+        drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
         step = max(1, round(PEEK_SPACING_M / sg.resolution))
@@ -253,7 +255,8 @@ class PursueLastSeen(SearchLeaf):
         hidden = self._hidden(sg, robot, blocked, last)
         if int(hidden.sum()) < PEEK_MIN_CELLS:
             return None
-        masses = ray_masses(sg, blocked, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
+        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
+        masses = ray_masses(sg, through, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
         score = seen / (travel / p.speed_mps + 1.0)
         score[seen < PEEK_MIN_SEEN * max(float(seen.max()), 1e-9)] = 0.0

@@ -27,10 +27,10 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from mission.core.scan import OCCUPIED
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D
 
 COARSE_M = 0.10  # cell size of the search grid
-OCCUPIED = 50  # nav_msgs/OccupancyGrid value from which a cell is an obstacle
 TARGET_RADIUS_M = 0.20  # the target's centre keeps this far from obstacles (a person-sized box)
 SQRT2 = math.sqrt(2.0)
 
@@ -89,6 +89,14 @@ class SearchGrid:
         ang = robot.yaw + scan.angles[ok]
         rows, cols = self._cells(robot.x + r[ok] * np.cos(ang), robot.y + r[ok] * np.sin(ang))
         hits[rows, cols] = True
+        return hits
+
+    def point_cells(self, points: np.ndarray) -> np.ndarray:
+        """Cells holding any of the (n, 2) map points."""
+        hits = np.zeros(self.shape, dtype=bool)
+        if len(points):
+            rows, cols = self._cells(points[:, 0], points[:, 1])
+            hits[rows, cols] = True
         return hits
 
     def _cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

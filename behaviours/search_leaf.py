@@ -16,7 +16,7 @@ import numpy as np
 from mission.behaviours.belief import DEFAULT_SPEED_MPS, DEFAULT_VIEW_RANGE_M, TargetBelief
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import fitted_velocity
-from mission.behaviours.search_grid import SearchGrid, search_grid, walk
+from mission.behaviours.search_grid import SearchGrid, dilate, search_grid, walk
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import Key
@@ -26,12 +26,19 @@ DEFAULT_HFOV = math.radians(70.0)  # when no frame with intrinsics has arrived y
 # The velocity a lost target walks on with is fitted over its last 0.6 s: a second (what the line-of-sight
 # check uses) still holds the leg before a corner the target has just turned, and points the search there.
 HEADING_WINDOW_S = 0.6
+# A place a mover (mission.core.movers) will drive over within this is no place to look from, nor to drive
+# through to get there: the robot goes behind a crossing cart, not along in front of it. Long enough for the
+# drive there and a look round (a shorter one left the place just beyond it, still in the cart's way).
+MOVER_HORIZON_S = 5.0
+# Narrower movers may be the target itself (a person-sized box seen corner-on is 0.57 m wide): its own
+# path is where the search wants to look, not a place to keep out of.
+MOVER_MIN_WIDTH_M = 0.7
 
 
 class SearchLeaf(MissionLeaf):
     """A leaf of the LOST / SEARCH states: commands the base and keeps the loss's belief."""
 
-    READS: ClassVar[tuple[Key, ...]] = (bbk.TRACKS, bbk.MAP, bbk.SCAN, bbk.FRAME)
+    READS: ClassVar[tuple[Key, ...]] = (bbk.TRACKS, bbk.MAP, bbk.SCAN, bbk.FRAME, bbk.MOVERS)
     WRITES: ClassVar[tuple[Key, ...]] = (bbk.BELIEFS,)
     COMMANDS = True
 
@@ -62,6 +69,25 @@ class SearchLeaf(MissionLeaf):
         """What hides things from the camera now: the map's obstacles and whatever the lidar sees."""
         scan: LaserScan | None = self.read(bbk.SCAN)
         return sg.occupied | sg.scan_cells(scan, robot)
+
+    def mover_paths(self, sg: SearchGrid) -> np.ndarray:
+        """Cells a mover wider than the target will cover within MOVER_HORIZON_S if it keeps going: no place to
+        be, and nothing to be seen through, by the time the robot has got somewhere and looked."""
+        paths = np.zeros(sg.shape, dtype=bool)
+        for mover in self.read(bbk.MOVERS) or ():
+            if mover.width_m >= MOVER_MIN_WIDTH_M:
+                paths |= sg.point_cells(mover.swept(MOVER_HORIZON_S))
+        return paths
+
+    def ahead_of_movers(self, sg: SearchGrid, robot: Pose2D, clearance_m: float) -> np.ndarray:
+        """mover_paths grown by the robot's `clearance_m`: where not to drive. The robot's own surroundings are
+        left out (it must be able to drive off from where it stands, even just in front of a cart)."""
+        paths = self.mover_paths(sg)
+        if not paths.any():
+            return paths
+        ahead = dilate(paths, math.ceil(clearance_m / sg.resolution))
+        xs, ys = sg.centres()
+        return ahead & (np.hypot(xs - robot.x, ys - robot.y) > clearance_m + sg.resolution)
 
     # -- the belief ---------------------------------------------------------------------------------
     def belief(

@@ -10,7 +10,8 @@ Both rungs rank the same way and differ in what they look for:
 
 Ranking: candidate places are the cells the robot fits in, every ``spacing_m``, within ``max_travel_m``
 of path (and the robot's own place). For each, the weight seen in every direction within the view range
-(rays stopped by the map's obstacles and what the lidar sees) gives the best window of the camera's field
+(rays stopped by the map's obstacles, what the lidar sees, and where a crossing cart is going:
+SearchLeaf.mover_paths) gives the best window of the camera's field
 of view plus ``sweep_deg``; its score is that weight over the time to get there and sweep it (path length
 over ``speed_mps``, the sweep at ``angular_speed``, a second of overhead). The robot drives to the best
 (the navigator's goal, facing the window's heavier edge: the heaviest directions are looked at first),
@@ -252,7 +253,7 @@ class ViewpointSearch(SearchLeaf):
         sg = belief.grid
         blocked = self.sight_blocked(sg, robot)
         scan_near = dilate(blocked & ~sg.occupied, 2)  # what the lidar sees, with room for the robot
-        drivable = sg.robot_free(p.clearance_m) & ~scan_near
+        drivable = sg.robot_free(p.clearance_m) & ~scan_near & ~self.ahead_of_movers(sg, robot, p.clearance_m)
         here = sg.cell(robot.x, robot.y)
         dist = travel_distances(drivable, here, sg.resolution)
         step = max(1, round(p.spacing_m / sg.resolution))
@@ -267,7 +268,7 @@ class ViewpointSearch(SearchLeaf):
         cy = np.concatenate([[robot.y], ys[idx[:, 0], idx[:, 1]]])
         travel = np.concatenate([[0.0], dist[idx[:, 0], idx[:, 1]]])
         weights = self.weights(belief)
-        masses = ray_masses(sg, blocked, weights, cx, cy, RAYS, belief.view_range_m)
+        masses = ray_masses(sg, blocked | self.mover_paths(sg), weights, cx, cy, RAYS, belief.view_range_m)
         width, sweep = self._windows()
         seen, start = best_window(masses, width)
         swept = self.hunt.swept_at if self.hunt is not None else None
@@ -313,7 +314,8 @@ class ViewpointSearch(SearchLeaf):
         """From the place (x, y): the weight each direction sees, the most its best window sees, and that window's
         first direction (what _best ranks every candidate by, for one place)."""
         sg = belief.grid
-        masses = ray_masses(sg, self.sight_blocked(sg, robot), self.weights(belief), np.array([x]), np.array([y]),
+        blocked = self.sight_blocked(sg, robot) | self.mover_paths(sg)
+        masses = ray_masses(sg, blocked, self.weights(belief), np.array([x]), np.array([y]),
                             RAYS, belief.view_range_m)  # fmt: skip
         seen, start = best_window(masses, self._windows()[0])
         return masses[0], float(seen[0]), int(start[0])

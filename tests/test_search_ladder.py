@@ -23,13 +23,14 @@ from behaviour_world import (
 )
 
 from mission.behaviours.belief import TargetBelief
-from mission.behaviours.line_of_sight import IsLineOfSightBlocked, scan_points, segment_width
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
+from mission.core.scan import scan_points, segment_width
 from mission.core.types import LaserScan, Pose2D, RobotState, TargetTrack, Twist
 
 S = py_trees.common.Status

@@ -10,7 +10,8 @@ arrives). Nothing else writes this loop, so one tree behaves the same way in eve
     runner.finish(outcome)               # observers' on_end (recordings finalized)
     runner.close()
 
-One step: the world writes its newest inputs to the blackboard (``sense``); if a new frame arrived the
+One step: the world writes its newest inputs to the blackboard (``sense``); a new scan updates what the
+lidar sees move (``/robot/movers``, mission/core/movers.py); if a new frame arrived the
 perception stage turns it into detections and tracks (``perceive``, perception_plugins/pipeline.py);
 the tree ticks once; the world carries out the tree's commands (``act``); observers see the step.
 Between steps a simulated world lets ``1 / run.tick_hz`` seconds pass (``advance``), optionally paced to
@@ -39,8 +40,9 @@ from mission.app.snapshot import active_branch, snapshot
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import TreeError
+from mission.core.movers import MoverTracker
 from mission.core.perception import PerceptionSource
-from mission.core.types import NavStatus
+from mission.core.types import LaserScan, NavStatus, RobotState
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
@@ -139,6 +141,7 @@ class TreeRunner:
         self.bb = bbk.writer("runner")
         self.dt = 1.0 / float(config.run.tick_hz)
         self.ticks = 0
+        self.movers = MoverTracker()
         self.status = py_trees.common.Status.INVALID
         self.start_clock: float | None = None
         self.stop_signal: int | None = None  # the signal that ended run(), if one did
@@ -185,6 +188,7 @@ class TreeRunner:
             (bbk.PERCEPTION_STATS, {}),
             (bbk.FRAME, None),
             (bbk.FRAME_SEQ, 0),
+            (bbk.MOVERS, ()),
         ):
             bbk.set_(self.bb, key, value)
 
@@ -206,10 +210,11 @@ class TreeRunner:
         return perceived
 
     def step(self) -> py_trees.common.Status:
-        """sense → perceive → tick → act, then the observers; returns the root's status."""
+        """sense → track movers → perceive → tick → act, then the observers; returns the root's status."""
         assert self._started, "call setup() first"
         self.world.sense(self.bb)
         clock = float(bbk.get(self.bb, bbk.CLOCK, 0.0) or 0.0)
+        self._track_movers(clock)
         if self.start_clock is None:
             self.start_clock = clock
         perceived = self.perceive()
@@ -223,6 +228,14 @@ class TreeRunner:
         for o in self.observers:
             o.on_tick(self, tick)
         return self.status
+
+    def _track_movers(self, clock: float) -> None:
+        """What the lidar sees move, for the tree to plan round (a new scan only; none without a pose)."""
+        scan: LaserScan | None = bbk.get(self.bb, bbk.SCAN, None)
+        state: RobotState | None = bbk.get(self.bb, bbk.ROBOT_STATE, None)
+        if scan is not None and state is not None:
+            movers = self.movers.update(scan, state.pose, bbk.get(self.bb, bbk.MAP, None), clock)
+            bbk.set_(self.bb, bbk.MOVERS, movers)
 
     def elapsed(self) -> float:
         """World seconds since the first step."""

@@ -58,6 +58,12 @@ ROBOT_STATE = Key("/robot/state", "RobotState | None", "base pose and velocity i
 CAMERA_EXTRINSICS = Key("/robot/camera_extrinsics", "ndarray 4×4", "T_base_optical: camera optical frame in base")
 SCAN = Key("/robot/scan", "LaserScan | None", "latest 2D lidar scan")
 MAP = Key("/robot/map", "OccupancyGrid | None", "the static map (pre-mapping phase)")
+MOVERS = Key(
+    "/robot/movers",
+    "tuple[Mover, ...]",
+    "what the lidar sees move that the map does not hold, with its velocity (mission.core.movers); the loop "
+    "updates it on every new scan",
+)
 WORLD_FAULT = Key(
     "/robot/fault",
     "str",
