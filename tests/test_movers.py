@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from behaviour_world import Scene, board, grid_with_boxes, marker_facing, read
 
 from mission.behaviours.pursue import PursueLastSeen
@@ -58,7 +59,7 @@ def test_a_cart_crossing_in_front_of_the_robot_is_tracked_with_its_velocity_and_
     robot = Pose2D(0.0, -1.5, math.pi / 2)
     tracker = track(None, robot, lambda t: [cart_at(t)], 2.0)
     (cart,) = tracker.movers()
-    assert cart.velocity[0] == _approx(0.35, 0.05) and abs(cart.velocity[1]) < 0.05
+    assert cart.velocity[0] == pytest.approx(0.35, abs=0.05) and abs(cart.velocity[1]) < 0.05
     assert 1.0 < cart.width_m < 1.4  # its long side, seen from the robot
     ahead = cart.swept(3.0)
     assert ahead[:, 0].max() > cart.points[:, 0].max() + 0.8  # 3 s on, it is about a metre further east
@@ -107,8 +108,3 @@ def test_lost_looks_from_behind_a_crossing_cart_not_from_where_it_is_about_to_dr
     assert not driven_over[sg.cell(*after)]
     assert after[0] < west  # behind the cart: where it has been, not where it is going
 
-
-def _approx(value: float, tol: float):
-    import pytest
-
-    return pytest.approx(value, abs=tol)
