@@ -16,6 +16,10 @@ On the coarse search grid (behaviours/search_grid.py):
   cells it sees. A target cannot cross the camera's view unseen, so the front does not leak behind the
   robot past what it is looking at; and a place looked at a while ago fills again once the target could
   have walked back into it from where it might be;
+* ``density`` — how likely the target is in each cell: it starts evenly on the cells the front starts
+  from (round the last position), every step of the front it spreads a little into the free cells beside
+  it (the target moves; the total is kept), and every camera view leaves MISS of it in the cells it sees
+  (the camera can miss a marker);
 * ``seen`` — every cell the camera has seen since the loss (in its horizontal field of view, within
   ``view_range_m`` — a marker farther than that is too small to read — and not hidden by the map's
   obstacles or what the lidar sees): what the coverage rung has covered.
@@ -24,9 +28,13 @@ Why a walking front rather than "within reach and never seen": a target cannot g
 crossing what the camera looks at, so the places behind it are not worth a look; and a place seen once is
 not cleared for good — a target hidden behind a moving cart walks back into it.
 
-Viewpoints are ranked on :meth:`weights`: ``possible`` times a prior that favours the target having walked
-on the way it was going (a band round its last position carried on along its last velocity), never zero
-elsewhere.
+Viewpoints are ranked on :meth:`weights`: ``possible`` times ``density`` times a prior. The front says
+where the target *can* be; the density how likely: a place just looked at that the front has walked back
+into is worth little until the likelihood of the places beside it, still unseen, has spread into it, and a
+far corner the front reached by walking round behind the robot is worth little next to the places near
+where the target vanished. The prior favours the target having walked on the way it was going (a band
+round its last position carried on along its last velocity), never zero elsewhere: the density spreads
+evenly, a walking target does not.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from mission.behaviours.search_grid import (
@@ -51,7 +60,8 @@ PRIOR_FLOOR = 0.05  # prior weight far from the predicted walk (never zero: the 
 PRIOR_SIGMA_M = 1.0  # width of the band round the predicted walk
 BEHIND_FLOOR = 0.2  # behind the last position the floor fades to this fraction of PRIOR_FLOOR (see _prior)
 PRIOR_HORIZON_S = 4.0  # how far along its last velocity the predicted walk goes
-REFILL_S = 15.0  # a cell seen this long ago counts in full again when the front walks back into it
+MISS = 0.2  # of a cell's likelihood, what a camera view of it leaves (a marker turned away or blurred is missed)
+SPREAD = 0.8  # of a cell's likelihood, what moves to the free cells beside it each step of the front
 
 
 @dataclass
@@ -72,7 +82,7 @@ class TargetBelief:
     view_range_m: float = DEFAULT_VIEW_RANGE_M
     initial_mass: float = 0.0
     looks: int = 0  # camera views applied
-    seen_at: np.ndarray | None = field(default=None, repr=False)  # float H×W: when each cell was last seen
+    density: np.ndarray | None = field(default=None, repr=False)  # float32 H×W: how likely it is there (module)
     front: np.ndarray | None = field(default=None, repr=False)  # bool H×W: where it can be now (see the module)
     free: np.ndarray | None = field(default=None, repr=False)  # bool H×W: where the target can stand
     grown_to: float = 0.0  # the time the front has walked to
@@ -124,7 +134,7 @@ class TargetBelief:
             updated=now, speed_mps=speed_mps, view_range_m=view_range_m, free=free,
         )  # fmt: skip
         belief.front = (reach <= belief.radius_m) & free
-        belief.seen_at = np.full(sg.shape, -np.inf, dtype=np.float32)
+        belief.density = belief.front.astype(np.float32)
         belief.grown_to = now
         belief.initial_mass = belief.mass()
         return belief
@@ -143,6 +153,8 @@ class TargetBelief:
             self.front = within & ~self.seen  # so it can be anywhere within reach not yet seen
         while self.grown_to + step_s <= self.updated:
             self.front = dilate_once(self.front, self.grows) & within
+            if self.density is not None:
+                self.density = spread(self.density, self.free)
             self.grows += 1
             self.grown_to += step_s
 
@@ -153,12 +165,12 @@ class TargetBelief:
         would clear every place the target can be, it vanished where the camera looks (a missed detection,
         a marker turned away), and that view clears nothing of the front."""
         self.seen |= view
-        if self.seen_at is not None:
-            self.seen_at[view] = self.updated
         if self.front is not None:
             left = self.front & ~view
             if left.any() or self.looks > 0:
                 self.front = left
+                if self.density is not None:
+                    self.density[view] *= MISS
         self.looks += 1
 
     def look(self, now: float, camera: tuple[float, float], yaw: float, hfov: float, blocked: np.ndarray) -> None:
@@ -170,15 +182,22 @@ class TargetBelief:
     def weights(self) -> np.ndarray:
         """Float H×W: how much each cell is worth looking at (0 where the target cannot be).
 
-        A cell the front has walked back into since it was seen is worth less than one never seen, the more
-        so the more recently it was seen: the front says the target *could* be there again, but of all the
-        ways it could have gone, few lead back into a place just looked at (a density would say so; the
-        freshness factor is its cheap stand-in). Without it a robot keeps re-sweeping what it just cleared."""
-        w = self.possible * self.prior
-        if self.seen_at is not None:
-            fresh = np.clip((self.updated - self.seen_at) / REFILL_S, 0.0, 1.0)  # never seen: inf → 1
-            w = w * fresh
-        return w
+        A cell the front has walked back into since it was seen is worth less than one never seen until the
+        places beside it, unseen, have spread their likelihood into it: the front says the target *could* be
+        there again, but of all the ways it could have gone, few lead back into a place just looked at.
+        Without the density a robot keeps re-sweeping what it just cleared (hide_and_wait: the band along the
+        target's last heading, swept four times while it waited behind the crates).
+
+        The density is scaled so that its likeliest possible cell counts 1: it thins as it spreads, and what
+        ranks views (a window worth less than half a cell is not worth a visit; a turn that shows a third of
+        the weight) is measured in cells."""
+        possible = self.possible
+        if self.density is None or not possible.any():
+            return possible * self.prior
+        peak = float(self.density[possible].max())
+        if peak <= 0:
+            return possible * self.prior
+        return possible * self.prior * (self.density / peak)
 
     def mass(self) -> float:
         return float(self.weights().sum())
@@ -192,6 +211,19 @@ class TargetBelief:
         reachable = self.reachable
         total = int(reachable.sum())
         return 1.0 if total == 0 else float((reachable & self.seen).sum()) / total
+
+
+def spread(density: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """One step of the target's unseen walk: SPREAD of each free cell's likelihood goes, in equal shares, to
+    the free cells among its eight neighbours; none is lost into walls (a cell without a free neighbour
+    keeps all of its own)."""
+    free_f = free.astype(np.float32)
+    ring = np.ones((3, 3), np.float32)
+    ring[1, 1] = 0.0
+    neighbours = cv2.filter2D(free_f, -1, ring, borderType=cv2.BORDER_CONSTANT)
+    moving = np.where(neighbours > 0, SPREAD * density, 0.0).astype(np.float32)
+    inflow = cv2.filter2D(moving / np.maximum(neighbours, 1.0), -1, ring, borderType=cv2.BORDER_CONSTANT)
+    return ((density - moving + inflow) * free_f).astype(np.float32)
 
 
 def _prior(

@@ -184,6 +184,21 @@ def test_what_the_camera_sees_is_no_longer_where_the_target_can_be():
     assert 0 < belief.seen_fraction() < 1
 
 
+def test_a_place_the_target_reaches_by_a_short_walk_outweighs_one_it_reaches_by_a_long_way_round():
+    # two places 2 m from where it was lost: one in the open, one behind the wall (a long walk round its end)
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    assert belief.density is not None
+    total = float(belief.density.sum())
+    belief.grow(8.0)  # long enough to have walked to either
+    near, round_the_end = sg.cell(-2.0, -1.0), sg.cell(2.0, -1.0)
+    assert belief.possible[near] and belief.possible[round_the_end]
+    w = belief.weights()
+    assert w[near] > 3 * w[round_the_end] > 0
+    assert float(belief.density.sum()) == pytest.approx(total, rel=1e-3)  # spread, none lost
+    assert not belief.density[~sg.target_free()].any()  # and none of it where the target cannot stand
+
+
 CORRIDOR = [(-7.0, 0.5, 7.0, 0.7), (-7.0, -0.7, 7.0, -0.5)]  # a corridor 1 m wide along x
 
 
@@ -213,12 +228,12 @@ def test_a_place_looked_at_fills_again_once_the_target_could_have_walked_back_in
     belief = TargetBelief.start("target", 0.0, (-1.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
     belief.grow(1.0)
     belief.look(1.0, camera=(-3.0, -1.0), yaw=0.0, hfov=math.radians(30), blocked=sg.occupied)
-    here, aside = sg.cell(-1.0, -1.0), sg.cell(-1.0, -2.6)
-    assert not belief.possible[here]
+    looked, aside = sg.cell(-0.2, -1.0), sg.cell(-1.0, -1.8)  # as far from where it was lost; one in the view
+    assert not belief.possible[looked]
     belief.grow(4.0)  # no more looks: from either side of the narrow view it can have walked back
-    assert belief.possible[here] and belief.possible[aside]
+    assert belief.possible[looked] and belief.possible[aside]
     w = belief.weights()
-    assert 0 < w[here] < w[aside] / belief.prior[aside] * belief.prior[here]  # looked at 3 s ago: worth less
+    assert 0 < w[looked] < w[aside]  # looked at 3 s ago: worth less than a place as near, never looked at
 
 
 # ------------------------------------------------------------------------------------ SEARCH b

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from mission.core.scan import OCCUPIED, scan_points, scan_segments
+from mission.core.scan import OCCUPIED, extent_width, scan_points, scan_segments
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D
 from mission.core.velocity import least_squares_velocity
 
@@ -118,7 +118,7 @@ class MoverTracker:
             if len(seg) < MIN_RETURNS:
                 continue
             pts = np.column_stack([xs[seg], ys[seg]])
-            span = float(max(np.hypot(*(pts - pts[0]).T).max(), np.hypot(*(pts - pts[-1]).T).max()))
+            span = extent_width(xs[seg], ys[seg])
             things.append(((pts.min(axis=0) + pts.max(axis=0)) / 2, pts, span))  # the extent's middle
         pairs = sorted(
             (math.hypot(c[0] - px, c[1] - py), i, j)

@@ -69,10 +69,12 @@ def segment_width(
 
     first, last = run(-1), run(+1)
     members = np.arange(first, first + (last - first) % n + 1) % n
-    return _width(xs[members], ys[members])
+    return extent_width(xs[members], ys[members])
 
 
-def _width(px: np.ndarray, py: np.ndarray) -> float:
+def extent_width(px: np.ndarray, py: np.ndarray) -> float:
+    """Width of a thing from its returns in beam order: the greatest distance from either end to any of them
+    (robust to a return in the middle being the thing's nearest, not its edge)."""
     return float(max(np.hypot(px - px[0], py - py[0]).max(), np.hypot(px - px[-1], py - py[-1]).max()))
 
 
