@@ -194,7 +194,7 @@ def test_a_place_the_target_reaches_by_a_short_walk_outweighs_one_it_reaches_by_
     near, round_the_end = sg.cell(-2.0, -1.0), sg.cell(2.0, -1.0)
     assert belief.possible[near] and belief.possible[round_the_end]
     w = belief.weights()
-    assert w[near] > 3 * w[round_the_end] > 0
+    assert w[near] > 1.5 * w[round_the_end] > 0  # the prior alone weighs them alike: as far, no heading
     assert float(belief.density.sum()) == pytest.approx(total, rel=1e-3)  # spread, none lost
     assert not belief.density[~sg.target_free()].any()  # and none of it where the target cannot stand
 
