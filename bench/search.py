@@ -26,7 +26,7 @@ Knobs (environment): ``MISSION_BENCH_SEEDS`` (ladder seeds per scenario, default
 (comma-separated; default all ten), ``MISSION_BENCH_SEARCHES`` (default ``ladder,sweep,rotate``),
 ``MISSION_BENCH_WORKERS`` (default one per core), ``MISSION_BENCH_BUDGET_S`` (stop starting runs after this
 many wall seconds in all; what finished is reported). The full acceptance run is ``mission bench --only search``:
-about 3 hours on two cores (560 runs, ~20 s each with two at a time), so it resumes — each sweep directory
+about 4 hours on two cores (560 runs, ~25 s each with two at a time), so it resumes — each sweep directory
 keeps the runs it finished while the code (the installed mission's source, by content), the tree and the run
 length stay the same, and starts afresh otherwise; run the same command again to go on.
 """
