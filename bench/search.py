@@ -268,23 +268,29 @@ def _plot(cells: dict[str, dict[str, Any]], out: Path) -> str | None:
 
     names = [s for s in (*EXISTING, *NEW) if any(s in c for c in cells.values())]
     searches = list(cells)
-    fig, axes = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(11, 7), sharex=True)
     x = np.arange(len(names))
     w = 0.8 / len(searches)
     for i, search in enumerate(searches):
         c = cells[search]
+        at = x + (i - (len(searches) - 1) / 2) * w
         rate = [c[n]["success_rate"] if n in c else np.nan for n in names]
         worst = [(c[n]["reacquisition_s_worst"] or 0) if n in c else np.nan for n in names]
-        axes[0].bar(x + (i - (len(searches) - 1) / 2) * w, rate, w, label=f"{search}: {DESCRIBE[search]}")
-        axes[1].bar(x + (i - (len(searches) - 1) / 2) * w, worst, w, label=search)
+        bars = axes[0].bar(at, rate, w, label=f"{search}: {DESCRIBE[search]}")
+        axes[1].bar(at, worst, w, color=bars.patches[0].get_facecolor())
+        for xi, n in zip(at, names, strict=True):
+            if n in c and c[n]["success_rate"] == 0:  # a bar of height 0 is invisible: say it
+                axes[0].text(xi, 0.01, "0", ha="center", va="bottom", fontsize=7)
+            if n in c and c[n]["loss_events"] and c[n]["reacquisition_s_worst"] is None:
+                axes[1].text(xi, 0.1, "×", ha="center", va="bottom", fontsize=9)
     axes[0].set_ylim(0, 1.05)
     axes[0].set_ylabel("success rate")
-    axes[0].legend(fontsize=7, loc="lower left")
+    fig.legend(fontsize=8, loc="upper center", ncol=1, frameon=False)
     axes[1].axhline(REACQUISITION_GOAL_S, color="grey", ls="--", lw=0.8)
-    axes[1].set_ylabel("worst re-acquisition (s)")
+    axes[1].set_ylabel("worst re-acquisition (s)\n× = no loss recovered")
     runs = {n: max(cells[s][n]["runs"] for s in searches if n in cells[s]) for n in names}
-    axes[1].set_xticks(x, [f"{n}\n(≤{runs[n]} seeds)" for n in names], fontsize=7, rotation=20)
-    fig.tight_layout()
+    axes[1].set_xticks(x, [f"{n}\n({runs[n]} seeds)" for n in names], fontsize=7, rotation=20)
+    fig.tight_layout(rect=(0, 0, 1, 0.9))
     name = "search.png"
     save_figure(fig, out / name)
     return name
