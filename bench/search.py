@@ -289,7 +289,7 @@ def _plot(cells: dict[str, dict[str, Any]], out: Path) -> str | None:
     axes[1].axhline(REACQUISITION_GOAL_S, color="grey", ls="--", lw=0.8)
     axes[1].set_ylabel("worst re-acquisition (s)\n× = no loss recovered")
     runs = {n: max(cells[s][n]["runs"] for s in searches if n in cells[s]) for n in names}
-    axes[1].set_xticks(x, [f"{n}\n({runs[n]} seeds)" for n in names], fontsize=7, rotation=20)
+    axes[1].set_xticks(x, [f"{n}\n(≤{runs[n]} seeds)" for n in names], fontsize=7, rotation=20)
     fig.tight_layout(rect=(0, 0, 1, 0.9))
     name = "search.png"
     save_figure(fig, out / name)
