@@ -155,14 +155,21 @@ class TreeDocument:
     subtree_models: dict[str, dict[str, PortModel]] = field(default_factory=dict)
 
 
-def read_document(path: str | Path) -> TreeDocument:
-    """Read a tree file and its includes; raise TreeError at the first file-level problem."""
+def read_document(path: str | Path, main_tree: str | None = None) -> TreeDocument:
+    """Read a tree file and its includes; raise TreeError at the first file-level problem.
+
+    `main_tree` picks the tree to run by ID (BT.CPP's ``createTree(name)``), over the file's
+    ``main_tree_to_execute``."""
     top = resolve_tree_path(path)
     trees: dict[str, SourceElement] = {}
     files: list[Path] = []
     models: dict[str, dict[str, PortModel]] = {}
     top_root = _read_file(top.resolve(), [], trees, files, models)
     own = [el.attrib["ID"] for el in top_root.children if el.tag == "BehaviorTree"]
+    if main_tree is not None:
+        if main_tree not in trees:
+            raise TreeError(top_root.error(f"no tree named {main_tree!r} to run; trees defined: {_names(trees)}"))
+        return TreeDocument(top, main_tree, trees, files, models)
     main = top_root.attrib.get("main_tree_to_execute")
     if main is not None:
         if main not in trees:
@@ -653,8 +660,10 @@ def _parse_quietly(text: str) -> Script | None:
         return None
 
 
-def _compile(path: str | Path, factory: BehaviourFactory | None) -> tuple[TreeDescription, _Compiler]:
-    doc = read_document(path)
+def _compile(
+    path: str | Path, factory: BehaviourFactory | None, main_tree: str | None = None
+) -> tuple[TreeDescription, _Compiler]:
+    doc = read_document(path, main_tree)
     compiler = _Compiler(doc, shipped_factory() if factory is None else factory)
     compiler.check_names()
     try:
@@ -712,16 +721,20 @@ def check_targets(path: str | Path, targets: Collection[str], factory: Behaviour
 
 
 def load_tree(
-    path: str | Path, factory: BehaviourFactory | None = None, runtime: TreeRuntime | None = None
+    path: str | Path,
+    factory: BehaviourFactory | None = None,
+    runtime: TreeRuntime | None = None,
+    main_tree: str | None = None,
 ) -> Behaviour:
     """Validate the tree file (and its includes) completely, then build it; returns the root behaviour.
 
     Node types are looked up in `factory` and built as it was told: each registered behaviour with its
     registration arguments (for the running mission, ``shipped_factory(deps)`` with the perception
     dependencies). The tree's blackboards start empty (``/tree/…`` entries of an earlier tree are removed);
-    the root's ``tick`` is BT.CPP's ``tickOnce``. `runtime` lets a test observe every node's executeTick.
+    the root's ``tick`` is BT.CPP's ``tickOnce``. `runtime` lets a test observe every node's executeTick;
+    `main_tree` names the tree to run when it is not the file's main tree (BT.CPP's ``createTree(name)``).
     """
-    main, compiler = _compile(path, factory)
+    main, compiler = _compile(path, factory, main_tree)
     tree = runtime if runtime is not None else TreeRuntime()
     builder = _Builder(tree, compiler)
     scopes.clear_tree_entries()
