@@ -82,9 +82,10 @@ CASES = {
         '<root BTCPP_format="4">\n  <include/>\n  <BehaviorTree ID="T"><Explore/></BehaviorTree>\n</root>\n',
         '2: <include>: missing path; expected <include path="other.xml"/>',
     ),
-    "tree without ID": (
-        '<root BTCPP_format="4">\n  <BehaviorTree><Explore/></BehaviorTree>\n</root>\n',
-        '2: <BehaviorTree>: missing ID; expected <BehaviorTree ID="Name">',
+    "one of two trees without ID": (
+        '<root BTCPP_format="4">\n  <BehaviorTree><Explore/></BehaviorTree>\n  <BehaviorTree ID="T"><Explore/>'
+        "</BehaviorTree>\n</root>\n",
+        '2: <BehaviorTree>: missing ID; a file with several trees must name each: <BehaviorTree ID="Name">',
     ),
     "no trees": ('<root BTCPP_format="4">\n</root>\n', "1: <root>: the file defines 0 trees (none)"),
 }

@@ -165,7 +165,7 @@ def read_document(path: str | Path, main_tree: str | None = None) -> TreeDocumen
     files: list[Path] = []
     models: dict[str, dict[str, PortModel]] = {}
     top_root = _read_file(top.resolve(), [], trees, files, models)
-    own = [el.attrib["ID"] for el in top_root.children if el.tag == "BehaviorTree"]
+    own = [el.name for el in top_root.children if el.tag == "BehaviorTree"]
     if main_tree is not None:
         if main_tree not in trees:
             raise TreeError(top_root.error(f"no tree named {main_tree!r} to run; trees defined: {_names(trees)}"))
@@ -214,7 +214,12 @@ def _read_file(
         elif el.tag == "BehaviorTree":
             tree_id = el.attrib.get("ID")
             if not tree_id:
-                raise TreeError(el.error('missing ID; expected <BehaviorTree ID="Name">'))
+                if sum(child.tag == "BehaviorTree" for child in root.children) > 1:
+                    raise TreeError(el.error('missing ID; a file with several trees must name each: '
+                                             '<BehaviorTree ID="Name">'))  # fmt: skip
+                # one unnamed tree in its file: BT.CPP names it BehaviorTree_<n>, n counting such trees
+                tree_id = f"BehaviorTree_{sum(not t.attrib.get('ID') for t in trees.values())}"
+                el.name = tree_id
             if tree_id in trees:
                 raise TreeError(el.error(f"tree {tree_id} is already defined at {trees[tree_id].where}"))
             trees[tree_id] = el

@@ -7,6 +7,7 @@ file it came from. Nothing here knows about behaviour trees; the loader interpre
 
 from __future__ import annotations
 
+import bisect
 import os
 import re
 from dataclasses import dataclass, field
@@ -57,6 +58,17 @@ class SourceElement:
     children: list[SourceElement] = field(default_factory=list)
     source: SourceText | None = field(default=None, repr=False, compare=False)
     start: int = field(default=0, repr=False, compare=False)  # byte offset of the start tag's '<'
+    #: the name a ``<BehaviorTree>`` without ``ID`` is known by (BT.CPP's ``BehaviorTree_<n>``)
+    given_name: str | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def name(self) -> str:
+        """The element's ``ID``, or the name the loader gave it."""
+        return self.attrib.get("ID") or self.given_name or ""
+
+    @name.setter
+    def name(self, value: str) -> None:
+        self.given_name = value
 
     def attribute_position(self, name: str, index: int = 0) -> tuple[int, int]:
         """(line, column), 1-based, of character `index` of attribute `name`'s value as the parser gave it
@@ -115,10 +127,67 @@ def parse_file(path: Path) -> SourceElement:
     return parse_bytes(data, path)
 
 
+_ENTITY_BYTES = re.compile(rb"&(#x[0-9a-fA-F]+|#[0-9]+|[A-Za-z][A-Za-z0-9]*);")
+_SKIP = ((b"<!--", b"-->"), (b"<![CDATA[", b"]]>"), (b"<?", b"?>"), (b"<!", b">"))
+
+
+def escape_attribute_values(data: bytes) -> tuple[bytes, list[tuple[int, int]]]:
+    """`data` with a raw ``<`` or a bare ``&`` inside attribute values escaped, as tinyxml2 (BT.CPP's parser)
+    reads them: people write ``_skipIf="A<2"`` and ``code="a && b"`` by hand, and BT.CPP loads such files.
+
+    Returns the escaped text and, for mapping the parser's byte offsets back to `data`, the points where the
+    text grew: (offset in the escaped text where the growth ends, total growth so far)."""
+    if b"<" not in data.replace(b"<", b"", 1) and b"&" not in data:
+        return data, []
+    out = bytearray()
+    shifts: list[tuple[int, int]] = []
+    i, n = 0, len(data)
+    while i < n:
+        skip = next((end for start, end in _SKIP if data.startswith(start, i)), None)
+        if skip is not None:  # comments, CDATA, declarations: as written
+            j = data.find(skip, i + 1)
+            j = n if j < 0 else j + len(skip)
+            out += data[i:j]
+            i = j
+            continue
+        if data[i] != 0x3C:  # '<'
+            out.append(data[i])
+            i += 1
+            continue
+        out.append(data[i])  # a tag: copy to its '>', escaping inside quoted values
+        i += 1
+        quote = 0
+        while i < n:
+            c = data[i]
+            i += 1
+            if quote and c == 0x3C:
+                out += b"&lt;"
+                shifts.append((len(out), (shifts[-1][1] if shifts else 0) + 3))
+            elif quote and c == 0x26 and not _ENTITY_BYTES.match(data, i - 1):
+                out += b"&amp;"
+                shifts.append((len(out), (shifts[-1][1] if shifts else 0) + 4))
+            else:
+                out.append(c)
+                if quote and c == quote:
+                    quote = 0
+                elif not quote and c in (0x22, 0x27):
+                    quote = c
+                elif not quote and c == 0x3E:  # '>'
+                    break
+    return bytes(out), shifts
+
+
 def parse_bytes(data: bytes, path: Path) -> SourceElement:
     """Parse XML text that came from `path` (used in messages and to resolve includes)."""
     if not data.strip():
         raise TreeError(f'{display_path(path)}:1: empty file; expected <root BTCPP_format="4"> with a <BehaviorTree>')
+    escaped, shifts = escape_attribute_values(data)
+    ends = [end for end, _ in shifts]
+
+    def original(offset: int) -> int:
+        k = bisect.bisect_right(ends, offset)
+        return offset - (shifts[k - 1][1] if k else 0)
+
     parser = expat.ParserCreate()
     parser.ordered_attributes = True
     source = SourceText(data)
@@ -127,7 +196,8 @@ def parse_bytes(data: bytes, path: Path) -> SourceElement:
 
     def start(tag: str, attributes: list[str]) -> None:
         attrib = dict(zip(attributes[0::2], attributes[1::2], strict=True))
-        element = SourceElement(tag, attrib, parser.CurrentLineNumber, path, [], source, parser.CurrentByteIndex)
+        offset = original(parser.CurrentByteIndex)
+        element = SourceElement(tag, attrib, parser.CurrentLineNumber, path, [], source, offset)
         if len(stack) >= MAX_DEPTH:  # the checker and builder recurse: stop here, not with a RecursionError
             raise TreeError(element.error(f"nested {len(stack)} elements deep; expected at most {MAX_DEPTH} "
                                           "(split the tree into <SubTree>s)"))
@@ -143,7 +213,7 @@ def parse_bytes(data: bytes, path: Path) -> SourceElement:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     try:
-        parser.Parse(data, True)
+        parser.Parse(escaped, True)
     except expat.ExpatError as exc:
         reason = expat.errors.messages.get(exc.code, str(exc))
         raise TreeError(
