@@ -13,6 +13,8 @@ SKIPPED is stepped over, and a control whose children were all skipped is itself
 
 from __future__ import annotations
 
+import re
+
 import py_trees
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
@@ -402,21 +404,29 @@ class TryCatch(_Control, py_trees.composites.Composite):
                 return SKIPPED if all_skipped else SUCCESS
 
 
+_INT = re.compile(r"-?[0-9]+")
+_REAL = re.compile(r"-?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|-?(inf|infinity|nan)", re.IGNORECASE)
+#: BT.CPP compares real cases within float's epsilon
+_CASE_EPSILON = 1.1920928955078125e-07
+
+
 def same_case(variable: str, case: str, enums: dict[str, int]) -> bool:
-    """BT.CPP's Switch comparison: equal strings, or equal integers (an enum name counts as its value)."""
+    """BT.CPP's Switch comparison (CheckStringEquality): equal strings, else equal integers, else reals within
+    float's epsilon, an enum name counting as its value. A number must be the whole text, as std::from_chars
+    reads it: ``"5"`` matches ``"5.0"``, ``"5 "`` does not match ``"5"``."""
     if variable == case:
         return True
 
-    def as_int(text: str) -> int | None:
+    def number(text: str, pattern: re.Pattern[str], kind: type) -> float | None:
         if text in enums:
             return enums[text]
-        try:
-            return int(text)
-        except ValueError:
-            return None
+        return kind(text) if pattern.fullmatch(text) else None
 
-    a, b = as_int(variable), as_int(case)
-    return a is not None and a == b
+    a, b = number(variable, _INT, int), number(case, _INT, int)
+    if a is not None and a == b:
+        return True
+    x, y = number(variable, _REAL, float), number(case, _REAL, float)
+    return x is not None and y is not None and abs(x - y) <= _CASE_EPSILON
 
 
 class Switch(_Control, py_trees.composites.Composite):
@@ -460,4 +470,3 @@ class Switch(_Control, py_trees.composites.Composite):
             self.reset_children()
             self.running = -1
         return result
-

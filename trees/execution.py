@@ -238,8 +238,11 @@ def _tick_root(node: Behaviour) -> Iterator[Behaviour]:
     else:  # BT.CPP would loop for ever (Repeat num_cycles="-1" over a child that succeeds at once)
         if not rt.tree.warned_wake_ups:
             rt.tree.warned_wake_ups = True
-            log.warning("%s: woken up %d times within one tick; the rest of this tick waits for the next one",
-                        node.name, MAX_WAKE_UPS)
+            log.warning(
+                "%s: woken up %d times within one tick; the rest of this tick waits for the next one",
+                node.name,
+                MAX_WAKE_UPS,
+            )
     if completed(rt.result):
         rt.layers[0].status = IDLE
     yield from _visited_since(rt.tree, start)

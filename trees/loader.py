@@ -332,6 +332,7 @@ class _Compiler:
         self.uid = 0
         self.declared: set[str] = set()  # entries BT.CPP creates when the tree is built
         self.types: dict[str, tuple[type, str]] = {}  # entry → the type its first typed port gave it, and where
+        self.instances: dict[str, str] = {}  # SubTree instance path → where that SubTree was written
 
     def problem(self, message: str) -> None:
         if message not in self.problems:
@@ -360,7 +361,7 @@ class _Compiler:
         kind = "a BT.CPP built-in" if tree_id in BUILTIN_IDS else f"the registered {manifest.kind.lower()}"  # type: ignore[union-attr]
         return (
             f"tree ID {tree_id!r} is also {kind} {tree_id}, which BT.CPP 4.6.2+ refuses "
-            f"(\"must not use the name of a registered Node\"); rename the tree, e.g. {tree_id}Tree, "
+            f'("must not use the name of a registered Node"); rename the tree, e.g. {tree_id}Tree, '
             f'and its <SubTree ID="{tree_id}"> references'
         )
 
@@ -483,7 +484,14 @@ class _Compiler:
             if name in wiring.written:
                 continue
             if port.reads and not port.required:
-                wiring.constants[name] = port.default
+                key = (
+                    _pointer_key(name, port.default) if isinstance(port.default, str) and "{" in port.default else None
+                )
+                ref = self.entry(el, scope, name, key) if key else None
+                if ref is not None:  # BT.CPP: a default written "{key}" is that entry, read before every tick
+                    wiring.inputs[name] = ref
+                else:
+                    wiring.constants[name] = port.default
             elif port.direction == "output" and not port.required and isinstance(port.default, str):
                 key = _pointer_key(name, port.default)
                 ref = self.entry(el, scope, name, key) if key else None
@@ -520,6 +528,7 @@ class _Compiler:
         conditions = self.conditions(el, attrs)
         written, wiring = self.ports(el, node_type, attrs, manifest, scope)
         effective = {k: p.default for k, p in declared.items() if p.reads and not p.required}
+        effective.update({k: ref for k, ref in wiring.inputs.items() if k not in written})  # "{key}" defaults
         effective.update(written)
         missing = [k for k, p in declared.items() if p.required and k not in written and k not in wiring.written]
         for port_name in missing:
@@ -532,7 +541,7 @@ class _Compiler:
 
         children = [c for c in (self.node(child, scope, stack) for child in el.children) if c is not None]
         self.child_count(el, node_type, manifest, len(el.children))
-        connected = any(isinstance(v, BlackboardRef) for v in written.values())
+        connected = any(isinstance(v, BlackboardRef) for v in effective.values())
         reading = {k for k, p in declared.items() if p.reads}
         if manifest.check and not missing and not connected and reading <= set(effective):
             message = manifest.check({k: v for k, v in effective.items() if k in reading}, len(el.children))
@@ -556,6 +565,14 @@ class _Compiler:
             self.problem(el.error("control node has no children; expected at least 1"))
         elif kind in ("Action", "Condition") and n:
             self.problem(el.error(f"{kind.lower()} node has {n} child{'ren' if n > 1 else ''}; expected none"))
+        if node_type == "ReactiveSequence":  # BT.CPP's VerifyXML counts the <AsyncSequence> children
+            asynchronous = [child for child in el.children if child.tag == "AsyncSequence"]
+            if len(asynchronous) > 1:
+                self.problem(el.error(
+                    f"ReactiveSequence has {len(asynchronous)} asynchronous children (<AsyncSequence> at lines "
+                    f"{', '.join(str(c.line) for c in asynchronous)}); expected at most 1, as BT.CPP: it would "
+                    "restart one while the other runs"
+                ))  # fmt: skip
 
     def subtree(
         self, el: SourceElement, attrs: dict[str, str], scope: scopes.Scope, stack: tuple[str, ...]
@@ -629,6 +646,13 @@ class _Compiler:
             return None
         instance = name if "name" in el.attrib else f"{tree_id}::{uid}"
         child_scope = scope.child(instance, remap, constants, autoremap)
+        if child_scope.path in self.instances:  # Groot2 and the blackboards tell instances apart by path
+            self.problem(el.error(
+                f"duplicate SubTree path {child_scope.path!r} (also {self.instances[child_scope.path]}); "
+                "BT.CPP refuses two SubTrees with the same name under one parent: give each a unique name, "
+                "or leave name out to number them"
+            ))  # fmt: skip
+        self.instances[child_scope.path] = f"at {el.where}"
         entries: dict[str, Any] = {}
         for attr, text in constants.items():
             path = child_scope.entry_path(attr)
@@ -676,7 +700,7 @@ def _compile(
         declared, types = set(compiler.declared), dict(compiler.types)
         for tree_id in doc.trees:  # trees nothing uses are still the user's file: check them too
             if tree_id not in compiler.reached:
-                compiler.types = {}
+                compiler.types, compiler.instances = {}, {}
                 compiler.tree(tree_id, scopes.Scope(), ())
         compiler.declared, compiler.types = declared, types
     except RecursionError:  # each file is at most MAX_DEPTH deep, but SubTrees expand into each other

@@ -199,8 +199,11 @@ def parse_bytes(data: bytes, path: Path) -> SourceElement:
         offset = original(parser.CurrentByteIndex)
         element = SourceElement(tag, attrib, parser.CurrentLineNumber, path, [], source, offset)
         if len(stack) >= MAX_DEPTH:  # the checker and builder recurse: stop here, not with a RecursionError
-            raise TreeError(element.error(f"nested {len(stack)} elements deep; expected at most {MAX_DEPTH} "
-                                          "(split the tree into <SubTree>s)"))
+            raise TreeError(
+                element.error(
+                    f"nested {len(stack)} elements deep; expected at most {MAX_DEPTH} (split the tree into <SubTree>s)"
+                )
+            )
         if stack:
             stack[-1].children.append(element)
         else:
