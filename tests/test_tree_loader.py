@@ -696,7 +696,7 @@ ERROR_CASES = {
     "unknown underscore attribute": (
         {"main.xml": A_TREE.format(node='<TestReady _skipif="done"/>')},
         ("main.xml", "_skipif"),
-        "<TestReady>: unknown attribute '_skipif'; BT.CPP's are _failureIf, _successIf, _skipIf, _while, ",
+        "<TestReady>: unknown attribute '_skipif' (did you mean _skipIf?); BT.CPP's are _failureIf, _successIf, ",
     ),
     "two trees without a main": (
         {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="A"><TestReady/></BehaviorTree>\n'

@@ -118,6 +118,8 @@ class Layer:
     name: str
     conditions: Conditions = field(default_factory=Conditions)
     status: Status = IDLE  # BT.CPP's status (INVALID = IDLE)
+    #: the node's attributes starting with ``_`` that are no port or condition (BT.CPP's other_attributes)
+    other_attributes: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass(eq=False)
@@ -137,6 +139,11 @@ class NodeRuntime:
     @property
     def uid(self) -> int:
         return self.layers[-1].uid
+
+    @property
+    def other_attributes(self) -> dict[str, str]:
+        """The node's own attributes that are no port or condition, as written (BT.CPP's other_attributes)."""
+        return self.layers[-1].other_attributes
 
 
 class PortError(RuntimeError):

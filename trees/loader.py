@@ -126,6 +126,9 @@ class TreeDescription:
     wiring: Wiring | None = field(default=None, repr=False, compare=False)
     scripts: dict[str, Script] = field(default_factory=dict, repr=False, compare=False)
     entries: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)  # SubTree constants by entry
+    #: attributes starting with ``_`` that are no port or condition, kept for the application (BT.CPP's
+    #: ``config().other_attributes``)
+    other_attributes: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
     def walk(self) -> Iterator[TreeDescription]:
         """This node and every node below it, depth first."""
@@ -428,8 +431,29 @@ class _Compiler:
                 f"for {first[1]}; BT.CPP refuses an entry whose type changes"
             ))  # fmt: skip
 
+    def other_attribute(self, el: SourceElement, attr: str, text: str, other: dict[str, str]) -> None:
+        """An attribute starting with ``_`` that is no port or condition: BT.CPP keeps it for the application
+        (``other_attributes``), and so do we; one that looks like a misspelt condition is still refused."""
+        known = [*CONDITION_ATTRIBUTES, "_autoremap"]
+        hint = next((k for k in known if k.lower() == attr.lower()), None) or next(
+            iter(difflib.get_close_matches(attr, known, n=1, cutoff=0.85)), None
+        )
+        if hint is not None:
+            self.problem(el.error(
+                f"unknown attribute {attr!r} (did you mean {hint}?); BT.CPP's are {', '.join(CONDITION_ATTRIBUTES)}; "
+                "other attributes starting with '_' are kept for the application, not run"
+            ))  # fmt: skip
+            return
+        other[attr] = text
+
     def ports(
-        self, el: SourceElement, node_type: str, attrs: dict[str, str], manifest: NodeManifest, scope: scopes.Scope
+        self,
+        el: SourceElement,
+        node_type: str,
+        attrs: dict[str, str],
+        manifest: NodeManifest,
+        scope: scopes.Scope,
+        other: dict[str, str],
     ) -> tuple[dict[str, Any], Wiring]:
         declared = manifest.ports
         values: dict[str, Any] = {}
@@ -438,10 +462,7 @@ class _Compiler:
             if attr in IGNORED_ATTRIBUTES:
                 continue
             if attr.startswith("_"):
-                self.problem(el.error(
-                    f"unknown attribute {attr!r}; BT.CPP's are {', '.join(CONDITION_ATTRIBUTES)} "
-                    f"(and {', '.join(sorted(IGNORED_ATTRIBUTES))}, which Groot2 writes)"
-                ))  # fmt: skip
+                self.other_attribute(el, attr, text, other)
                 continue
             if attr not in declared:
                 self.problem(el.error(unknown_port(attr, node_type, declared)))
@@ -463,7 +484,10 @@ class _Compiler:
                         wiring.constants[attr] = text
                     continue
                 try:
-                    value = text if attr in manifest.untyped else port.parse(text)
+                    if port.type is int and text.strip() in self.enums:  # an enum port: BT.CPP takes the name too
+                        value = self.enums[text.strip()]
+                    else:
+                        value = text if attr in manifest.untyped else port.parse(text)
                 except ValueError as exc:
                     self.problem(el.error(wrong_type(attr, str(exc), text)))
                     continue
@@ -526,7 +550,8 @@ class _Compiler:
         uid = self.next_uid()
         name = attrs.pop("name", node_type)
         conditions = self.conditions(el, attrs)
-        written, wiring = self.ports(el, node_type, attrs, manifest, scope)
+        other: dict[str, str] = {}
+        written, wiring = self.ports(el, node_type, attrs, manifest, scope, other)
         effective = {k: p.default for k, p in declared.items() if p.reads and not p.required}
         effective.update({k: ref for k, ref in wiring.inputs.items() if k not in written})  # "{key}" defaults
         effective.update(written)
@@ -549,7 +574,7 @@ class _Compiler:
                 self.problem(el.error(message))
         return TreeDescription(
             node_type, name, kind, display_path(el.file), el.line, written, effective, children, manifest=manifest,
-            uid=uid, conditions=conditions, scope=scope, wiring=wiring, scripts=scripts,
+            uid=uid, conditions=conditions, scope=scope, wiring=wiring, scripts=scripts, other_attributes=other,
         )  # fmt: skip
 
     def child_count(self, el: SourceElement, node_type: str, manifest: NodeManifest, n: int) -> None:
@@ -590,6 +615,7 @@ class _Compiler:
         name = attrs.pop("name", tree_id)
         conditions = self.conditions(el, attrs)
         autoremap = False
+        other: dict[str, str] = {}
         remap: dict[str, str] = {}
         constants: dict[str, str] = {}
         shown: dict[str, Any] = {}
@@ -603,7 +629,7 @@ class _Compiler:
                     self.problem(el.error(f'_autoremap="{text}": expected true or false'))
                 continue
             if attr.startswith("_"):
-                self.problem(el.error(f"unknown attribute {attr!r}; a SubTree takes ID, name, _autoremap and ports"))
+                self.other_attribute(el, attr, text, other)
                 continue
             key = attr if text == "{=}" else text.strip(" ")[1:-1] if is_pointer(text) else None
             if key is not None:
@@ -665,6 +691,7 @@ class _Compiler:
         return TreeDescription(
             "SubTree", name, "SubTree", display_path(el.file), el.line, ports=shown, subtree=tree_id,
             children=inner.children, uid=uid, conditions=conditions, scope=scope, entries=entries,
+            other_attributes=other,
         )  # fmt: skip
 
     def _unknown_node(self, node_type: str) -> str:
@@ -800,7 +827,9 @@ class _Builder:
             root = self.build(desc.children[0])
             root.name = desc.name
             if desc.tag == "SubTree":  # the <SubTree> node itself rides on its tree's root
-                root.bt.layers.insert(0, Layer(desc.uid, desc.name, self.conditions(desc)))  # type: ignore[attr-defined]
+                root.bt.layers.insert(
+                    0, Layer(desc.uid, desc.name, self.conditions(desc), other_attributes=desc.other_attributes)
+                )  # type: ignore[attr-defined]
             return root
         children = [self.build(c) for c in desc.children]
         assert desc.manifest is not None, f"{desc.tag} was described without its node type"
@@ -812,7 +841,11 @@ class _Builder:
             node = desc.manifest.build(desc.name, children, values, context)
         except Exception as exc:  # a constructor refusing what it was given: report it where the node was written
             raise TreeError(f"{desc.file}:{desc.line}: <{desc.tag}>: {exc}") from exc
-        rt = NodeRuntime(self.tree, [Layer(desc.uid, desc.name, self.conditions(desc))], ports=wiring)
+        rt = NodeRuntime(
+            self.tree,
+            [Layer(desc.uid, desc.name, self.conditions(desc), other_attributes=desc.other_attributes)],
+            ports=wiring,
+        )
         if isinstance(node, PortsDeclared):
             if wiring.inputs:
                 rt.refresh = wiring.refresh_params
