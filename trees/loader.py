@@ -781,6 +781,7 @@ def load_tree(
     factory: BehaviourFactory | None = None,
     runtime: TreeRuntime | None = None,
     main_tree: str | None = None,
+    blackboard: Mapping[str, Any] | None = None,
 ) -> Behaviour:
     """Validate the tree file (and its includes) completely, then build it; returns the root behaviour.
 
@@ -788,12 +789,17 @@ def load_tree(
     registration arguments (for the running mission, ``shipped_factory(deps)`` with the perception
     dependencies). The tree's blackboards start empty (``/tree/…`` entries of an earlier tree are removed);
     the root's ``tick`` is BT.CPP's ``tickOnce``. `runtime` lets a test observe every node's executeTick;
-    `main_tree` names the tree to run when it is not the file's main tree (BT.CPP's ``createTree(name)``).
+    `main_tree` names the tree to run when it is not the file's main tree (BT.CPP's ``createTree(name)``);
+    `blackboard` holds entries of the root blackboard by their tree-file names, written before the tree is
+    built (BT.CPP's ``createTree(name, blackboard)`` with a blackboard the caller filled).
     """
     main, compiler = _compile(path, factory, main_tree)
     tree = runtime if runtime is not None else TreeRuntime()
     builder = _Builder(tree, compiler)
     scopes.clear_tree_entries()
+    root_scope = scopes.Scope()
+    for key, value in (blackboard or {}).items():
+        scopes.write(root_scope.entry_path(key), value)
     root = builder.build(main)
     install(root, root.bt, root=True)  # type: ignore[attr-defined]
     return root

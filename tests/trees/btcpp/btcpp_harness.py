@@ -262,15 +262,18 @@ class Harness:
             return exc
         pytest.fail("expected an error when loading or ticking the tree; there was none")
 
-    def load(self, xml: str | None = None, main_tree: str | None = None) -> Tree:
-        """``createTreeFromText(xml)``, or ``createTree(main_tree)`` from the registered texts."""
+    def load(
+        self, xml: str | None = None, main_tree: str | None = None, blackboard: dict[str, Any] | None = None
+    ) -> Tree:
+        """``createTreeFromText(xml)``, or ``createTree(main_tree)`` from the registered texts; `blackboard` is
+        what the C++ test set on the blackboard it passed in (``createTree(ID, blackboard)``)."""
         runtime = TreeRuntime()
         if xml is not None:
             path = self._write(xml)
         else:
             includes = "".join(f'<include path="{p.name}"/>' for p in self.texts)
             path = self._write(f'<root BTCPP_format="4">{includes}</root>')
-        root = load_tree(path, self.factory, runtime, main_tree=main_tree)
+        root = load_tree(path, self.factory, runtime, main_tree=main_tree, blackboard=blackboard)
         return Tree(root, runtime)
 
 
