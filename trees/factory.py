@@ -43,7 +43,12 @@ from mission.behaviours.search_views import CoverUnseen, SearchBelief
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
 from mission.trees.builtins import BUILTINS, RESERVED_TAGS
+from mission.trees.execution import POSTCONDITIONS, PRECONDITIONS
 from mission.trees.manifest import BuildContext, Builder, Check, NodeKind, NodeManifest
+
+#: attribute names a port cannot have (BT.CPP's IsReservedAttribute: the instance name, the type and the
+#: conditions)
+RESERVED_PORT_NAMES = frozenset({"name", "ID", "_autoremap", *PRECONDITIONS, *POSTCONDITIONS})
 
 #: keywords the factory itself passes to constructors (the instance name and, for decorators and
 #: controls, the children), so they cannot be registration arguments
@@ -88,6 +93,12 @@ class BehaviourFactory:
         if tag in self._manifests:
             taken = "a BT.CPP built-in" if tag in BUILTINS else "already registered"
             raise ValueError(f"tag {tag!r} is {taken}; each tag names one node type")
+        reserved = sorted(RESERVED_PORT_NAMES & set(cls.PORTS))
+        if reserved:  # the tree file's own attributes: a port of that name could never be written
+            raise ValueError(
+                f"{tag}: port {reserved[0]!r} is reserved by the tree file format; expected another name "
+                f"(reserved: {', '.join(sorted(RESERVED_PORT_NAMES))})"
+            )
         for arg in args:
             if arg in cls.PORTS:
                 raise ValueError(f"{tag}: {arg} cannot be a registration argument: it is a port, set in tree files")
