@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import keyword
 import math
 import numbers
 import typing
@@ -204,8 +205,20 @@ def declared_ports(params: type, owner: str) -> Mapping[str, Port]:
                 )
         elif default is not REQUIRED and type(default) is not kind:
             raise TypeError(f"{where}.{f.name}: default {default!r} is not {kind.__name__}")
-        ports[f.name] = Port(kind, default, doc, direction)
+        ports[port_name(f.name)] = Port(kind, default, doc, direction)
     return MappingProxyType(ports)
+
+
+def port_name(field_name: str) -> str:
+    """The port a ``Params`` field declares: its name, less the trailing ``_`` of a Python keyword
+    (``in_`` declares the port ``in``, as PEP 8 spells a name that clashes with a keyword)."""
+    bare = field_name[:-1]
+    return bare if field_name.endswith("_") and keyword.iskeyword(bare) else field_name
+
+
+def field_name(port: str) -> str:
+    """The ``Params`` field that holds `port` (``in`` → ``in_``)."""
+    return f"{port}_" if keyword.iskeyword(port) else port
 
 
 def is_pointer(text: str) -> bool:
@@ -300,7 +313,7 @@ class PortsDeclared:
             values[name] = declared.type(value) if declared.type in (int, float) else value
         if pending:
             return _provisional(cls.Params, values)
-        return cls.Params(**values)
+        return cls.Params(**{field_name(name): value for name, value in values.items()})
 
     def output_connected(self, name: str) -> bool:
         """Whether the tree file connected output `name`: a value that costs work to compute is only worth
@@ -332,6 +345,6 @@ def _provisional(params: type, values: dict[str, Any]) -> Any:
     known before the first tick (their fields hold the default, or REQUIRED, until then)."""
     obj = object.__new__(params)
     for f in dataclasses.fields(params):
-        value = values.get(f.name, f.default if f.default is not dataclasses.MISSING else REQUIRED)
+        value = values.get(port_name(f.name), f.default if f.default is not dataclasses.MISSING else REQUIRED)
         object.__setattr__(obj, f.name, value)
     return obj

@@ -199,3 +199,27 @@ def test_a_blackboard_value_is_converted_to_the_port_type_as_bt_cpp_converts_it(
 def test_a_blackboard_value_that_does_not_fit_the_port_says_what_was_expected(kind, value):
     with pytest.raises(ValueError):
         Port(kind).coerce(value)
+
+
+class Copy(py_trees.behaviour.Behaviour, PortsDeclared):
+    """BT.CPP's CopyPorts: ports named like Python keywords (``in``, ``from``)."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Params:
+        in_: str = port(doc="copied from")
+        from_: int = port(0, "a keyword with a default")
+
+    def __init__(self, name: str, **ports: Any) -> None:
+        super().__init__(name)
+        self.params = self.bind_params(ports)
+
+    def update(self) -> py_trees.common.Status:
+        return py_trees.common.Status.SUCCESS
+
+
+def test_a_port_named_like_a_python_keyword_is_declared_with_a_trailing_underscore():
+    assert list(Copy.PORTS) == ["in", "from"]
+    node = Copy("copy", **{"in": "hello"})
+    assert node.params.in_ == "hello" and node.params.from_ == 0
+    with pytest.raises(TypeError, match="in_x"):
+        Copy("copy", **{"in": "x", "in_x": 1})

@@ -55,7 +55,7 @@ from mission.trees.execution import (
     TreeRuntime,
     install,
 )
-from mission.trees.factory import BehaviourFactory, shipped_factory
+from mission.trees.factory import RESERVED_PORT_NAMES, BehaviourFactory, shipped_factory
 from mission.trees.manifest import BuildContext, NodeKind, NodeManifest
 from mission.trees.script import Script, ScriptSyntaxError, parse
 from mission.trees.wiring import Wiring
@@ -252,7 +252,22 @@ def _read_models(section: SourceElement, models: dict[str, dict[str, PortModel]]
             name = port_el.attrib.get("name")
             if not name:
                 raise TreeError(port_el.error("missing name; expected <input_port name=...>"))
+            problem = _port_name_problem(name)
+            if problem:  # BT.CPP's validatePortName refuses the whole file
+                raise TreeError(port_el.error(f"port name {name!r} {problem}; expected a name such as target_pose"))
             ports[name] = PortModel(direction, port_el.attrib.get("default"), port_el.where)
+
+
+def _port_name_problem(name: str) -> str | None:
+    """Why BT.CPP refuses `name` as a port's name (validatePortName), or None."""
+    if name[0].isdigit():
+        return "starts with a digit"
+    bad = _FORBIDDEN.search(name)
+    if bad:
+        return f"contains the forbidden character {bad.group()!r}"
+    if name in RESERVED_PORT_NAMES:
+        return "is a reserved attribute name"
+    return None
 
 
 def _read_include(

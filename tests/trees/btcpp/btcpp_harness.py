@@ -28,7 +28,7 @@ import pytest
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
-from mission.behaviours.ports import PortsDeclared, port
+from mission.behaviours.ports import PortsDeclared, field_name, port
 from mission.trees import scopes
 from mission.trees.execution import SKIPPED, TreeRuntime, result_name
 from mission.trees.factory import BehaviourFactory
@@ -64,7 +64,7 @@ class SimpleAction(Behaviour, PortsDeclared):
         self.halts = 0
 
     def input(self, name: str) -> Any:
-        return getattr(self.params, name)
+        return getattr(self.params, field_name(name))
 
     def update(self) -> Status:
         self.ticks += 1
@@ -186,6 +186,47 @@ class Tree:
         scopes.write(self._path(key, instance), value)
 
 
+@dataclass
+class NodeStatistics:
+    transitions_count: int = 0
+    success_count: int = 0
+    failure_count: int = 0
+    skip_count: int = 0
+
+
+class TreeObserver:
+    """BT::TreeObserver (loggers/bt_observer.cpp) for the leaves of a tree: per node (by its name), how often its
+    status changed to something other than IDLE, to SUCCESS, to FAILURE, to SKIPPED.
+
+    A change is seen at the node's executeTick (TreeRuntime.observer): the status it returned differs from the one
+    BT.CPP held for it before (IDLE after a parent reset it). A control's own ``setStatus(RUNNING)`` inside its
+    tick is not seen, so only leaves are counted as BT.CPP does."""
+
+    def __init__(self, tree: Tree) -> None:
+        self._layers = {layer.uid: layer for node in tree.nodes() for layer in node.bt.layers}
+        self._uid_of = {layer.name: uid for uid, layer in self._layers.items()}
+        self._stats = {uid: NodeStatistics() for uid in self._layers}
+        tree.runtime.observer = self._callback
+
+    def _callback(self, event: tuple[Any, ...]) -> None:
+        if event[0] != "exec":
+            return
+        _, uid, status = event[:3]
+        if status in (result_name(self._layers[uid].status), "IDLE"):
+            return
+        stats = self._stats[uid]
+        stats.transitions_count += 1
+        if status == "SUCCESS":
+            stats.success_count += 1
+        elif status == "FAILURE":
+            stats.failure_count += 1
+        elif status == "SKIPPED":
+            stats.skip_count += 1
+
+    def get_statistics(self, path: str) -> NodeStatistics:
+        return self._stats[self._uid_of[path]]
+
+
 # ----------------------------------------------------------------------------- the factory
 class Harness:
     """BT.CPP's ``BehaviorTreeFactory`` for a test: registrations, XML texts, and trees made from them."""
@@ -213,7 +254,7 @@ class Harness:
     ) -> None:
         """``registerSimpleAction(ID, fn, ports)``; `ports` are (name, type, ``port(…)``), e.g.
         ``("msg", str, port(doc="the text"))`` for ``InputPort<std::string>("msg")``."""
-        fields = [(name, kind_, spec) for name, kind_, spec in (ports or ())]
+        fields = [(field_name(name), kind_, spec) for name, kind_, spec in (ports or ())]
         params = dataclasses.make_dataclass("Params", fields, frozen=True, kw_only=True)
         Harness._CLASSES += 1
         cls = type(f"{tag}Node{Harness._CLASSES}", (kind,), {"Params": params})
@@ -279,5 +320,5 @@ class Harness:
 
 __all__ = [
     "SCRIPT", "SKIPPED", "STATUS", "TEST", "ConditionTestNode", "Counters", "Harness", "SimpleAction", "TestNode",
-    "Tree", "port",
+    "Tree", "TreeObserver", "port",
 ]  # fmt: skip

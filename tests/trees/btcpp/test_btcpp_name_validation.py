@@ -19,13 +19,6 @@ SKIPPED: dict[str, str] = {
 }
 
 
-_MODEL_PORT_NAMES = (
-    "the port names of a <SubTree> model in <TreeNodesModel> are not checked (trees/loader.py _read_models); "
-    "BT.CPP's parseSubtreeModelPorts (validatePortName) refuses what IsAllowedPortName rejects (a space, "
-    "ID/name, a leading digit)"
-)
-
-
 @pytest.fixture
 def bt(tmp_path):
     """NameValidationXMLTest's fixture: a BehaviorTreeFactory."""
@@ -219,7 +212,6 @@ def test_valid_sub_tree_port_name(bt):
 
 
 @TEST("NameValidationXMLTest.InvalidSubTreePortName_WithSpace")
-@pytest.mark.xfail(strict=True, reason=_MODEL_PORT_NAMES)
 def test_invalid_sub_tree_port_name_with_space(bt):
     xml = """
     <root BTCPP_format="4" main_tree_to_execute="MainTree">
@@ -237,7 +229,6 @@ def test_invalid_sub_tree_port_name_with_space(bt):
 
 
 @TEST("NameValidationXMLTest.InvalidSubTreePortName_Reserved")
-@pytest.mark.xfail(strict=True, reason=_MODEL_PORT_NAMES)
 def test_invalid_sub_tree_port_name_reserved(bt):
     xml = """
     <root BTCPP_format="4" main_tree_to_execute="MainTree">
@@ -255,7 +246,6 @@ def test_invalid_sub_tree_port_name_reserved(bt):
 
 
 @TEST("NameValidationXMLTest.InvalidSubTreePortName_StartsWithDigit")
-@pytest.mark.xfail(strict=True, reason=_MODEL_PORT_NAMES)
 def test_invalid_sub_tree_port_name_starts_with_digit(bt):
     xml = """
     <root BTCPP_format="4" main_tree_to_execute="MainTree">

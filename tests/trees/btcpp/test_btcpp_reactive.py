@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import pytest
-from btcpp_harness import TEST, Harness, Tree
+from btcpp_harness import TEST, Harness, TreeObserver
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
 from mission.behaviours.ports import PortsDeclared
-from mission.trees.execution import result_name
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {
@@ -21,47 +19,6 @@ SKIPPED: dict[str, str] = {
 
 
 # ----------------------------------------------------------------------------- BT::TreeObserver
-@dataclass
-class NodeStatistics:
-    transitions_count: int = 0
-    success_count: int = 0
-    failure_count: int = 0
-    skip_count: int = 0
-
-
-class TreeObserver:
-    """BT::TreeObserver (loggers/bt_observer.cpp) for the leaves of a tree: per node (by its name), how often its
-    status changed to something other than IDLE, to SUCCESS, to FAILURE, to SKIPPED.
-
-    A change is seen at the node's executeTick (TreeRuntime.observer): the status it returned differs from the one
-    BT.CPP held for it before (IDLE after a parent reset it). A control's own ``setStatus(RUNNING)`` inside its
-    tick is not seen, so only leaves are counted as BT.CPP does."""
-
-    def __init__(self, tree: Tree) -> None:
-        self._layers = {layer.uid: layer for node in tree.nodes() for layer in node.bt.layers}
-        self._uid_of = {layer.name: uid for uid, layer in self._layers.items()}
-        self._stats = {uid: NodeStatistics() for uid in self._layers}
-        tree.runtime.observer = self._callback
-
-    def _callback(self, event: tuple[Any, ...]) -> None:
-        if event[0] != "exec":
-            return
-        _, uid, status = event[:3]
-        if status in (result_name(self._layers[uid].status), "IDLE"):
-            return
-        stats = self._stats[uid]
-        stats.transitions_count += 1
-        if status == "SUCCESS":
-            stats.success_count += 1
-        elif status == "FAILURE":
-            stats.failure_count += 1
-        elif status == "SKIPPED":
-            stats.skip_count += 1
-
-    def get_statistics(self, path: str) -> NodeStatistics:
-        return self._stats[self._uid_of[path]]
-
-
 # ----------------------------------------------------------------------------- test nodes
 class TrackingAction(Behaviour, PortsDeclared):
     """The TEST's TrackingAction (a StatefulActionNode): counts onStart and onRunning, records onHalted."""

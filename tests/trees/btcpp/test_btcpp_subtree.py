@@ -74,11 +74,6 @@ def full_paths(bt: Harness, xml_text: str) -> list[str]:
     return out
 
 
-def preset_root_blackboard(key: str, value: Any) -> None:
-    """``blackboard->set(key, value)`` on the blackboard then given to ``createTree(ID, blackboard)``."""
-    scopes.write(Tree._path(key), value)
-
-
 # ----------------------------------------------------------------------------- test nodes
 def register_say_something(bt: Harness) -> list[str]:
     """DummyNodes::SaySomething: prints its input ``message`` (BT.CPP throws when it cannot be read)."""
@@ -228,14 +223,7 @@ def test_sibling_ports_issue_72(bt):
     assert len(subtrees(tree)) == 3
 
 
-_KEYWORD_PORT = (
-    "CopyPorts' port 'in' cannot be declared: a behaviour's ports are the fields of its Params dataclass "
-    "(behaviours/ports.py), and a Python keyword cannot be a field name"
-)
-
-
 @TEST("SubTree.GoodRemapping")
-@pytest.mark.xfail(strict=True, reason=_KEYWORD_PORT)
 def test_good_remapping(bt):
     xml_text = """
 
@@ -270,8 +258,8 @@ def register_tree_text_again(bt: Harness, xml_text: str) -> None:
 @TEST("SubTree.BadRemapping")
 @pytest.mark.xfail(
     strict=True,
-    reason=f"{_KEYWORD_PORT}; and a port whose entry was never written fails the node (trees/execution.py "
-    "_tick_own → _fail, PortError) where BT.CPP's SaySomething/CopyPorts throw from the tick",
+    reason="a port whose entry was never written fails the node (trees/execution.py _tick_own → _fail, "
+    "PortError) where BT.CPP's SaySomething/CopyPorts throw from the tick (README: Differences)",
 )
 def test_bad_remapping(bt):
     register_say_something(bt)
@@ -372,11 +360,6 @@ def test_subtree_plus_b(bt):
 
 
 @TEST("SubTree.SubtreePlusD")
-@pytest.mark.xfail(
-    strict=True,
-    reason="a tree cannot be created with a root blackboard that already holds entries (createTree(ID, "
-    "blackboard)): trees/loader.py load_tree clears every /tree entry (scopes.clear_tree_entries) before building",
-)
 def test_subtree_plus_d(bt):
     xml_text = """
 
@@ -392,9 +375,8 @@ def test_subtree_plus_d(bt):
     </BehaviorTree>
 </root> """
     bt.register(ReadInConstructor, "ReadInConstructor")
-    preset_root_blackboard("message", "hello")
     bt.register_tree_text(xml_text)
-    tree = bt.load(main_tree="MainTree")
+    tree = bt.load(main_tree="MainTree", blackboard={"message": "hello"})
     status = tree.tick_while_running()
     assert status == "SUCCESS"
 
@@ -445,11 +427,6 @@ def test_string_conversions_issue530(bt):
 
 
 @TEST("SubTree.SubtreeNav2_Issue563")
-@pytest.mark.xfail(
-    strict=True,
-    reason="a tree cannot be created with a root blackboard that already holds entries (createTree(ID, "
-    "blackboard)): trees/loader.py load_tree clears every /tree entry (scopes.clear_tree_entries) before building",
-)
 def test_subtree_nav2_issue563(bt):
     xml_text = """
 <root BTCPP_format="4" >
@@ -482,18 +459,12 @@ def test_subtree_nav2_issue563(bt):
     register_say_something(bt)
     bt.register(NaughtyNav2Node, "NaughtyNav2Node")
     bt.register_tree_text(xml_text)
-    preset_root_blackboard("ros_node", "nav2_shouldnt_do_this")
-    tree = bt.load(main_tree="Tree1")
+    tree = bt.load(main_tree="Tree1", blackboard={"ros_node": "nav2_shouldnt_do_this"})
     ret = tree.tick_once()
     assert ret == "SUCCESS"
 
 
 @TEST("SubTree.SubtreeNav2_Issue724")
-@pytest.mark.xfail(
-    strict=True,
-    reason="a tree cannot be created with a root blackboard that already holds entries (createTree(ID, "
-    "blackboard)): trees/loader.py load_tree clears every /tree entry (scopes.clear_tree_entries) before building",
-)
 def test_subtree_nav2_issue724(bt):
     xml_text = """
 <root BTCPP_format="4" >
@@ -521,8 +492,7 @@ def test_subtree_nav2_issue724(bt):
 </root>"""
     bt.register(NaughtyNav2Node, "NaughtyNav2Node")
     bt.register_tree_text(xml_text)
-    preset_root_blackboard("ros_node", "nav2_shouldnt_do_this")
-    tree = bt.load(main_tree="Tree1")
+    tree = bt.load(main_tree="Tree1", blackboard={"ros_node": "nav2_shouldnt_do_this"})
     ret = tree.tick_once()
     assert ret == "SUCCESS"
 
