@@ -83,8 +83,7 @@ class _Ordered(_Control):
             if result is RUNNING:
                 return RUNNING
             if result is self.ENDS_ON:
-                self.reset_children()
-                self.index = 0
+                self.end_early()
                 return result
             self.index += 1
             if result is SKIPPED:
@@ -98,6 +97,11 @@ class _Ordered(_Control):
             self.index, self.skipped = 0, 0
         return SKIPPED if all_skipped else self.ALL_DONE
 
+    def end_early(self) -> None:
+        """The child at `index` ended the node: every child is reset and the next start is from the first."""
+        self.reset_children()
+        self.index = 0
+
 
 class Sequence(_Ordered, py_trees.composites.Sequence):
     """BT.CPP ``Sequence`` (``AsyncSequence`` with `asynch`): a RUNNING child is resumed on the next tick;
@@ -106,40 +110,20 @@ class Sequence(_Ordered, py_trees.composites.Sequence):
     ENDS_ON, ALL_DONE = FAILURE, SUCCESS
 
 
-class SequenceWithMemory(_Control, py_trees.composites.Sequence):
+class SequenceWithMemory(_Ordered, py_trees.composites.Sequence):
     """BT.CPP ``SequenceWithMemory``: a failed child is ticked again next time (earlier ones are not), and
     a child that succeeds at once hands control back (the tree is woken up and ticked again)."""
 
-    def __init__(self, name: str, children: list[Behaviour]) -> None:
-        super().__init__(name, memory=True, children=children)
-        self.index = 0
-        self.skipped = 0
+    ENDS_ON, ALL_DONE = FAILURE, SUCCESS
 
-    def bt_tick(self) -> Result:
-        n = len(self.children)
-        if not _active(self.bt_own_status):
-            self.skipped = 0
-        self.set_running()
-        while self.index < n:
-            child = self.children[self.index]
-            before = bt_status(child)
-            result = self.run(child)
-            if result is RUNNING:
-                return RUNNING
-            if result is FAILURE:
-                self.halt_children_from(self.index)
-                return FAILURE
-            self.index += 1
-            if result is SKIPPED:
-                self.skipped += 1
-            elif before is IDLE and self.index < n:
-                self.wake_up()
-                return RUNNING
-        all_skipped = self.skipped == n
-        if self.index == n:
-            self.reset_children()
-            self.index, self.skipped = 0, 0
-        return SKIPPED if all_skipped else SUCCESS
+    def __init__(self, name: str, children: list[Behaviour]) -> None:
+        super().__init__(name, children, asynch=True)
+
+    def bt_halt(self) -> None:  # BT.CPP's halt keeps the index: a halted sequence resumes where it was
+        _Control.bt_halt(self)
+
+    def end_early(self) -> None:
+        self.halt_children_from(self.index)
 
 
 class Fallback(_Ordered, py_trees.composites.Selector):

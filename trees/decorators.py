@@ -191,9 +191,9 @@ class Repeat(RetryUntilSuccessful):
         return int(self.input("num_cycles"))
 
 
-class Timeout(_Decorator):
-    """BT.CPP ``Timeout``: FAILURE, and the child halted, when it still runs `msec` after it started (blackboard
-    CLOCK); ``msec="0"`` means no timeout, as in BT.CPP."""
+class _Timed(_Decorator):
+    """A decorator timed on the blackboard CLOCK from its first tick (Timeout, Delay): the timer starts when the
+    node starts, and stops when the node is halted or its child finishes or is cut off."""
 
     def __init__(self, name: str, child: Behaviour) -> None:
         super().__init__(name, child)
@@ -204,52 +204,51 @@ class Timeout(_Decorator):
         self.started = None
         super().bt_halt()
 
-    def bt_tick(self) -> Result:
-        msec = int(self.input("msec"))
+    def elapsed(self) -> float:
+        """Seconds since the node started; the first tick starts the timer and sets the node RUNNING."""
         if self.started is None:
             self.started = self.clock.start()
             self.set_running()
-        elapsed = self.clock.now() - self.started
+        return self.clock.now() - self.started
+
+    def stop_timer(self) -> None:
+        """The child finished or was cut off: it is reset, and the next tick starts a new timer."""
+        self.started = None
+        self.reset_child()
+
+
+class Timeout(_Timed):
+    """BT.CPP ``Timeout``: FAILURE, and the child halted, when it still runs `msec` after it started (blackboard
+    CLOCK); ``msec="0"`` means no timeout, as in BT.CPP."""
+
+    def bt_tick(self) -> Result:
+        msec = int(self.input("msec"))
+        elapsed = self.elapsed()
         if msec > 0 and elapsed * 1000.0 >= msec - EPSILON_MS and bt_status(self.child) is RUNNING:
-            self.reset_child()
-            self.started = None
+            self.stop_timer()
             self.feedback_message = f"timed out after {msec / 1000.0:g} s"
             return FAILURE
         result = self.run(self.child)
         if completed(result):
-            self.started = None
-            self.reset_child()
+            self.stop_timer()
             self.feedback_message = f"child finished after {elapsed:.1f} s"
         elif msec > 0:
             self.feedback_message = f"{max(msec / 1000.0 - elapsed, 0.0):.1f} s left"
         return result
 
 
-class Delay(_Decorator):
+class Delay(_Timed):
     """BT.CPP ``Delay``: RUNNING for `delay_msec` (blackboard CLOCK), then the child is ticked."""
-
-    def __init__(self, name: str, child: Behaviour) -> None:
-        super().__init__(name, child)
-        self.clock = Clock()
-        self.started: float | None = None
-
-    def bt_halt(self) -> None:
-        self.started = None
-        super().bt_halt()
 
     def bt_tick(self) -> Result:
         msec = int(self.input("delay_msec"))
-        if self.started is None:
-            self.started = self.clock.start()
-            self.set_running()
-        elapsed = self.clock.now() - self.started
+        elapsed = self.elapsed()
         if elapsed * 1000.0 < msec - EPSILON_MS:
             self.feedback_message = f"delaying: {max(msec / 1000.0 - elapsed, 0.0):.1f} s left"
             return RUNNING
         result = self.run(self.child)
         if completed(result):
-            self.started = None
-            self.reset_child()
+            self.stop_timer()
         return result
 
 
