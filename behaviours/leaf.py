@@ -1,7 +1,7 @@
 """The base of every mission leaf: blackboard access by declared key, the clock, state/reason, commands.
 
 Why a base class: every leaf follows the same rules (py_trees lifecycle, blackboard only, time from
-CLOCK, the commands convention of catalogue.md), and getting them right once is simpler than
+CLOCK, the commands convention of docs/architecture.md), and getting them right once is simpler than
 getting them right eleven times.
 
 Commands convention (read by world adapters):

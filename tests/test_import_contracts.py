@@ -1,4 +1,4 @@
-"""Floors: who may import whom (ARCHITECTURE.md), as import-linter contracts in pyproject.toml.
+"""Floors: who may import whom (docs/architecture.md), as import-linter contracts in pyproject.toml.
 
     application  mission.app : ros : viz : commands : cli   (may import each other)
     mission.trees

@@ -133,7 +133,7 @@ class Frame:
 
 @dataclass
 class Detection:
-    """One thing a perception source saw in one frame (see ARCHITECTURE.md, "Detection")."""
+    """One thing a perception source saw in one frame (see docs/architecture.md, "Contracts")."""
 
     source: str
     marker_id: int | None
