@@ -84,7 +84,9 @@ class FollowTarget(MissionLeaf):
         if target_xy is None or state is None:
             self.halt()
             self.feedback_message = (
-                f"waiting for {self.params.target}'s map position" if state is not None else self.waiting_for_pose()
+                f"waiting for {self.params.target}'s map position"
+                if state is not None
+                else self.waiting_for_pose()
             )
             return py_trees.common.Status.RUNNING
         robot_xy = (state.pose.x, state.pose.y)

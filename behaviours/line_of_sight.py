@@ -145,7 +145,9 @@ def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[floa
 TURNING_RAD = math.radians(60.0)  # the two halves of the window disagree this much: it was turning, no heading
 
 
-def fitted_velocity(track: TargetTrack, window_s: float = 1.0, *, steady: bool = False) -> tuple[float, float] | None:
+def fitted_velocity(
+    track: TargetTrack, window_s: float = 1.0, *, steady: bool = False
+) -> tuple[float, float] | None:
     """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its history,
     clamped to MAX_SPEED; None when too few sightings span too short a time to tell.
 

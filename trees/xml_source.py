@@ -128,6 +128,8 @@ def parse_file(path: Path) -> SourceElement:
 
 
 _ENTITY_BYTES = re.compile(rb"&(#x[0-9a-fA-F]+|#[0-9]+|[A-Za-z][A-Za-z0-9]*);")
+#: a quoted value holding a '<' or '&' (an escaped '&lt;' matches too: then the careful pass decides)
+_MAYBE_RAW = re.compile(rb"""=\s*("[^"]*[<&]|'[^']*[<&])""")
 _SKIP = ((b"<!--", b"-->"), (b"<![CDATA[", b"]]>"), (b"<?", b"?>"), (b"<!", b">"))
 
 
@@ -137,7 +139,7 @@ def escape_attribute_values(data: bytes) -> tuple[bytes, list[tuple[int, int]]]:
 
     Returns the escaped text and, for mapping the parser's byte offsets back to `data`, the points where the
     text grew: (offset in the escaped text where the growth ends, total growth so far)."""
-    if b"<" not in data.replace(b"<", b"", 1) and b"&" not in data:
+    if not _MAYBE_RAW.search(data):  # the usual file: nothing to escape, no byte-by-byte pass
         return data, []
     out = bytearray()
     shifts: list[tuple[int, int]] = []
