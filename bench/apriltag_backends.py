@@ -1,6 +1,6 @@
 """Benchmark: the `apriltag` source's two backends on rendered tag36h11 views with ground truth.
 
-For each range, random poses up to 40° off axis (perception_plugins/synthetic_views.py, blur 0.7 px,
+For each range, random poses up to 40° off axis (tools/synthetic_views.py, blur 0.7 px,
 noise 3 grey levels) are rendered at 640×480 and run through ``AprilTagSource.process`` with each
 backend (naive per-frame flip choice, so frames are independent). Reported per backend and range:
 detection rate, corner error (px, mean of the 4 corners' distance to the truth), translation error
@@ -29,8 +29,8 @@ import numpy as np
 from bench.common import Figure
 from mission.core import se3
 from mission.core.types import Frame
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
+from tools import synthetic_views as sv
 
 CONFIGS = {
     "apriltag3 (defaults: full resolution)": {"backend": "apriltag3"},

@@ -103,7 +103,7 @@ def progress(msg: str) -> None:
 
 
 def save_figure(fig: Any, path: Path, dpi: int = 110) -> None:
-    """Write a matplotlib figure to `path` atomically (mission/core/files.py) and close it.
+    """Write a matplotlib figure to `path` atomically (core/files.py) and close it.
 
     A benchmark interrupted while plotting, or a reader of bench/results/ during a run, then sees the
     previous picture or the new one, never a truncated PNG; the figure is closed even when saving fails.

@@ -1,6 +1,6 @@
 """Benchmark: mission outcomes over many seeds per scenario, against the design notes' targets.
 
-The runs are a `mission sweep` (mission/app/sweep: scenarios × seeds on a Dask LocalCluster bound to
+The runs are a `mission sweep` (mission/sweep: scenarios × seeds on a Dask LocalCluster bound to
 127.0.0.1, one worker process per core, a progress bar on stderr), so this benchmark and ``mission sweep``
 are one code path, and each run is ``run_scenario`` — the code path of ``mission run``. The sweep's
 directory is ``<out>/missions_sweep/`` (results.parquet, runs.jsonl, summary.html, the failing runs'
@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 
 from bench.common import Figure, pct, progress, save_figure
-from mission.app.sweep.engine import SweepOutcome, run_sweep
-from mission.app.sweep.plan import SweepPlan
 from mission.core.files import atomic_write_text
+from mission.sweep.engine import SweepOutcome, run_sweep
+from mission.sweep.plan import SweepPlan
 
 SCENARIOS = ("follow_occlusion", "search_corner", "explore_dock", "mission_full")
 QUICK_SCENARIOS = ("follow_occlusion", "explore_dock")
@@ -189,7 +189,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                     "runs_requested": outcome.planned, "cut_short_by_budget": cut, "workers": outcome.workers,
                     "wall_s": round(wall, 1), "max_duration_s": max_duration,
                     "runs_log": "missions_runs.jsonl", "sweep_dir": SWEEP_DIR,
-                    "engine": "mission sweep (mission/app/sweep), Dask LocalCluster on 127.0.0.1"},
+                    "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1"},
         "plots": [plot] if plot else [],
     }  # fmt: skip
 

@@ -1,6 +1,6 @@
 """Benchmark: pose accuracy by range × off-axis angle — our sources vs the raw library's naive pose.
 
-Ground truth from mission.perception_plugins.synthetic_views: short sequences (a camera drifting slowly around
+Ground truth from tools.synthetic_views: short sequences (a camera drifting slowly around
 a random pose, 30 Hz, 15 cm marker, 640×480, blur 0.7 px, noise 3 grey levels) at 0.5, 1, 2, 3 and
 4 m, up to 60° off axis, binned by each view's true off-axis angle (0–20°, 20–40°, 40–60°).
 
@@ -29,10 +29,10 @@ from bench.perception import raw_aruco_poses
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT
 from mission.core import se3
 from mission.core.types import Frame
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.apriltag_backends import SafeDetector
 from mission.perception_plugins.aruco import ArucoSource
+from tools import synthetic_views as sv
 
 RANGES = (0.5, 1.0, 2.0, 3.0, 4.0)
 ANGLE_BINS = ((0, 20), (20, 40), (40, 60))

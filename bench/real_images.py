@@ -41,10 +41,10 @@ from bench.perception import raw_aruco_poses
 from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Frame
 from mission.perception_plugins import marker_dictionaries
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.apriltag_backends import SafeDetector
 from mission.perception_plugins.aruco import ArucoSource
+from tools import synthetic_views as sv
 
 ROOT = Path(__file__).resolve().parents[1]
 TIME_TARGET = 1.3  # ours / raw decimate 2
@@ -441,7 +441,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         progress(f"real_images: {ps.name} ({len(files)} images)")
     rendered = "rendered small tags (15 cm at 4–7 m, 640×480)"
     study = apriltag_recall_study(rendered_small_tags(12 if quick else 48), repeats)
-    _recall_figures(rendered, "perception_plugins/synthetic_views.py", study, figures)
+    _recall_figures(rendered, "tools/synthetic_views.py", study, figures)
     details["apriltag"][rendered] = {"origin": "rendered here (synthetic_views)", **study.to_json()}
     progress("real_images: rendered small tags")
     return {

@@ -67,7 +67,7 @@ FULL_SLOTS = (*SLOTS, NODE_FAST.name)
 
 def render_views(n: int = N_VIEWS, seed: int = 11) -> tuple[list[np.ndarray], CameraIntrinsics]:
     """`n` rendered 640×480 frames of the marker at varied poses (each one is found by the detector)."""
-    from mission.perception_plugins.synthetic_views import default_intrinsics, pose_facing_camera, render_marker_view
+    from tools.synthetic_views import default_intrinsics, pose_facing_camera, render_marker_view
 
     k = default_intrinsics()
     rng = np.random.default_rng(seed)
@@ -96,9 +96,9 @@ def serve(mode: str, image_topic: str, info_topic: str, answer_topic: str) -> in
     from sensor_msgs.msg import CameraInfo, Image
 
     from bench.perception import raw_aruco_poses
-    from mission.ros.adapter import RELIABLE
     from mission.ros.conversions import camera_info_to_intrinsics, image_to_array, matrix_to_pose
     from mission.ros.messages import RclpyMessages
+    from mission.ros.ros_adapter import RELIABLE
 
     rclpy.init()
     node = rclpy.create_node(f"bench_{mode}")

@@ -1,6 +1,6 @@
 """Rendered test scenes for the perception benchmarks: 0, 1 or 8 markers with known poses at any resolution.
 
-Built on mission.perception_plugins.synthetic_views (exact homography, anti-aliased, blur + sensor noise), so
+Built on tools.synthetic_views (exact homography, anti-aliased, blur + sensor noise), so
 every frame comes with its ground truth. Several markers are composited by rendering one after the
 other onto the previous image (noise and blur applied once, at the end).
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 from mission.core import se3
 from mission.core.types import CameraIntrinsics
-from mission.perception_plugins import synthetic_views as sv
+from tools import synthetic_views as sv
 
 ARUCO_DICT = cv2.aruco.DICT_4X4_250
 APRILTAG_DICT = cv2.aruco.DICT_APRILTAG_36h11

@@ -44,11 +44,11 @@ import numpy as np
 
 from bench.common import Figure, pct, progress, save_figure
 from bench.missions import aggregate
-from mission.app.sweep.engine import run_sweep
-from mission.app.sweep.plan import SweepPlan
-from mission.app.sweep.store import SweepStore
-from mission.app.sweep.table import read_jsonl
 from mission.core.files import atomic_write_text
+from mission.sweep.engine import run_sweep
+from mission.sweep.plan import SweepPlan
+from mission.sweep.store import SweepStore
+from mission.sweep.table import read_jsonl
 from mission.trees.loader import TREES_DIR
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -252,7 +252,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                     "runs_finished": len(rows), "runs_planned": planned, "workers": workers, "wall_s": round(wall, 1),
                     "max_duration_s": max_duration, "reduced": reduced, "full_run": "mission bench --only search",
                     "runs_log": "search_runs.jsonl", "sweep_dirs": dirs,
-                    "engine": "mission sweep (mission/app/sweep), Dask LocalCluster on 127.0.0.1"},
+                    "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1"},
         "plots": plots,
     }  # fmt: skip
 

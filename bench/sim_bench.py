@@ -32,8 +32,8 @@ from bench.common import Figure, progress
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.types import NavGoal, Pose2D
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import load_scenario
+from mission.sim.sim_adapter import SimAdapter
 
 RENDER_POSES = [(1.3, 2.0, 0.0), (1.3, 2.0, 0.6), (4.0, 4.0, 2.0), (4.5, 2.0, 0.0), (5.0, 5.0, -2.5), (3.0, 6.0, 3.1)]
 

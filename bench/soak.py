@@ -165,7 +165,7 @@ MARKER_SIZE = 0.15
 def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
     """The node fed marker / empty frames alternately (1 s each) at 30 Hz for `seconds` (bench/ros_feed.py)."""
     from mission.core import se3
-    from mission.perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
+    from tools.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
     build_ros()
     env = ros_env()

@@ -29,8 +29,8 @@ from typing import Any
 
 from bench.common import Figure, load_average, progress, ratio
 from bench.missions import SCENARIOS as REGRESSION_SCENARIOS
-from mission.app.sweep.engine import run_sweep
-from mission.app.sweep.plan import SweepPlan
+from mission.sweep.engine import run_sweep
+from mission.sweep.plan import SweepPlan
 
 FULL = {"scenarios": ("follow_occlusion", "explore_dock"), "seeds": (0, 1, 2), "max_duration": 10.0}
 QUICK = {"scenarios": ("follow_open",), "seeds": (0, 1), "max_duration": 2.0}
@@ -43,8 +43,8 @@ def _alone_in_process(plan: SweepPlan) -> dict[str, tuple[float, float]]:
     """run_id → wall and CPU seconds of the run as `mission run --report` runs it, in this process (warmed)."""
     import py_trees
 
-    from mission.app.report import report_observers, write_report
     from mission.app.sim_run import run_scenario
+    from mission.viz.run_report import report_observers, write_report
 
     run_scenario(plan.scenarios[0], seed=0, max_duration=0.5)  # imports and first-use costs out of the figure
     out = {}

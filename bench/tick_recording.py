@@ -23,9 +23,9 @@ from mission.app.sim_run import DEFAULT_SIM_CONFIG, choose_tree, shipped_config
 from mission.core import blackboard as bbk
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import registry
-from mission.sim.adapter import SimAdapter
-from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario
+from mission.sim.scenario_overrides import apply_overrides
+from mission.sim.sim_adapter import SimAdapter
 
 # What the tree reads: written by the world in sense() and, for the tracks, by the perception stage.
 INPUT_KEYS = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.MAP, bbk.NAV_STATUS, bbk.SCAN, bbk.TRACKS)

@@ -30,6 +30,7 @@ VERBS = {
     "bench": "run the benchmarks and write their figures",
     "nodes-model": "write the Groot2 palette (TreeNodesModel) of every registered behaviour, installed ones too",
 }
+FORWARDING = {"bench"}  # verbs that hand every argument to another program (`python -m bench`)
 
 
 def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expected: str) -> Callable[[str], Any]:
@@ -163,11 +164,7 @@ def _add_sweep(p: argparse.ArgumentParser) -> None:
 
 
 def _add_bench(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
-    p.add_argument("--json", action="store_true", help="print machine-readable results")
-    p.add_argument("--only", default=None, help="comma-separated benchmark names")
-    p.add_argument("-o", "--output", default=None, metavar="DIR",
-                   help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)")
+    """No arguments of its own: all of them (--help too) go to the checkout's runner (`python -m bench`)."""
 
 
 def _add_nodes_model(p: argparse.ArgumentParser) -> None:
@@ -187,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
               "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench, "plugins": lambda p: None,
               "nodes-model": _add_nodes_model}
     for verb, help_text in VERBS.items():
-        p = sub.add_parser(verb, help=help_text, description=help_text)
+        p = sub.add_parser(verb, help=help_text, description=help_text, add_help=verb not in FORWARDING)
         adders[verb](p)
     return parser
 
@@ -226,6 +223,8 @@ def _module(verb: str) -> str:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    if args.verb in FORWARDING:
+        args.forwarded, extra = extra, []
     if extra:
         if args.verb != "tree" or "--ros-args" not in extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")

@@ -12,7 +12,7 @@ import numpy as np
 
 from mission.core.types import OccupancyGrid, Pose2D
 from mission.sim.scenario import Scenario
-from mission.sim.world import static_footprints
+from mission.sim.scene import static_footprints
 
 MARGIN_M = 0.25  # map border beyond the room's inner walls
 

@@ -15,9 +15,9 @@ from apriltag_images import flip_data_cells, place_tag, tag_cells
 
 from mission.core import se3
 from mission.core.types import Frame
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.apriltag_backends import pupil_corner_order
+from tools import synthetic_views as sv
 
 OPENCV_DICT = {
     "tag36h11": cv2.aruco.DICT_APRILTAG_36h11,

@@ -8,8 +8,8 @@ import pytest
 
 from mission.core import se3
 from mission.perception_plugins.apriltag import AprilTagSource
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import load_scenario
+from mission.sim.sim_adapter import SimAdapter
 
 TABLE = {7: {"name": "target", "size_m": 0.20}, 0: {"name": "dock", "size_m": 0.15}}
 

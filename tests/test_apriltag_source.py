@@ -16,8 +16,8 @@ from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
 from mission.perception_plugins import registry
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
+from tools import synthetic_views as sv
 
 K = sv.default_intrinsics()
 FRONTAL = sv.R_FRONTAL  # a tag squarely facing the camera: x right, y up, z towards the camera

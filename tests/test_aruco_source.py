@@ -15,10 +15,10 @@ from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, Frame
 from mission.perception_plugins import registry
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.marker_dictionaries import PREDEFINED
 from mission.perception_plugins.square_pose import pixel_side
+from tools import synthetic_views as sv
 
 MARKER = 0.20  # the sim's target marker size
 

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mission.app.bag_record import BagRecorder
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Frame
-from mission.ros.replay import replay
+from mission.ros.bag_record import BagRecorder
+from mission.ros.bag_replay import replay
 
 pytestmark = pytest.mark.ros
 
@@ -27,7 +27,7 @@ RECORDER = textwrap.dedent(
     """
     import sys, time
     import numpy as np
-    from mission.app.bag_record import BagRecorder
+    from mission.ros.bag_record import BagRecorder
     from mission.core.types import CameraIntrinsics, Frame
     k = CameraIntrinsics(50.0, 50.0, 32.0, 24.0, 64, 48)
     rec = BagRecorder(sys.argv[1]).open()

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from mission.app.report import write_json
 from mission.core.files import atomic_path, atomic_write_bytes, atomic_write_text
 from mission.perception_plugins.vlm.quota import QuotaStore
+from mission.viz.run_report import write_json
 from mission.viz.tick_log import read_log
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -27,12 +27,12 @@ from vlm_scene import Scene as VlmScene
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import CameraIntrinsics, Frame, Pose2D
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.pipeline import PerceptionStage
 from mission.perception_plugins.vlm.source import VlmSource
 from mission.trees.loader import load_tree
+from tools import synthetic_views as sv
 
 S = py_trees.common.Status
 MARKER = 0.2

@@ -26,7 +26,6 @@ from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.errors import ConfigError
 from mission.core.types import CameraIntrinsics, LaserScan, Pose2D, RobotState, Twist
-from mission.perception_plugins import synthetic_views as sv
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
 from mission.ros.conversions import (
@@ -44,6 +43,7 @@ from mission.ros.conversions import (
 )
 from mission.ros.messages import header_msg, time_msg
 from mission.ros.node import PARAMETERS, check_params, given_params
+from tools import synthetic_views as sv
 
 pytestmark = pytest.mark.ros
 

@@ -1,4 +1,4 @@
-"""Benchmark plots are written like every other whole file (mission/core/files.py): a run that fails or is
+"""Benchmark plots are written like every other whole file (core/files.py): a run that fails or is
 stopped while plotting leaves the previous picture in bench/results/, never a truncated PNG or a temp file."""
 
 from __future__ import annotations

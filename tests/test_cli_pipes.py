@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mission.perception_plugins import synthetic_views as sv
+from tools import synthetic_views as sv
 
 ROOT = Path(__file__).resolve().parents[1]
 SIGPIPE_STATUS = 141

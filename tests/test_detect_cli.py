@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mission.cli import main
-from mission.perception_plugins import synthetic_views as sv
+from tools import synthetic_views as sv
 
 MARKER = 0.2
 ROOT = Path(__file__).resolve().parents[1]

@@ -21,8 +21,8 @@ from mission.core import blackboard as bbk
 from mission.core.errors import ConfigError
 from mission.core.types import Frame
 from mission.perception_plugins.pipeline import PerceptionStage
-from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario
+from mission.sim.scenario_overrides import apply_overrides
 
 TICK_HZ = 15.0
 

@@ -17,9 +17,11 @@ from pathlib import Path
 
 import pytest
 
-from tools.import_contracts import declared_packages, import_tree, lint_imports
+from tools.import_contracts import PYPROJECT, declared_packages, import_tree, lint_imports
 
-FLOORS = "floors: core < behaviours | perception_plugins | sim < trees < application"
+ROOT = PYPROJECT.parent
+
+FLOORS = "floors, bottom to top (docs/architecture.md)"
 CORE = "mission.core imports nothing else of ours"
 CORE_ROOT = "mission.core does not import the top-level mission module"
 
@@ -52,7 +54,8 @@ def test_the_copy_holds_every_listed_package_at_its_installed_place(tree):
     for package in declared_packages():
         assert (tree.joinpath(*package.split(".")) / "__init__.py").is_file(), package
     assert (tree / "mission" / "trees" / "loader.py").is_file()
-    assert (tree / "mission" / "sim" / "world.py").is_file()
+    assert (tree / "mission" / "sim" / "scene.py").is_file()
+    assert (tree / "mission" / "core" / "se3.py").is_file()  # core/ installs as mission.core
 
 
 def test_the_sources_keep_both_contracts(tree):
@@ -94,12 +97,51 @@ def test_a_planted_bad_import_fails_the_check(tree, module, line, broken, words)
     assert module in proc.stdout, "the report names the importing module"
 
 
-def test_the_application_floor_may_import_within_itself_and_everything_below(tree):
+@pytest.mark.parametrize(
+    ("module", "line", "words"),
+    [
+        # the run floor knows no ROS: bags are recorded by mission.ros.bag_record, an observer from above
+        ("mission.app.metrics", "import mission.ros.dds", "mission.app is not allowed to import mission.ros"),
+        # run reports are pictures: they live in viz, and the run does not import them
+        ("mission.app.runner", "import mission.viz.style", "mission.app is not allowed to import mission.viz"),
+        # Groot2's monitor watches runs; it draws nothing
+        ("mission.groot.publisher", "import mission.viz.web", "mission.groot is not allowed to import mission.viz"),
+        # the ROS node and the sweep are independent programs of the same floor
+        ("mission.sweep.task", "import mission.ros.node", "mission.sweep is not allowed to import mission.ros"),
+        ("mission.ros.node", "import mission.sweep.engine", "mission.ros is not allowed to import mission.sweep"),
+        # no floor imports a verb
+        ("mission.viz.run_report", "from mission.commands import run",
+         "mission.viz is not allowed to import mission.commands"),
+    ],
+)  # fmt: skip
+def test_an_application_floor_importing_upward_or_sideways_fails_the_check(tree, module, line, words):
+    plant(tree, module, line)
+    proc = lint_imports(tree)
+    assert proc.returncode != 0, proc.stdout
+    assert contract_lines(proc.stdout)[FLOORS] == "BROKEN"
+    assert words in proc.stdout
+
+
+def test_each_application_floor_may_import_every_floor_below_it(tree):
     plant(tree, "mission.viz.text", "import mission.app.runner")
-    plant(tree, "mission.app.metrics", "import mission.ros.dds")
+    plant(tree, "mission.viz.text", "import mission.groot.btlog")
+    plant(tree, "mission.ros.node", "import mission.viz.web")
+    plant(tree, "mission.sweep.task", "import mission.viz.run_report")
+    plant(tree, "mission.commands.run", "import mission.sweep.engine")
     plant(tree, "mission.trees.loader", "import mission.core.types")
     proc = lint_imports(tree)
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_no_two_modules_of_the_package_import_each_other_at_run_time():
+    """Layers forbid cycles between floors; this forbids them inside one (an import made only for type hints
+    is allowed: it never runs)."""
+    from tools.import_graph import analyse
+
+    data = analyse()
+    assert data["floor_cycles"] == []
+    assert data["module_cycles"] == []
+    assert data["outside_imports"] == []  # bench/ and tools/ are never installed: the package never imports them
 
 
 def test_a_new_subpackage_without_a_floor_fails_the_check(tree):
@@ -108,3 +150,30 @@ def test_a_new_subpackage_without_a_floor_fails_the_check(tree):
     proc = lint_imports(tree)
     assert proc.returncode != 0, proc.stdout
     assert "mission.extras" in proc.stdout + proc.stderr
+
+
+def test_every_installed_module_is_used_by_the_package_itself():
+    """What only tests, bench or tools import does not ship (tools/synthetic_views.py, tools/browser.py): every
+    module of the package is reached from an entry point (`mission`, `python -m mission`, a verb, a plugin in
+    pyproject.toml's entry points) through the package's own imports, or names itself as a package."""
+    import re
+
+    from tools.import_graph import build_graph
+
+    graph = build_graph()
+    edges: dict[str, set[str]] = {}
+    for (importer, imported), edge in graph.edges.items():
+        if edge.runtime:
+            edges.setdefault(importer, set()).add(imported)
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    plugins = set(re.findall(r'^\S+ = "(mission\.[\w.]+):', pyproject, flags=re.MULTILINE))
+    verbs = {m for m in graph.modules if m.startswith("mission.commands.")}  # mission.cli imports them by name
+    reached: set[str] = set()
+    todo = ["mission.cli", "mission.__main__", *verbs, *plugins]
+    while todo:
+        module = todo.pop()
+        if module not in reached:
+            reached.add(module)
+            todo += edges.get(module, ())
+    packages = {m for m, info in graph.modules.items() if info.path.name == "__init__.py"}
+    assert sorted(set(graph.modules) - reached - packages) == []

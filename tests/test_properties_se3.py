@@ -1,4 +1,4 @@
-"""Properties of the SE(3) helpers (mission/core/se3.py) over generated rotations and translations:
+"""Properties of the SE(3) helpers (core/se3.py) over generated rotations and translations:
 compose/invert round-trips, quaternion normalisation, quaternion ↔ matrix and rvec ↔ matrix."""
 
 from __future__ import annotations

@@ -17,11 +17,11 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from mission.app.bag_record import BagRecorder
 from mission.core.config import MissionConfig, TopicsConfig
 from mission.core.types import Frame, Pose2D, RobotState, Twist
-from mission.perception_plugins import synthetic_views as sv
-from mission.ros.replay import BagWorld, replay
+from mission.ros.bag_record import BagRecorder
+from mission.ros.bag_replay import BagWorld, replay
+from tools import synthetic_views as sv
 
 ROOT = Path(__file__).resolve().parents[1]
 N_FRAMES = 12

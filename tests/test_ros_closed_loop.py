@@ -26,7 +26,7 @@ import pytest
 from ros_env import ROOT, ROS_ENV, TREE_EXE, NodeProcess, RosClient, build_ros, clean_shm, installed_env, wait_for
 from std_msgs.msg import String
 
-from mission.ros.adapter import LATCHED
+from mission.ros.ros_adapter import LATCHED
 
 pytestmark = pytest.mark.ros
 

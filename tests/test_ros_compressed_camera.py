@@ -12,9 +12,9 @@ from sensor_msgs.msg import CameraInfo, CompressedImage
 from std_msgs.msg import String
 
 from mission.core import se3
-from mission.perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 from mission.ros.conversions import array_to_compressed_image, intrinsics_to_camera_info
 from mission.ros.messages import RclpyMessages
+from tools.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
 pytestmark = pytest.mark.ros
 

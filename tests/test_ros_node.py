@@ -26,10 +26,10 @@ from ros_env import (
 from std_msgs.msg import Bool, String
 
 from mission.core import se3
-from mission.perception_plugins.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
 from mission.ros.messages import RclpyMessages
 from mission.ros.tf_support import load_tf_message
+from tools.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
 pytestmark = pytest.mark.ros
 

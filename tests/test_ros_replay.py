@@ -14,14 +14,14 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import Empty, String
 
-from mission.app.bag_record import BagRecorder
 from mission.core import blackboard as bbk
 from mission.core.types import Frame, LaserScan, RobotState
+from mission.ros.bag_record import BagRecorder
+from mission.ros.bag_replay import replay
 from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
 from mission.ros.messages import BagMessages, RclpyMessages
-from mission.ros.replay import replay
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import load_scenario
+from mission.sim.sim_adapter import SimAdapter
 
 pytestmark = pytest.mark.ros
 
@@ -184,9 +184,9 @@ def _latched():
 
 def test_a_simulated_run_recorded_with_the_bag_observer_replays_frame_for_frame(tmp_path):
     """What `mission run --record-bag PATH` does: the observer records each tick's sensors from the runner."""
-    from mission.app.bag_record import BagObserver
     from mission.app.sim_run import run_scenario
     from mission.core.config import load_config
+    from mission.ros.bag_record import BagObserver
 
     observer = BagObserver(tmp_path / "run")
     run_scenario("follow_open", config_file=CONFIG, seed=1, max_duration=1.2, observers=[observer])

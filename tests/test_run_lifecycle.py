@@ -16,9 +16,9 @@ from pathlib import Path
 import imageio.v3 as iio
 import pytest
 
-from mission.app.bag_record import BagRecorder
-from mission.sim.adapter import SimAdapter
+from mission.ros.bag_record import BagRecorder
 from mission.sim.scenario import load_scenario
+from mission.sim.sim_adapter import SimAdapter
 
 MISSION = [sys.executable, "-m", "mission"]
 PYTHON_ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}

@@ -17,7 +17,7 @@ from bench.search import VARIANTS_DIR, variant_trees
 from mission.core.errors import ConfigError
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import load_tree
-from mission.trees.nodes_model import with_nodes_model
+from mission.trees.tree_nodes_model import with_nodes_model
 
 BASELINES = {"sweep": "SearchSweep", "rotate": "RotateSearch"}
 LADDER = {"PursueLastSeen", "TurnToBearing", "SearchBelief", "CoverUnseen", "GiveUpSearch"}
@@ -78,8 +78,8 @@ def test_a_moving_obstacle_may_not_drive_through_a_static_one():
 
 def test_the_acceptance_run_keeps_the_finished_runs_of_the_same_code_and_drops_any_other(tmp_path):
     from bench.search import _resumable
-    from mission.app.sweep.engine import run_sweep
-    from mission.app.sweep.plan import SweepPlan
+    from mission.sweep.engine import run_sweep
+    from mission.sweep.plan import SweepPlan
 
     plan = SweepPlan(("follow_open",), (0,), max_duration=1.0, pictures="none")
     assert _resumable(tmp_path / "sweep", plan) == 0  # nothing yet

@@ -14,8 +14,8 @@ from mission.core import se3
 from mission.core.config import SourceConfig
 from mission.core.types import Frame
 from mission.perception_plugins import registry
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import Scenario, scenario_from_dict
+from mission.sim.sim_adapter import SimAdapter
 
 ROBOT = {"x": 1.0, "y": 4.0, "yaw_deg": 0.0}
 CAMERA_X = 1.0 + 0.17  # default mount: 0.17 m ahead of the base centre
@@ -155,7 +155,7 @@ def test_camera_frames_arrive_at_the_camera_rate_whatever_the_tick_rate() -> Non
 def test_pybullet_prints_nothing_from_import_to_disconnect() -> None:
     code = (
         "from mission.sim.scenario import load_scenario\n"
-        "from mission.sim.adapter import SimAdapter\n"
+        "from mission.sim.sim_adapter import SimAdapter\n"
         "from mission.core import blackboard as bbk\n"
         "a = SimAdapter(load_scenario('follow_open'), renderer='{r}')\n"
         "a.setup(); bb = bbk.writer('t'); a.sense(bb); a.act(bb); a.advance(0.1); a.ground_truth(); a.close()\n"

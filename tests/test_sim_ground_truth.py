@@ -10,8 +10,8 @@ import pytest
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.types import OccupancyGrid
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import Scenario, load_scenario, scenario_from_dict
+from mission.sim.sim_adapter import SimAdapter
 
 TICK = 1 / 15
 

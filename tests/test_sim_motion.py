@@ -10,8 +10,8 @@ import pytest
 
 from mission.core import blackboard as bbk
 from mission.core.types import LaserScan, NavGoal, NavStatus, OccupancyGrid, Pose2D, RobotState, Twist
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import Scenario, scenario_from_dict
+from mission.sim.sim_adapter import SimAdapter
 
 TICK = 1 / 15
 

@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from mission.core.errors import ConfigError
-from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario, scenario_from_dict, shipped_scenarios
+from mission.sim.scenario_overrides import apply_overrides
 
 ORIGINAL = ["explore_dock", "follow_occlusion", "follow_open", "mission_full", "search_corner", "vlm_discovery"]
 # issue 15: worlds where turning in place cannot find the target again

@@ -13,9 +13,9 @@ import pytest
 
 from mission.core import blackboard as bbk
 from mission.core.types import NavGoal, Pose2D
-from mission.sim.adapter import SimAdapter
-from mission.sim.config import apply_overrides
 from mission.sim.scenario import load_scenario
+from mission.sim.scenario_overrides import apply_overrides
+from mission.sim.sim_adapter import SimAdapter
 
 
 def ideal_follow(name: str, seed: int) -> tuple[list[tuple[float, float]], int]:

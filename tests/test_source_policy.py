@@ -15,8 +15,8 @@ from mission.app.sim_run import run_scenario, shipped_config
 from mission.core.config import load_config
 from mission.perception_plugins import registry
 from mission.perception_plugins.target_matching import SourcedDetection, assign
-from mission.sim.adapter import SimAdapter
 from mission.sim.scenario import load_scenario, scenario_path
+from mission.sim.sim_adapter import SimAdapter
 
 CONFIGS = ("sim_aruco.yaml", "sim_apriltag.yaml", "sim_vlm.yaml")
 

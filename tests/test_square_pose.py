@@ -9,7 +9,7 @@ import pytest
 
 from mission.core import se3
 from mission.perception_plugins import square_pose as sp
-from mission.perception_plugins.synthetic_views import default_intrinsics, pose_facing_camera
+from tools.synthetic_views import default_intrinsics, pose_facing_camera
 
 
 def _exact_corners(T: np.ndarray, side: float) -> np.ndarray:

@@ -21,9 +21,9 @@ import psutil
 import pytest
 
 from mission import cli
-from mission.app.sweep.engine import connect, run_sweep
-from mission.app.sweep.plan import SweepPlan
-from mission.app.sweep.table import read_jsonl, read_parquet
+from mission.sweep.engine import connect, run_sweep
+from mission.sweep.plan import SweepPlan
+from mission.sweep.table import read_jsonl, read_parquet
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORT_S = 2.0  # simulated seconds per run: enough for follow_open to follow and explore_dock not to dock

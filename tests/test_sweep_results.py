@@ -9,13 +9,13 @@ import pytest
 
 from mission import cli
 from mission.app.provenance import files_fingerprint, source_fingerprint
-from mission.app.sweep.compare import compare_sweeps
-from mission.app.sweep.plan import SweepPlan, parse_seeds
-from mission.app.sweep.stats import Rate, compare
-from mission.app.sweep.store import SweepStore
-from mission.app.sweep.table import outcome_row, read_jsonl, read_parquet
-from mission.app.sweep.task import RunResult
 from mission.core.errors import ConfigError
+from mission.sweep.compare import compare_sweeps
+from mission.sweep.plan import SweepPlan, parse_seeds
+from mission.sweep.stats import Rate, compare
+from mission.sweep.store import SweepStore
+from mission.sweep.table import outcome_row, read_jsonl, read_parquet
+from mission.sweep.task import RunResult
 
 
 def test_seeds_are_ranges_and_lists_each_once_in_order():
@@ -157,7 +157,7 @@ def test_compare_of_a_folder_that_is_no_sweep_is_a_one_line_error(tmp_path, caps
 
 
 def test_the_summary_draws_every_figure_it_has_data_for_and_links_every_failing_run(tmp_path):
-    from mission.app.sweep.summary import write_summary
+    from mission.sweep.summary import write_summary
 
     store = SweepStore(tmp_path)
     _record(store, SweepPlan.from_args("follow_occlusion,mission_full", "0-9", ["HoldLastGoal.timeout_s=2,3"]),

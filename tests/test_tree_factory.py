@@ -19,7 +19,7 @@ from mission.core.errors import TreeError
 from mission.trees.builtins import BUILTINS
 from mission.trees.factory import BehaviourFactory, shipped_factory
 from mission.trees.loader import load_tree, validate_tree
-from mission.trees.nodes_model import GROOT_TYPES, format_default, nodes_model_xml
+from mission.trees.tree_nodes_model import GROOT_TYPES, format_default, nodes_model_xml
 
 BUILTIN_LIST = ", ".join(BUILTINS)
 

@@ -23,7 +23,7 @@ from mission.trees.loader import (
     shipped_trees,
     validate_tree,
 )
-from mission.trees.nodes_model import nodes_model_section, with_nodes_model
+from mission.trees.tree_nodes_model import nodes_model_section, with_nodes_model
 
 SHIPPED = ["explore.xml", "dock.xml", "follow.xml", "mission.xml", "explore_dock.xml", "discover_follow.xml"]
 
@@ -118,13 +118,13 @@ def test_subtrees_in_the_mission_are_named_after_their_ids_so_viewers_show_the_p
 def test_the_groot2_nodes_model_in_a_shipped_file_matches_the_shipped_behaviours(name):
     text = (TREES_DIR / name).read_text()
     assert nodes_model_section(text) is not None
-    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.tree_nodes_model`"
 
 
 @pytest.mark.parametrize("name", example_trees())
 def test_an_example_files_nodes_model_is_current_and_keeps_the_subtree_models_written_by_hand(name):
     text = (TREES_DIR / name).read_text()
-    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.nodes_model`"
+    assert with_nodes_model(text, shipped_factory()) == text, "stale: run `python -m mission.trees.tree_nodes_model`"
     section = nodes_model_section(text)
     assert section is not None and '<SubTree ID="FindMarkerTree">' in section
     stale = text.replace(section, '  <TreeNodesModel>\n    <SubTree ID="FindMarkerTree"/>\n  </TreeNodesModel>\n')

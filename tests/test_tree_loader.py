@@ -24,7 +24,7 @@ from mission.trees.controls import Parallel
 from mission.trees.decorators import RetryUntilSuccessful, Timeout
 from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import describe_tree, load_tree, resolve_tree_path, shipped_trees, validate_tree
-from mission.trees.nodes_model import nodes_model_xml
+from mission.trees.tree_nodes_model import nodes_model_xml
 
 # --------------------------------------------------------------------------- test-only behaviours
 BUILT: list[str] = []  # names of every test leaf constructed (to prove nothing is built on errors)

@@ -16,9 +16,9 @@ from viz_world import WATCH_NODES, step, watch_runner
 
 from mission.cli import main
 from mission.core.errors import MissionError
-from mission.viz.browser import HeadlessChromium
 from mission.viz.tick_log import TickLog
 from mission.viz.web import LiveView
+from tools.browser import HeadlessChromium
 
 STATUSES_JS = """Object.fromEntries(Array.from(document.querySelectorAll('#tree .node')).map(
     g => [g.dataset.name, g.getAttribute('class').match(/st-(\\w+)/)[1]]))"""

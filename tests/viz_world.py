@@ -1,7 +1,7 @@
 """A small world for the viewer tests: a camera that sees a real ArUco marker for a while, then loses it.
 
 The robot stands still; the target (marker id 7, 20 cm) stands 1 m in front of the camera for the first
-`visible_ticks` ticks and is gone afterwards. Frames are rendered pixels (perception_plugins.synthetic_views)
+`visible_ticks` ticks and is gone afterwards. Frames are rendered pixels (tools.synthetic_views)
 read by the real ArUco source, and the real tree loader builds `WATCH_TREE`, so the viewers watch a real
 run: FOLLOW while the marker is seen, then SEARCH, then the tree fails when the short sweep times out.
 """
@@ -19,7 +19,7 @@ from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import MissionConfig
 from mission.core.types import Frame, NavStatus, OccupancyGrid, Pose2D, RobotState, Twist
-from mission.perception_plugins.synthetic_views import default_intrinsics, render_marker_view
+from tools.synthetic_views import default_intrinsics, render_marker_view
 
 WATCH_TREE = """<root BTCPP_format="4" main_tree_to_execute="Watch">
   <BehaviorTree ID="Watch">

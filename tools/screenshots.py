@@ -3,7 +3,7 @@
     python -m tools.screenshots docs/ [--live mission_full:30] [--report follow_occlusion:40]
 
 Runs a scenario with the live view and photographs the page at the end, and runs another with the
-report observers and photographs report.html, in headless Chromium (mission.viz.browser). Needs Debian's
+report observers and photographs report.html, in headless Chromium (tools.browser). Needs Debian's
 `chromium` (scripts/bootstrap installs it).
 """
 
@@ -14,14 +14,14 @@ import sys
 import tempfile
 from pathlib import Path
 
-from mission.viz.browser import HeadlessChromium
+from tools.browser import HeadlessChromium
 
 
 def _run(scenario: str, seconds: float, observers: list) -> Path:
     """Run `scenario` with `observers` and the report pictures; returns the report directory."""
-    from mission.app.report import plot_timeline, plot_trajectories, write_json
     from mission.app.sim_run import run_scenario
     from mission.viz.report_trees import TransitionTrees
+    from mission.viz.run_report import plot_timeline, plot_trajectories, write_json
 
     report = Path(tempfile.mkdtemp(prefix="mission-report-"))
     outcome, recorder, adapter = run_scenario(

@@ -1,6 +1,6 @@
 """BehaviorTree.CPP's blackboards (the root one and one per SubTree instance) in py_trees' one blackboard.
 
-There is one store: py_trees' blackboard, where the mission keys live (mission/core/blackboard.py). A BT.CPP
+There is one store: py_trees' blackboard, where the mission keys live (core/blackboard.py). A BT.CPP
 blackboard entry is an entry of that store, found by a static rule when the tree is loaded (BT.CPP's
 remapping is static too, so nothing is looked up per tick):
 

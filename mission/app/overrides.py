@@ -9,7 +9,7 @@ per key. The first part of a key says what it changes:
 * a config key (``run.tick_hz``, ``perception.policy``, ``tree``, ``sim.camera.width``): laid over the
   config file's data and validated as the file is;
 * a scenario key (``duration_s``, ``target.speed_mps``, ``camera.width``): the same as ``sim.<key>`` in
-  the config (sim/config.py), laid over the scenario after the config's own ``sim:``.
+  the config (sim/scenario_overrides.py), laid over the scenario after the config's own ``sim:``.
 
 Values are YAML (``0.6``, ``true``, ``follow.xml``, ``{width: 320, height: 240}``); mappings merge into the
 section they name and everything else replaces. A key that names nothing is one line naming it, with
@@ -29,8 +29,8 @@ import yaml
 
 from mission.core.config import MissionConfig, check_config, known_keys, merge_mappings, validate_model
 from mission.core.errors import ConfigError
-from mission.sim.config import apply_overrides
 from mission.sim.scenario import Scenario
+from mission.sim.scenario_overrides import apply_overrides
 from mission.trees.factory import BehaviourFactory, shipped_factory
 
 Kind = Literal["port", "config", "scenario"]

@@ -11,7 +11,7 @@ arrives). Nothing else writes this loop, so one tree behaves the same way in eve
     runner.close()
 
 One step: the world writes its newest inputs to the blackboard (``sense``); a new scan updates what the
-lidar sees move (``/robot/movers``, mission/core/movers.py); if a new frame arrived the
+lidar sees move (``/robot/movers``, core/movers.py); if a new frame arrived the
 perception stage turns it into detections and tracks (``perceive``, perception_plugins/pipeline.py);
 the tree ticks once; the world carries out the tree's commands (``act``); observers see the step.
 Between steps a simulated world lets ``1 / run.tick_hz`` seconds pass (``advance``), optionally paced to

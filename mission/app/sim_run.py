@@ -2,7 +2,7 @@
 
 `mission run` and the benchmark sweeps both call :func:`run_scenario`, so a bench figure and a CLI
 run are the same code path. `mission sim-robot` calls it too, with ``robot=``: the simulated world is then
-wrapped as a ROS robot (mission/ros/sim_robot.py) and the tree runs in another process — the ROS node —
+wrapped as a ROS robot (mission/ros/sim_robot_node.py) and the tree runs in another process — the ROS node —
 while this one steps the world, measures it against ground truth and scores it by the same criteria.
 """
 
@@ -28,10 +28,10 @@ from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
 from mission.core.errors import ConfigError
 from mission.perception_plugins.pipeline import source_statuses
-from mission.sim.adapter import SimAdapter
-from mission.sim.config import apply_overrides
 from mission.sim.faults import fault_summary, wrap_sources
 from mission.sim.scenario import Scenario, Success, load_scenario
+from mission.sim.scenario_overrides import apply_overrides
+from mission.sim.sim_adapter import SimAdapter
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import describe_tree
 

@@ -1,156 +1,31 @@
-"""`mission bench`: run the benchmarks in bench/ and write their figures (JSON per benchmark + plots).
+"""`mission bench`: the benchmark runner of the source checkout, started as its own program.
 
-Each benchmark writes ``<output>/<name>.json`` (its figures, the machine, the command, the elapsed
-time) and its plots; ``<output>/results.json`` gathers the benchmarks of this invocation. A benchmark
-that fails is reported on one line and the others still run (exit 1). The output is bench/results (the
-committed figures BENCHMARKS.md is generated from by ``python -m bench.report``) for a full run, and
-out/bench-quick/ (gitignored) for ``--quick``, which never writes into bench/results.
-
-bench/ is never installed: it is imported from the source checkout this `mission` is installed from
-(editable), so `mission bench` works from any directory of that checkout.
+bench/ is a development tool and is never installed (its benchmarks need the checkout's data, tests and
+tools). With an editable install this verb runs ``python -m bench`` with the checkout first on the child's
+``PYTHONPATH`` and forwards every argument (``mission bench --help`` is the runner's help); the package itself
+never reaches into bench/. Installed from a wheel, there is no checkout, and the verb says so.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import json
+import os
+import subprocess
 import sys
-import time
-import traceback
-from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
 from mission.core.errors import MissionError
-from mission.core.files import atomic_write_text, ensure_dir, unwritable
-
-if TYPE_CHECKING:
-    from bench.registry import Benchmark
 
 CHECKOUT = Path(__file__).resolve().parents[2]  # mission/commands/bench.py → the source checkout
 
 
-def _import_bench() -> None:
-    """Make bench/ (never installed) importable from the checkout, or say why `mission bench` cannot run."""
-    if importlib.util.find_spec("bench") is not None:
-        return
-    if not (CHECKOUT / "bench" / "registry.py").is_file():
+def main(args: argparse.Namespace) -> int:
+    if not (CHECKOUT / "bench" / "__main__.py").is_file():
         raise MissionError("`mission bench` runs the benchmarks of a source checkout (bench/ is not installed); "
                            "install one editable (`pip install -e .` in a clone) and run it there")  # fmt: skip
-    sys.path.append(str(CHECKOUT))
-
-
-def command_line(args: argparse.Namespace) -> str:
-    parts = ["mission", "bench"]
-    if args.quick:
-        parts.append("--quick")
-    if args.only:
-        parts += ["--only", args.only]
-    if args.output is not None:
-        parts += ["-o", str(args.output)]
-    return " ".join(parts)
-
-
-def _run_one(b: Benchmark, quick: bool, out: Path, machine: dict[str, Any], cmd: str) -> dict[str, Any]:
-    from bench.common import progress
-
-    entry: dict[str, Any] = {
-        "name": b.name,
-        "description": b.description,
-        "command": cmd,
-        "quick": quick,
-        "started_utc": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": machine,
-    }
-    t0 = time.perf_counter()
-    progress(f"{b.name}: {b.description}")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(CHECKOUT), env.get("PYTHONPATH", "")) if p)
     try:
-        run = b.load()
-        entry["result"] = run(quick, out)
-    except MissionError as err:
-        entry["error"] = str(err)
-    except Exception as err:  # a broken benchmark must not stop the others
-        entry["error"] = f"{type(err).__name__}: {err}"
-        traceback.print_exc(file=sys.stderr)
-    entry["elapsed_s"] = round(time.perf_counter() - t0, 1)
-    if "error" in entry:
-        print(f"mission bench: {b.name}: {entry['error']}", file=sys.stderr)
-    else:
-        progress(f"{b.name}: done in {entry['elapsed_s']:.1f} s")
-        atomic_write_text(out / f"{b.name}.json", json.dumps(entry, indent=2, default=str) + "\n")
-    return entry
-
-
-def _print_summary(entries: list[dict[str, Any]]) -> None:
-    for e in entries:
-        if "error" in e:
-            print(f"{e['name']}: FAILED — {e['error']}")
-            continue
-        res = e["result"]
-        print(f"{e['name']} ({e['elapsed_s']:.0f} s): {res.get('title', e['description'])}")
-        for f in res.get("figures", []):
-            val = f["value"]
-            base = f.get("baseline_value")
-            line = f"  {f['label']}: {val} {f['unit']}"
-            if base is not None:
-                line += f"  vs {base} ({f['baseline']})"
-            else:
-                line += f"  [baseline: {f['baseline']}]"
-            if f.get("ratio") is not None:
-                line += f"  ratio {f['ratio']}"
-            if f.get("target"):
-                line += f"  target {f['target']}" + {True: " ✓", False: " ✗", None: ""}[f.get("meets_target")]
-            print(line)
-
-
-def output_dir(args: argparse.Namespace) -> Path:
-    """-o DIR, else bench/results for a full run and out/bench-quick/ for --quick; created and checked
-    writable. A quick run is refused the committed results directory (it would replace full-run figures)."""
-    from bench.registry import default_output, is_committed_results
-
-    out = Path(args.output) if args.output is not None else default_output(args.quick)
-    if args.quick and is_committed_results(out):
-        raise MissionError(f"-o {args.output}: --quick figures never go into the committed full-run results; "
-                           f"expected another directory (the default is {_shown(default_output(True))})")  # fmt: skip
-    try:
-        ensure_dir(out)
-    except OSError as err:
-        raise MissionError(f"-o {out}: {unwritable(err, out, directory=True)}") from None
-    return out
-
-
-def _shown(path: Path) -> str:
-    """`path` relative to the working directory when it is inside it."""
-    try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return str(path)
-
-
-def main(args: argparse.Namespace) -> int:
-    _import_bench()
-    from bench.common import machine_info
-    from bench.registry import is_committed_results, select
-
-    chosen = select(args.only, args.quick)
-    out = output_dir(args)
-    cmd = command_line(args)
-    machine = machine_info()
-    t0 = time.perf_counter()
-    entries = [_run_one(b, args.quick, out, machine, cmd) for b in chosen]
-    total = round(time.perf_counter() - t0, 1)
-    summary = {"command": cmd, "machine": machine, "elapsed_s": total,
-               "benchmarks": {e["name"]: e for e in entries}}  # fmt: skip
-    atomic_write_text(out / "results.json", json.dumps(summary, indent=2, default=str) + "\n")
-    if args.json:
-        print(json.dumps(summary, indent=2, default=str))
-    else:
-        _print_summary(entries)
-        shown = _shown(out)
-        report = "BENCHMARKS.md" if is_committed_results(out) else f"{shown}/BENCHMARKS.md"
-        print(f"figures in {shown}/ ({total:.0f} s); {report}: python -m bench.report {shown}")
-    failed = [e for e in entries if "error" in e]
-    if failed and len(failed) == len(entries) == 1:
-        raise MissionError(failed[0]["error"])
-    return 1 if failed else 0
+        return subprocess.call([sys.executable, "-m", "bench", *args.forwarded], env=env)
+    except KeyboardInterrupt:  # the runner got the same SIGINT and stops on its own
+        return 130

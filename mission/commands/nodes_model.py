@@ -19,7 +19,7 @@ from mission.app.behaviour_plugins import register_installed
 from mission.core.errors import MissionError
 from mission.core.files import atomic_write_text, unwritable
 from mission.trees.factory import shipped_factory
-from mission.trees.nodes_model import nodes_model_xml, with_nodes_model
+from mission.trees.tree_nodes_model import nodes_model_xml, with_nodes_model
 from mission.trees.xml_source import parse_file
 
 

@@ -12,7 +12,7 @@ import sys
 
 from mission.app.calibration import load_calibration
 from mission.core.config import load_config
-from mission.ros.replay import TOPIC_KEYS, FrameResult, replay
+from mission.ros.bag_replay import TOPIC_KEYS, FrameResult, replay
 
 
 def main(args: argparse.Namespace) -> int:

@@ -9,11 +9,11 @@ from pathlib import Path
 
 from mission.app.observers import RunObserver
 from mission.app.overrides import RunOverrides, run_overrides
-from mission.app.report import report_observers, verdict, write_report
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import RunOutcome, check_prepared, prepare_run, run_scenario, unused_ports
 from mission.core.errors import ConfigError, MissionError
 from mission.core.files import ensure_dir, unwritable
+from mission.viz.run_report import report_observers, verdict, write_report
 
 DEFAULT_SCENARIO = "mission_full"
 
@@ -48,7 +48,7 @@ def _observers(args: argparse.Namespace, label: str) -> list[RunObserver]:
 
         observers.append(Groot2Publisher(args.groot))
     if getattr(args, "record_bag", None):
-        from mission.app.bag_record import BagObserver
+        from mission.ros.bag_record import BagObserver
 
         try:
             observers.append(BagObserver(args.record_bag))

@@ -1,4 +1,4 @@
-"""`mission sim-robot`: the pybullet world as a ROS 2 robot (mission/ros/sim_robot.py) for the node to drive.
+"""`mission sim-robot`: the pybullet world as a ROS 2 robot (mission/ros/sim_robot_node.py) for the node to drive.
 
 Run the node in another terminal (`ros2 run mission tree --ros-args -p use_sim_time:=true`). At the end of the
 scenario's duration (or when the node's tree finishes, or on SIGINT/SIGTERM) the run is scored against ground
@@ -10,18 +10,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mission.app.report import write_report
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import run_scenario
 from mission.commands.run import DEFAULT_SCENARIO, _check_report_dir, result_line
 from mission.ros import dds
+from mission.viz.run_report import write_report
 
 
 def main(args: argparse.Namespace) -> int:
     _check_report_dir(args)
     for note in dds.configure_transport():
         print(f"[sim_robot] {note}")
-    from mission.ros.sim_robot import Faults, SimRobot
+    from mission.ros.sim_robot_node import Faults, SimRobot
 
     faults = Faults.parse(args.fault or [])
     scenario = args.scenario or DEFAULT_SCENARIO

@@ -46,8 +46,8 @@ def main(args: argparse.Namespace) -> int:
         return _compare(args)
     if not args.scenarios or args.seeds is None:
         raise MissionError("mission sweep needs --scenarios and --seeds (or --compare A B)")
-    from mission.app.sweep.engine import run_sweep
-    from mission.app.sweep.plan import SweepPlan
+    from mission.sweep.engine import run_sweep
+    from mission.sweep.plan import SweepPlan
 
     plan = SweepPlan.from_args(args.scenarios, args.seeds, args.set, config_file=args.config, tree=args.tree,
                                max_duration=args.max_duration, pictures=args.pictures)  # fmt: skip
@@ -78,7 +78,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from mission.app.sweep.compare import compare_sweeps, text_table, write_html
+    from mission.sweep.compare import compare_sweeps, text_table, write_html
 
     a, b = args.compare
     rows, notes = compare_sweeps(a, b)

@@ -17,8 +17,8 @@ import sys
 from pathlib import Path
 
 from mission.core.errors import MissionError
-from mission.viz.files import write_output
 from mission.viz.model import VizNode, from_description
+from mission.viz.output import write_output
 
 FORMATS = ("unicode", "ascii", "dot", "svg", "png", "html")
 

@@ -29,7 +29,7 @@ from py_trees.behaviour import Behaviour
 
 from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import EXPLICIT_KIND_TAGS, read_document
-from mission.trees.nodes_model import nodes_model_xml
+from mission.trees.tree_nodes_model import nodes_model_xml
 from mission.trees.xml_source import SourceElement
 
 #: attributes the publisher writes itself (a file saved by Groot2 may carry stale ones)

@@ -197,9 +197,9 @@ class MissionNode:
         from rclpy.clock import Clock, ClockType
 
         from mission.app.runner import TreeRunner
-        from mission.ros.adapter import RELIABLE, RosAdapter
         from mission.ros.messages import RclpyMessages
         from mission.ros.outputs import BehaviorTreeLogPublisher, PerceptionOutputs, StatusPublisher, TreePublisher
+        from mission.ros.ros_adapter import RELIABLE, RosAdapter
         from mission.ros.tf_support import load_nav2, load_tf_message
         from mission.ros.world_io import RosTopics
 

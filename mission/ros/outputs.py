@@ -54,7 +54,7 @@ class PerceptionOutputs(RunObserver):
         emit_dock: Callable[[str, Any], None] | None = None,
         tf_message: type | None = None,
     ) -> None:
-        from mission.ros.adapter import RELIABLE
+        from mission.ros.ros_adapter import RELIABLE
 
         self.msgs = msgs
         self.camera_frame = camera_frame
@@ -116,7 +116,7 @@ class TreePublisher(RunObserver):
     """``/mission/tree``: the snapshot when the tree's statuses or feedback changed, at most 2 Hz."""
 
     def __init__(self, node: Any, msgs: RclpyMessages) -> None:
-        from mission.ros.adapter import LATCHED
+        from mission.ros.ros_adapter import LATCHED
 
         self.msgs = msgs
         self.pub = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/mission/tree", LATCHED)
@@ -149,7 +149,7 @@ class BehaviorTreeLogPublisher(RunObserver):
     ``node_name`` its name in the tree. The XML of the tree file goes out once, latched."""
 
     def __init__(self, node: Any, msgs: RclpyMessages, nav2: Any, now: Callable[[], float]) -> None:
-        from mission.ros.adapter import LATCHED, RELIABLE
+        from mission.ros.ros_adapter import LATCHED, RELIABLE
 
         self.msgs, self.now = msgs, now
         self.log_type = nav2.get("msg", "BehaviorTreeLog")
@@ -184,7 +184,7 @@ class StatusPublisher(RunObserver):
     """``/mission/status``: {state, status, reason, fault, tick, clock} as JSON when any but tick/clock changed."""
 
     def __init__(self, node: Any, msgs: RclpyMessages) -> None:
-        from mission.ros.adapter import LATCHED
+        from mission.ros.ros_adapter import LATCHED
 
         self.msgs = msgs
         self.pub = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/mission/status", LATCHED)

@@ -266,7 +266,7 @@ class SensorCache:
         if isinstance(value, CameraIntrinsics):
             if value.width == 0 or value.height == 0:
                 value = dataclasses.replace(value, width=w, height=h)
-            problem = value.problem(w, h)  # the one check (mission/core/types.py) the sources use too
+            problem = value.problem(w, h)  # the one check (core/types.py) the sources use too
             if problem is None:
                 return value
             assert near is not None

@@ -2,8 +2,8 @@
 
 :class:`CachedWorld` is a WorldAdapter whose inputs arrive as ROS messages into a
 :class:`~mission.ros.sensor_cache.SensorCache` and whose outputs leave as ROS messages through
-:meth:`CachedWorld.emit`. The live adapter (:mod:`mission.ros.adapter`) emits to rclpy publishers;
-replay (:mod:`mission.ros.replay`) feeds the cache from a bag and keeps what the tree commanded. No rclpy.
+:meth:`CachedWorld.emit`. The live adapter (:mod:`mission.ros.ros_adapter`) emits to rclpy publishers;
+replay (:mod:`mission.ros.bag_replay`) feeds the cache from a bag and keeps what the tree commanded. No rclpy.
 
 Commands (intent on the blackboard → messages):
 

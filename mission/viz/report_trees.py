@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from mission.app.observers import RunObserver, Tick
-from mission.viz.files import write_output
 from mission.viz.model import apply_tick, from_snapshot
+from mission.viz.output import write_output
 from mission.viz.probe import probe_for, release
 from mission.viz.style import STATE_COLOURS
 from mission.viz.svg import render_svg

@@ -23,7 +23,7 @@ KIND_COLOURS: dict[str, str] = {
     "Action": "#1a73e8",
     "SubTree": "#5f6368",
 }
-# Mission states (also in mission.app.report's timeline; kept as names there, as hex here for CSS/OpenCV).
+# Mission states (also in mission.viz.run_report's timeline; kept as names there, as hex here for CSS/OpenCV).
 STATE_COLOURS: dict[str, str] = {
     "EXPLORE": "#7f7f7f",
     "DOCK": "#9467bd",

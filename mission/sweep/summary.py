@@ -22,11 +22,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from mission.app.overrides import format_value
-from mission.app.report import save_figure
-from mission.app.sweep.stats import Rate
-from mission.app.sweep.store import SweepStore
-from mission.app.sweep.table import param_keys
 from mission.core.files import atomic_write_text
+from mission.sweep.stats import Rate
+from mission.sweep.store import SweepStore
+from mission.sweep.table import param_keys
+from mission.viz.run_report import save_figure
 
 SUMMARY_FILE = "summary.html"
 PICTURES_DIR = "summary"

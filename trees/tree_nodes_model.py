@@ -3,7 +3,7 @@
 Groot2 shows a node's ports (and offers them in its palette) only when the file describes the node
 type. The shipped tree files carry this section, generated from the behaviours registered in a factory
 (each one's ports as its ``Params`` declare them); a test regenerates it and compares, and
-``python -m mission.trees.nodes_model`` rewrites the shipped files after a behaviour's ports change
+``python -m mission.trees.tree_nodes_model`` rewrites the shipped files after a behaviour's ports change
 (``--check`` only reports).
 """
 

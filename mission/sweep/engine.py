@@ -31,10 +31,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mission.app.sweep.plan import RunSpec, SweepPlan
-from mission.app.sweep.store import SweepStore
-from mission.app.sweep.task import RunResult, run_one, worker_identity
 from mission.core.errors import MissionError
+from mission.sweep.plan import RunSpec, SweepPlan
+from mission.sweep.store import SweepStore
+from mission.sweep.task import RunResult, run_one, worker_identity
 
 LOOPBACK = "127.0.0.1"
 ALLOWED_FAILURES = 3  # workers a run may kill before it is left unfinished (Dask's default, made explicit)
@@ -230,7 +230,7 @@ def run_sweep(
             written = True
             store.write_table()
             if summary:
-                from mission.app.sweep.summary import write_summary
+                from mission.sweep.summary import write_summary
 
                 write_summary(store)
 

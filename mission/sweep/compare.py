@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mission.app.sweep.stats import SIGNIFICANT_P, Comparison, compare
-from mission.app.sweep.store import SweepStore
-from mission.app.sweep.summary import cells
 from mission.core.files import atomic_write_text
+from mission.sweep.stats import SIGNIFICANT_P, Comparison, compare
+from mission.sweep.store import SweepStore
+from mission.sweep.summary import cells
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """The pybullet world as a ROS 2 robot — what Gazebo with ros_gz_bridge and Nav2 present to a mission node.
 
-:class:`SimRobot` is a world adapter that wraps the simulation (sim/adapter.py) and puts it behind topics:
+:class:`SimRobot` is a world adapter that wraps the simulation (sim/sim_adapter.py) and puts it behind topics:
 
 * out, on sim time: ``/clock`` every step; the camera image, camera info (and depth when the scenario renders
   it) at the camera rate; ``/odom`` and ``/tf`` (map → odom, odom → base_link) every step; ``/scan`` at the
@@ -45,7 +45,7 @@ from mission.ros.conversions import (
     transform_stamped,
 )
 from mission.ros.messages import RclpyMessages, time_msg
-from mission.sim.adapter import SimAdapter
+from mission.sim.sim_adapter import SimAdapter
 
 CMD_VEL_TIMEOUT_S = 0.5  # a twist holds this long (sim time) without a new one
 CLOCK_JUMP_S = 5.0
@@ -118,7 +118,7 @@ class SimRobot:
         from rclpy.action import ActionServer, CancelResponse, GoalResponse
         from rclpy.executors import SingleThreadedExecutor
 
-        from mission.ros.adapter import LATCHED, RELIABLE, TF_QOS, TF_STATIC_QOS
+        from mission.ros.ros_adapter import LATCHED, RELIABLE, TF_QOS, TF_STATIC_QOS
         from mission.ros.tf_support import load_nav2, load_tf_message
 
         self.sim.setup()

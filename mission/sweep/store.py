@@ -4,7 +4,7 @@
     OUT/runs.jsonl              one row per finished run, appended as each arrives: the table's record
     OUT/results.parquet         the same rows as one Parquet table (rewritten as runs finish and at the end)
     OUT/runs/<cell>/seed-NNNN/  that run's report: report.json, trajectories.png, timeline.png, trees/, report.html
-    OUT/summary.html            the summary (mission/app/sweep/summary.py), pictures in OUT/summary/
+    OUT/summary.html            the summary (mission/sweep/summary.py), pictures in OUT/summary/
 
 Only the driver writes here, one run at a time: the run's folder first (written aside, then renamed into
 place), then its row. A run is finished when its row is in runs.jsonl; a second result for a name
@@ -20,11 +20,11 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from mission.app.sweep.plan import SweepPlan
-from mission.app.sweep.table import append_jsonl, read_jsonl, write_parquet
-from mission.app.sweep.task import RunResult
 from mission.core.errors import MissionError
 from mission.core.files import atomic_write_bytes, atomic_write_text, ensure_dir, unwritable
+from mission.sweep.plan import SweepPlan
+from mission.sweep.table import append_jsonl, read_jsonl, write_parquet
+from mission.sweep.task import RunResult
 
 SWEEP_FILE = "sweep.json"
 ROWS_FILE = "runs.jsonl"

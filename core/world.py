@@ -11,7 +11,7 @@ The runner (mission/app/runner.py) drives every world the same way, once per ste
 Optional: ``ground_truth()`` (a simulated world: what really is, for metrics and pictures) and
 ``exhausted`` (a world that can run out, such as a bag: True once it has, and the loop ends).
 
-Implementations: ``mission.sim.adapter.SimAdapter`` (pybullet), ``mission.ros.adapter`` (rclpy) and replay.
+Implementations: ``mission.sim.sim_adapter.SimAdapter`` (pybullet), ``mission.ros.ros_adapter`` (rclpy) and replay.
 """
 
 from __future__ import annotations

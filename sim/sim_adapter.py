@@ -38,9 +38,9 @@ from mission.sim.ground_truth import GroundTruth
 from mission.sim.navigator import Navigator
 from mission.sim.robot import DiffDriveBase
 from mission.sim.scenario import MovingObstacle, Scenario
+from mission.sim.scene import World, intrinsics_for, static_footprints, unknown_footprints
 from mission.sim.static_map import static_map
 from mission.sim.target_motion import TargetPath
-from mission.sim.world import World, intrinsics_for, static_footprints, unknown_footprints
 
 SUBSTEP_S = 0.02
 TARGET_ROBOT_GAP_M = 0.05  # the target waits rather than come closer than this to the robot

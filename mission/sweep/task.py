@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mission.app.sweep.plan import RunSpec
-from mission.app.sweep.table import outcome_row
+from mission.sweep.plan import RunSpec
+from mission.sweep.table import outcome_row
 
 
 @dataclass
@@ -40,8 +40,8 @@ def run_one(spec: RunSpec) -> RunResult:
     failed row saying so ("crashed: …"): the same seed would raise again, so it is not retried."""
     import py_trees
 
-    from mission.app.report import report_observers, write_report
     from mission.app.sim_run import run_scenario
+    from mission.viz.run_report import report_observers, write_report
 
     # A worker process runs many runs; each starts from an empty blackboard, as a fresh `mission run`
     # process does (a key one run wrote must not be what the next one reads before its world writes it).
@@ -71,7 +71,7 @@ def run_one(spec: RunSpec) -> RunResult:
         if keep_pictures:
             write_report(out, outcome, recorder, adapter)
         else:  # report.json only: the pictures (and the trees' report.html) are dropped
-            from mission.app.report import write_json
+            from mission.viz.run_report import write_json
 
             for path in out.rglob("*"):
                 if path.is_file():
