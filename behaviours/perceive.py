@@ -9,6 +9,7 @@ its feedback, and logs one warning when the tree is set up. Remove it from your 
 from __future__ import annotations
 
 import logging
+from typing import ClassVar
 
 import py_trees
 
@@ -23,6 +24,7 @@ class PerceiveTargets(MissionLeaf):
     """Deprecated no-op: perception runs as a stage before every tick. SUCCESS at once."""
 
     NODE_TYPE = "Action"
+    DEPRECATED: ClassVar[bool] = True  # loads and runs; Groot2's palette (TreeNodesModel) leaves it out
 
     def setup(self, **kwargs: object) -> None:
         log.warning("%s: %s", self.name, NOTE)

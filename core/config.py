@@ -6,25 +6,57 @@ Other floors reuse :func:`load_model` / :func:`validate_model` for their own fil
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import logging
+from collections.abc import Callable, Mapping, Sequence
 from difflib import get_close_matches
 from pathlib import Path
 from types import UnionType
-from typing import Annotated, Any, Literal, TypeVar, Union, get_args, get_origin
+from typing import Annotated, Any, ClassVar, Literal, TypeVar, Union, get_args, get_origin
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from mission.core.errors import ConfigError
 
 M = TypeVar("M", bound=BaseModel)
 
+log = logging.getLogger(__name__)
+
+#: A renamed key: its new name, or the new name and how an old value becomes a new one.
+Renamed = str | tuple[str, Callable[[Any], Any]]
+_warned: set[tuple[str, str]] = set()
+
 
 class StrictModel(BaseModel):
     """Base for every config section: unknown keys are errors, and so are .nan / .inf where a number is
-    expected (NaN slips through every range check: ``nan > 0`` and ``nan <= 200`` are both False)."""
+    expected (NaN slips through every range check: ``nan > 0`` and ``nan <= 200`` are both False).
+
+    A section whose keys were renamed lists the old spellings in :attr:`renamed_keys`: they are read for one
+    release, each with one deprecation warning (per process) naming the new key, and giving both is an error.
+    """
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    renamed_keys: ClassVar[Mapping[str, Renamed]] = {}
+
+    @model_validator(mode="before")
+    @classmethod
+    def _read_renamed_keys(cls, data: Any) -> Any:
+        if not cls.renamed_keys or not isinstance(data, Mapping):
+            return data
+        out = dict(data)
+        for old, spec in cls.renamed_keys.items():
+            if old not in out:
+                continue
+            new, convert = (spec, None) if isinstance(spec, str) else spec
+            if new in out:
+                raise ValueError(f"{old!r} is the old spelling of {new!r}; give only {new!r}")
+            value = out.pop(old)
+            out[new] = convert(value) if convert is not None else value
+            if (cls.__name__, old) not in _warned:
+                _warned.add((cls.__name__, old))
+                log.warning("config key %r is deprecated: use %r (%s; the old key is read until the next release)",
+                            old, new, cls.__name__)  # fmt: skip
+        return out
 
 
 def _dotted(loc: tuple[Any, ...], prefix: str = "") -> str:
@@ -195,7 +227,7 @@ class TargetSpec(StrictModel):
     """What a named target looks like to perception; unset fields match anything."""
 
     marker_id: int | None = Field(None, ge=0)  # fiducial id (aruco / apriltag detections)
-    label: str | None = None  # detection label (an AprilTag's entity name, the VLM's target_label)
+    label: str | None = None  # detection label (an AprilTag's entity name, the VLM source's label)
     source: str | None = None  # instance name of the source that must have produced the detection
 
 
@@ -203,7 +235,7 @@ class PerceptionConfig(StrictModel):
     """Which sources run on every frame, how their detections combine, and what the named targets look like."""
 
     sources: list[SourceConfig] = Field(  # the plugins run on every frame, in order
-        default_factory=lambda: [SourceConfig(plugin="aruco", params={"dictionary": "DICT_4X4_250"})]
+        default_factory=lambda: [SourceConfig(plugin="aruco")]  # with the aruco source's own defaults
     )
     # "all": every source's detections are used; "hybrid": when a precise source (aruco/apriltag) sees a
     # target, detections of the same target from coarse sources (vlm) are dropped (long-range discovery

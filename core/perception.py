@@ -8,9 +8,11 @@ from __future__ import annotations
 
 from typing import ClassVar, Protocol, runtime_checkable
 
+from mission.core.plugins import PERCEPTION_SOURCES
 from mission.core.types import Detection, Frame
 
-ENTRY_POINT_GROUP = "mission.perception_plugins"
+ENTRY_POINT_GROUP = PERCEPTION_SOURCES.group  # where sources register (core/plugins.py)
+TARGET_LABEL = "red box"  # the simulated target's label, and what the VLM source looks for unless told otherwise
 
 
 @runtime_checkable

@@ -35,7 +35,7 @@ import numpy as np
 from pydantic import Field, PositiveFloat, field_validator, model_validator
 
 from mission.core import se3
-from mission.core.config import StrictModel, validate_model
+from mission.core.config import Renamed, StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import square_pose
@@ -84,8 +84,10 @@ class TransformSpec(StrictModel):
 class TagSpec(StrictModel):
     """One row of the attribution table: who carries tag <id>, how big it is, how it is mounted."""
 
+    renamed_keys: ClassVar[dict[str, Renamed]] = {"size_m": "marker_size_m"}
+
     name: str = Field(min_length=1)
-    size_m: PositiveFloat | None = None  # None = the source's tag_size_m
+    marker_size_m: PositiveFloat | None = None  # black-border side (m); None = the source's marker_size_m
     static: bool = False  # the entity never moves (a sign, a dock): its stamp does not matter
     T_tag_entity: TransformSpec | None = None  # tag frame → entity base frame (None = the tag is the entity)
 
@@ -95,7 +97,12 @@ class AprilTagParams(StrictModel):
 
     family: str = "tag36h11"  # tag36h11, tag25h9, tag16h5, tagStandard41h12 (where the backend has it)
     backend: Literal["apriltag3", "opencv"] = "apriltag3"  # pupil-apriltags or OpenCV aruco (BENCHMARKS.md)
-    tag_size_m: PositiveFloat = 0.15  # black-border side (m) of tags the table does not size
+    renamed_keys: ClassVar[dict[str, Renamed]] = {  # spellings before the one word for each idea (issue 31)
+        "tag_size_m": "marker_size_m",
+        "refine_edges": ("corner_refinement", lambda v: "edges" if v else "none"),
+    }
+
+    marker_size_m: PositiveFloat = 0.15  # black-border side (m) of tags the table does not size
     tags: dict[int, TagSpec] = Field(default_factory=dict)  # id → entity; "402: autobot03" is short for {name: …}
     ignore_unknown: bool = False  # drop tags that are not in the table
     camera_mount: TransformSpec | None = None  # T_base_camera: robot base → camera optical frame
@@ -103,7 +110,7 @@ class AprilTagParams(StrictModel):
     base_frame: str = Field("base_link", min_length=1)  # frame_id of detections when report_frame is base
     decimate: float = Field(1.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate; 1 = full resolution (opencv: not used)
     threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)
-    refine_edges: bool = True  # corners refined on their fitted edges (both backends)
+    corner_refinement: Literal["edges", "none"] = "edges"  # edges: on their fitted edges (corner_refinement.py)
     min_contrast: Literal["auto"] | int = "auto"  # apriltag3 min_white_black_diff, 0–255; auto: 0.4 × frame spread
     max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
     min_decision_margin: float = Field(0.0, ge=0.0)  # drop weaker decodes (grey levels)
@@ -186,19 +193,22 @@ class AprilTagSource:
         }
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
-                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.refine_edges,
+                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.corner_refinement == "edges",
                 min_contrast=None if p.min_contrast == "auto" else int(p.min_contrast),
             )  # fmt: skip
         else:
-            self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=p.refine_edges)
+            edges = p.corner_refinement == "edges"
+            self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=edges)
         self._disambiguator = square_pose.TemporalDisambiguator()
         self._intrinsics = FrameIntrinsics(self.name, log)
         self.counters: dict[str, int] = {}
 
     # -- lookups -----------------------------------------------------------------------------------
-    def tag_size(self, tag_id: int) -> float:
+    def marker_size(self, tag_id: int) -> float:
+        """The black-border side (m) of tag `tag_id`: its table row's, else the source's."""
         row = self.params.tags.get(tag_id)
-        return float(row.size_m if row is not None and row.size_m is not None else self.params.tag_size_m)
+        sized = row is not None and row.marker_size_m is not None
+        return float(row.marker_size_m if sized else self.params.marker_size_m)
 
     def entity(self, tag_id: int) -> str | None:
         """The attributed entity name of a tag id (None when the table does not know it)."""
@@ -239,7 +249,7 @@ class AprilTagSource:
         if row is None and p.ignore_unknown:
             self._count("ignored_unknown")
             return None
-        size = self.tag_size(tag.tag_id)
+        size = self.marker_size(tag.tag_id)
         hyps = square_pose.solve_square(tag.corners, size, K, dist)
         if not hyps:
             self._count("pose_failed")
@@ -262,7 +272,7 @@ class AprilTagSource:
             "static": bool(row.static) if row is not None else False,
             "family": p.family,
             "backend": p.backend,
-            "tag_size_m": size,
+            "marker_size_m": size,
             "ambiguity": round(choice.ambiguity, 4),
             "error_ratio": round(choice.error_ratio, 4),
             "track_frames": choice.track_frames,

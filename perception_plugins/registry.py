@@ -1,21 +1,21 @@
-"""One registry maps plugin names to PerceptionSource classes, through entry points.
+"""Perception sources by name: the config's ``perception.sources`` rows made into running sources.
 
-Entry points (group ``mission.perception_plugins``) mean a third-party package adds a source just by
-being installed; nothing here lists the shipped plugins by hand.
+Sources are plugins of the entry-point group ``mission.perception_plugins`` (core/plugins.py, the one way every
+kind of plugin registers), so a third-party package adds a source just by being installed.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from importlib.metadata import EntryPoint, entry_points
+from importlib.metadata import EntryPoint
 
+from mission.core import plugins
 from mission.core.config import SourceConfig
 from mission.core.errors import ConfigError, PluginError
-from mission.core.perception import ENTRY_POINT_GROUP, PerceptionSource
+from mission.core.perception import PerceptionSource
 
 
 def _entry_points() -> dict[str, EntryPoint]:
-    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    return plugins.installed(plugins.PERCEPTION_SOURCES)
 
 
 def entry_point(name: str) -> EntryPoint | None:
@@ -24,41 +24,18 @@ def entry_point(name: str) -> EntryPoint | None:
 
 
 def known_names() -> list[str]:
-    """Names of every installed plugin, sorted."""
+    """Names of every installed source, sorted."""
     return sorted(_entry_points())
 
 
-@dataclass(frozen=True)
-class PluginInfo:
-    name: str
-    target: str  # "module:Class"
-    description: str
-    error: str | None = None  # why it could not be loaded, if it could not
-
-
-def describe() -> list[PluginInfo]:
-    """Every installed plugin with its one-line description (or the reason it fails to load)."""
-    out = []
-    for name, ep in sorted(_entry_points().items()):
-        try:
-            cls = ep.load()
-            desc = getattr(cls, "description", "") or (cls.__doc__ or "").strip().splitlines()[0]
-            out.append(PluginInfo(name, ep.value, desc))
-        except Exception as err:  # a broken third-party plugin must not hide the others
-            out.append(PluginInfo(name, ep.value, "", error=f"{type(err).__name__}: {err}"))
-    return out
+def describe() -> list[plugins.PluginInfo]:
+    """Every installed source with its one-line description (or the reason it fails to load)."""
+    return plugins.describe(plugins.PERCEPTION_SOURCES, _entry_points())
 
 
 def load_class(name: str) -> type:
     """The source class registered as `name`; unknown names fail with the list of known ones."""
-    eps = _entry_points()
-    if name not in eps:
-        known = ", ".join(sorted(eps)) or "(none installed)"
-        raise PluginError(f"unknown perception plugin {name!r}; known plugins: {known}")
-    try:
-        return eps[name].load()
-    except Exception as err:
-        raise PluginError(f"perception plugin {name!r} ({eps[name].value}) failed to load: {err}") from err
+    return plugins.load(plugins.PERCEPTION_SOURCES, name, _entry_points())
 
 
 def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: str | None = None) -> PerceptionSource:

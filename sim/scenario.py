@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import Field, model_validator
 
-from mission.core.config import StrictModel, load_model, validate_model
+from mission.core.config import Renamed, StrictModel, load_model, validate_model
 from mission.core.errors import ConfigError
+from mission.core.perception import TARGET_LABEL
 from mission.sim.geometry import Footprint
 from mission.sim.markers import dictionary_size, quad_side
 
@@ -80,10 +81,12 @@ class RobotSpec(StrictModel):
 
 
 class Marker(StrictModel):
+    renamed_keys: ClassVar[dict[str, Renamed]] = {"size_m": "marker_size_m"}  # before one word for it (issue 31)
+
     face: Literal["front", "back", "left", "right"] = "back"  # box faces: front = +x of the target body
     dictionary: str = "DICT_APRILTAG_36h11"  # an OpenCV dictionary name (DICT_APRILTAG_36h11 is tag36h11)
     id: int = Field(7, ge=0)  # marker id in that dictionary
-    size_m: float = Field(0.20, gt=0)  # side of the black square (what a detector's marker_size means)
+    marker_size_m: float = Field(0.20, gt=0)  # side of the black square (a detector's marker_size_m)
     quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
     height_m: float | None = None  # centre height above the floor; default: camera height, capped by the box
 
@@ -106,7 +109,7 @@ class TargetSpec(StrictModel):
     yaw_deg: float = 0.0  # start heading (°)
     size: Vec3 = (0.40, 0.40, 0.70)  # box extents x, y, z (m)
     color: RGB = (0.85, 0.08, 0.08)  # red: the VLM stub looks for a "red box"
-    label: str = "red box"  # what the VLM source is asked to find
+    label: str = TARGET_LABEL  # what it is called: the VLM source's label finds it
     markers: list[Marker] = Field(default_factory=lambda: [Marker(face=f) for f in _FACES])  # its tags
     waypoints: list[Waypoint] = Field(default_factory=list)  # the path the target walks, in order
     speed_mps: float = Field(0.35, gt=0)  # walking speed (m/s)
@@ -136,13 +139,15 @@ class MovingObstacle(Obstacle):
 class DockSpec(StrictModel):
     """A wall-mounted tag; the approach axis is the tag's normal (yaw_deg: the direction it faces)."""
 
+    renamed_keys: ClassVar[dict[str, Renamed]] = {"size_m": "marker_size_m"}  # before one word for it (issue 31)
+
     x: float  # tag centre in the map frame (m)
     y: float  # tag centre in the map frame (m)
     yaw_deg: float  # direction the tag face points, i.e. the robot approaches along yaw_deg + 180°
     z: float | None = None  # tag centre height; default: camera height
     dictionary: str = "DICT_APRILTAG_36h11"  # an OpenCV dictionary name
     id: int = Field(0, ge=0)  # tag id
-    size_m: float = Field(0.15, gt=0)  # side of the black square (m)
+    marker_size_m: float = Field(0.15, gt=0)  # side of the black square (m)
     quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
 
 
@@ -450,13 +455,13 @@ def check_geometry(sc: Scenario, file: str | None = None) -> None:
         for i, m in enumerate(t.markers):
             _check_code(m.dictionary, m.id, f"target.markers[{i}]", file)
             face_w = t.size[1] if m.face in ("front", "back") else t.size[0]
-            side = quad_side(m.dictionary, m.size_m, m.quiet_cells)
+            side = quad_side(m.dictionary, m.marker_size_m, m.quiet_cells)
             if side > min(face_w, t.size[2]) + 1e-9:
                 raise ConfigError(
                     f"marker with quiet zone ({side:.3g} m) does not fit on the {m.face} face "
                     f"({face_w:g} × {t.size[2]:g} m)",
                     file=file,
-                    key=f"target.markers[{i}].size_m",
+                    key=f"target.markers[{i}].marker_size_m",
                 )
     if sc.dock is not None:
         sx, sy = sc.room.size

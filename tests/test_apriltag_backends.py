@@ -64,7 +64,7 @@ def test_both_backends_agree_on_rendered_perspective_tags(family):
     """Random poses 1–2 m away, up to 35° off axis (anti-aliased renders with blur and sensor noise)."""
     rng = np.random.default_rng({"tag36h11": 1, "tag25h9": 2, "tag16h5": 3}[family])
     k = sv.default_intrinsics()
-    a3, cv = source("apriltag3", family=family, tag_size_m=0.2), source("opencv", family=family, tag_size_m=0.2)
+    a3, cv = source("apriltag3", family=family, marker_size_m=0.2), source("opencv", family=family, marker_size_m=0.2)
     n = 8 if family == "tag36h11" else 3
     for i in range(n):
         truth = sv.random_pose(1.0 + i % 3 * 0.5, 35.0, rng, k, 0.2)

@@ -11,7 +11,7 @@ from mission.perception_plugins.apriltag import AprilTagSource
 from mission.sim.scenario import load_scenario
 from mission.sim.sim_adapter import SimAdapter
 
-TABLE = {7: {"name": "target", "size_m": 0.20}, 0: {"name": "dock", "size_m": 0.15}}
+TABLE = {7: {"name": "target", "marker_size_m": 0.20}, 0: {"name": "dock", "marker_size_m": 0.15}}
 
 
 @pytest.fixture(scope="module")

@@ -37,8 +37,8 @@ T_CAM_TAG53 = se3.transform(FRONTAL, (0.4, -0.1, 1.5))  # a 10 cm traffic-sign t
 T_CAM_TAG9 = se3.transform(FRONTAL, (0.1, -0.3, 2.0))  # a tag nobody listed
 
 TABLE = {
-    402: {"name": "autobot03", "size_m": 0.15, "T_tag_entity": TAG_TO_AUTOBOT},
-    53: {"name": "traffic_sign", "size_m": 0.10, "static": True},
+    402: {"name": "autobot03", "marker_size_m": 0.15, "T_tag_entity": TAG_TO_AUTOBOT},
+    53: {"name": "traffic_sign", "marker_size_m": 0.10, "static": True},
 }
 
 
@@ -71,7 +71,7 @@ def frame(img: np.ndarray, stamp: float = 12.5) -> Frame:
 
 @pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
 def test_tags_are_attributed_to_their_entities(image, backend):
-    src = AprilTagSource({"backend": backend, "tag_size_m": 0.15, "tags": TABLE})
+    src = AprilTagSource({"backend": backend, "marker_size_m": 0.15, "tags": TABLE})
     dets = by_id(src.process(frame(image)))
     assert sorted(dets) == [9, 53, 402]
     assert dets[402].label == "autobot03" and dets[53].label == "traffic_sign"
@@ -85,21 +85,21 @@ def test_tags_are_attributed_to_their_entities(image, backend):
 
 
 def test_the_short_table_form_names_an_entity(image):
-    src = AprilTagSource({"tag_size_m": 0.15, "tags": {402: "autobot03", "53": "traffic_sign"}})
+    src = AprilTagSource({"marker_size_m": 0.15, "tags": {402: "autobot03", "53": "traffic_sign"}})
     assert src.entity(402) == "autobot03" and src.entity(53) == "traffic_sign" and src.entity(9) is None
     assert by_id(src.process(frame(image)))[53].label == "traffic_sign"
 
 
 def test_ignore_unknown_drops_tags_outside_the_table(image):
-    src = AprilTagSource({"tag_size_m": 0.15, "tags": TABLE, "ignore_unknown": True})
+    src = AprilTagSource({"marker_size_m": 0.15, "tags": TABLE, "ignore_unknown": True})
     assert sorted(by_id(src.process(frame(image)))) == [53, 402]
 
 
 def test_per_tag_sizes_override_the_default_size(image):
-    sized = by_id(AprilTagSource({"tag_size_m": 0.15, "tags": TABLE}).process(frame(image)))
+    sized = by_id(AprilTagSource({"marker_size_m": 0.15, "tags": TABLE}).process(frame(image)))
     assert np.allclose(sized[53].position, T_CAM_TAG53[:3, 3], atol=0.01)
-    assert sized[53].extra["tag_size_m"] == 0.10
-    unsized = by_id(AprilTagSource({"tag_size_m": 0.15}).process(frame(image)))
+    assert sized[53].extra["marker_size_m"] == 0.10
+    unsized = by_id(AprilTagSource({"marker_size_m": 0.15}).process(frame(image)))
     assert np.allclose(unsized[53].position, 1.5 * T_CAM_TAG53[:3, 3], atol=0.015)  # a 0.15 m tag would be farther
 
 
@@ -108,7 +108,7 @@ def test_per_tag_sizes_override_the_default_size(image):
 
 @pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
 def test_report_frame_base_gives_robot_base_to_entity_base(image, backend):
-    src = AprilTagSource({"backend": backend, "tag_size_m": 0.15, "tags": TABLE, "camera_mount": CAMERA_MOUNT,
+    src = AprilTagSource({"backend": backend, "marker_size_m": 0.15, "tags": TABLE, "camera_mount": CAMERA_MOUNT,
                           "report_frame": "base", "base_frame": "base_link"})  # fmt: skip
     d = by_id(src.process(frame(image)))[402]
     assert d.frame_id == "base_link"
@@ -126,7 +126,7 @@ def test_report_frame_base_gives_robot_base_to_entity_base(image, backend):
 
 
 def test_report_frame_camera_keeps_the_tag_pose_and_adds_the_entity_pose(image):
-    src = AprilTagSource({"tag_size_m": 0.15, "tags": TABLE})
+    src = AprilTagSource({"marker_size_m": 0.15, "tags": TABLE})
     d = by_id(src.process(frame(image)))[402]
     assert d.frame_id == "front_camera_optical"
     assert np.allclose(d.position, [-0.5, 0.2, 1.7], atol=0.02)  # the tag, marker z towards the camera
@@ -187,21 +187,21 @@ def test_small_tags_are_found_at_the_defaults():
 
 
 def test_threads_do_not_change_what_is_found(image):
-    one = by_id(AprilTagSource({"tag_size_m": 0.15, "threads": 1}).process(frame(image)))
-    two = by_id(AprilTagSource({"tag_size_m": 0.15, "threads": 2}).process(frame(image)))
+    one = by_id(AprilTagSource({"marker_size_m": 0.15, "threads": 1}).process(frame(image)))
+    two = by_id(AprilTagSource({"marker_size_m": 0.15, "threads": 2}).process(frame(image)))
     assert sorted(one) == sorted(two)
     assert all(np.allclose(one[i].corners, two[i].corners) for i in one)
 
 
 @pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
-def test_refine_edges_makes_corners_more_accurate(backend):
+def test_edge_corner_refinement_makes_corners_more_accurate(backend):
     rng = np.random.default_rng(5)
     err = {True: [], False: []}
     for _ in range(4):
         view = sv.render_marker_view(sv.random_pose(1.5, 30.0, rng, K, 0.2), marker_id=7, marker_size_m=0.2,
                                      dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=K, rng=rng)  # fmt: skip
         for refine in (True, False):
-            src = AprilTagSource({"backend": backend, "refine_edges": refine})
+            src = AprilTagSource({"backend": backend, "corner_refinement": "edges" if refine else "none"})
             (d,) = src.process(Frame(view.image, 0.0, intrinsics=K))
             err[refine].append(np.linalg.norm(d.corners - view.corners, axis=1).mean())
     assert np.mean(err[True]) < np.mean(err[False])
@@ -211,15 +211,15 @@ def test_temporal_disambiguation_follows_each_tag_over_frames():
     rng = np.random.default_rng(9)
     views = sv.render_sequence(2.0, 35.0, 5, rng, marker_id=7, marker_size_m=0.2,
                                dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=K)  # fmt: skip
-    temporal = AprilTagSource({"tag_size_m": 0.2})
-    naive = AprilTagSource({"tag_size_m": 0.2, "disambiguation": "naive"})
+    temporal = AprilTagSource({"marker_size_m": 0.2})
+    naive = AprilTagSource({"marker_size_m": 0.2, "disambiguation": "naive"})
     frames = [Frame(v.image, stamp=i / 15, intrinsics=K) for i, v in enumerate(views)]
     assert [temporal.process(f)[0].extra["track_frames"] for f in frames] == [1, 2, 3, 4, 5]
     assert {naive.process(f)[0].extra["track_frames"] for f in frames} == {1}
 
 
 def test_missing_intrinsics_fall_back_to_the_degraded_pinhole(image):
-    (d, *_) = AprilTagSource({"tag_size_m": 0.15}).process(Frame(image, stamp=0.0))
+    (d, *_) = AprilTagSource({"marker_size_m": 0.15}).process(Frame(image, stamp=0.0))
     assert d.extra["intrinsics"] == "fallback"
 
 
@@ -240,10 +240,10 @@ def test_a_bad_image_raises_a_clear_error():
         ({"max_hamming": 3}, "max_hamming", "at most 2"),
         ({"report_frame": "base"}, "camera_mount", "needs camera_mount"),
         ({"report_frame": "map"}, "report_frame", ""),
-        ({"tag_size_m": 0}, "tag_size_m", ""),
+        ({"marker_size_m": 0}, "marker_size_m", ""),
         ({"decimate": 0.5}, "decimate", ""),
         ({"threads": 0}, "threads", ""),
-        ({"tags": {7: {"name": "t", "size_m": -1}}}, "tags[7].size_m", ""),
+        ({"tags": {7: {"name": "t", "marker_size_m": -1}}}, "tags[7].marker_size_m", ""),
         ({"tags": {"seven": "t"}}, "tags.seven.[key]", ""),
         ({"tags": {7: {"name": "t", "T_tag_entity": {"quat": [0, 0, 0, 1], "rpy": [0, 0, 0]}}}}, "tags[7].T_tag_entity",
          "either quat or rpy"),
@@ -262,8 +262,8 @@ def test_the_registry_builds_the_source_with_documented_defaults():
     src = registry.create(SourceConfig(plugin="apriltag"))
     p = src.params
     assert isinstance(src, AprilTagSource) and src.name == "apriltag"
-    assert (p.family, p.backend, p.tag_size_m, p.report_frame) == ("tag36h11", "apriltag3", 0.15, "camera")
-    assert (p.decimate, p.threads, p.refine_edges, p.max_hamming, p.min_contrast) == (1.0, 1, True, 2, "auto")
+    assert (p.family, p.backend, p.marker_size_m, p.report_frame) == ("tag36h11", "apriltag3", 0.15, "camera")
+    assert (p.decimate, p.threads, p.corner_refinement, p.max_hamming, p.min_contrast) == (1.0, 1, "edges", 2, "auto")
     src.close()
     with pytest.raises(ConfigError, match=r"perception\.sources\.params\.family"):
         registry.create(SourceConfig(plugin="apriltag", params={"family": "tag99"}))

@@ -53,7 +53,7 @@ def aruco() -> ArucoSource:
 
 
 def apriltag() -> AprilTagSource:
-    return AprilTagSource({"tag_size_m": MARKER, "backend": "opencv"})
+    return AprilTagSource({"marker_size_m": MARKER, "backend": "opencv"})
 
 
 SOURCES = {"aruco": (aruco, ARUCO_VIEW), "apriltag": (apriltag, TAG_VIEW)}

@@ -18,6 +18,7 @@ import pytest
 from mission.core.errors import TreeError
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import load_tree
+from mission.trees.tree_nodes_model import shipped_tree_files
 
 BEACON = '''
 """Acme's behaviours for mission."""
@@ -114,7 +115,7 @@ def test_an_installed_packages_behaviours_are_in_the_palette(tmp_path):
     out = tmp_path / "palette.xml"
     result = mission(["nodes-model", "-o", str(out)], site=site)
     assert result.returncode == 0, result.stderr
-    assert "TreeNodesModel of 18 behaviours" in result.stderr  # 16 shipped + Beacon + Radio
+    assert "TreeNodesModel of 17 behaviours" in result.stderr  # 15 shipped (not the deprecated one) + Beacon + Radio
     models = _models(out.read_text())
     beacon = models["Beacon"]
     assert {p.get("name"): p.get("default") for p in beacon.findall("input_port")} == {"times": "3", "colour": "amber"}
@@ -174,3 +175,22 @@ def test_into_a_file_that_is_not_a_tree_is_refused_and_left_alone(tmp_path):
     broken.write_text("<root BTCPP_format='4'>\n<BehaviorTree>\n")
     result = mission(["nodes-model", "--into", str(broken)])
     assert result.returncode == 2 and "broken.xml:3: malformed XML" in result.stderr
+
+
+def test_the_deprecated_no_op_is_left_out_of_the_palette_yet_an_old_tree_using_it_loads(tmp_path):
+    result = mission(["nodes-model"])
+    assert "PerceiveTargets" not in _models(result.stdout)
+    for path in shipped_tree_files():
+        assert "PerceiveTargets" not in path.read_text(), path.name
+    old = tmp_path / "old.xml"
+    old.write_text(textwrap.dedent("""\
+        <root BTCPP_format="4" main_tree_to_execute="Old">
+          <BehaviorTree ID="Old">
+            <Sequence><ForceSuccess><PerceiveTargets/></ForceSuccess><AlwaysSuccess/></Sequence>
+          </BehaviorTree>
+        </root>
+    """))
+    root = load_tree(old, shipped_factory())
+    root.setup_with_descendants()
+    root.tick_once()
+    assert root.status.name == "SUCCESS"

@@ -32,9 +32,10 @@ def test_the_shipped_scenarios_load_by_name_with_tag36h11_markers() -> None:
         assert name in SEARCH_WORLDS or sc.room.size == (8.0, 8.0)
         if sc.target is not None:
             assert sc.target.color[0] > 0.7 > sc.target.color[1]  # red
-            assert {(m.dictionary, m.id, m.size_m) for m in sc.target.markers} == {("DICT_APRILTAG_36h11", 7, 0.20)}
+            markers = {(m.dictionary, m.id, m.marker_size_m) for m in sc.target.markers}
+            assert markers == {("DICT_APRILTAG_36h11", 7, 0.20)}
         if sc.dock is not None:
-            assert (sc.dock.dictionary, sc.dock.id, sc.dock.size_m) == ("DICT_APRILTAG_36h11", 0, 0.15)
+            assert (sc.dock.dictionary, sc.dock.id, sc.dock.marker_size_m) == ("DICT_APRILTAG_36h11", 0, 0.15)
 
 
 def test_each_scenario_names_a_default_tree_and_success_criteria() -> None:
@@ -118,10 +119,10 @@ def test_a_marker_id_outside_its_dictionary_is_rejected() -> None:
 
 
 def test_a_marker_too_big_for_its_face_is_rejected() -> None:
-    data = {"name": "x", "target": {"x": 3.0, "y": 3.0, "size": [0.3, 0.3, 0.6], "markers": [{"size_m": 0.25}]}}
+    data = {"name": "x", "target": {"x": 3.0, "y": 3.0, "size": [0.3, 0.3, 0.6], "markers": [{"marker_size_m": 0.25}]}}
     with pytest.raises(ConfigError) as err:
         scenario_from_dict(data)
-    assert str(err.value).startswith("target.markers[0].size_m: marker with quiet zone (0.312 m) does not fit")
+    assert str(err.value).startswith("target.markers[0].marker_size_m: marker with quiet zone (0.312 m) does not fit")
 
 
 def test_a_config_sim_section_overrides_scenario_keys_and_names_its_own_bad_keys() -> None:

@@ -44,7 +44,7 @@ def test_the_vlm_config_is_the_hybrid_of_a_coarse_vlm_and_a_precise_tag_source()
     cfg = load_config(shipped_config("sim_vlm.yaml"))
     assert cfg.perception.policy == "hybrid"
     assert [s.plugin for s in cfg.perception.sources] == ["vlm", "apriltag"]
-    label = cfg.perception.sources[0].params["target_label"]
+    label = cfg.perception.sources[0].params["label"]
     assert cfg.perception.targets["target"].label == label  # one spec matches both sources…
     assert cfg.perception.sources[1].params["tags"][7]["name"] == label  # …because tag 7 is attributed to it
 

@@ -213,13 +213,16 @@ def blackboard_block() -> str:
 
 
 def cli_block() -> str:
-    from mission.cli import VERBS, build_parser
+    from bench.command import build_parser as bench_parser
+    from mission.cli import FORWARDING, VERBS, build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    forwarded_to = {"bench": bench_parser()}  # `mission bench` hands its arguments to `python -m bench`
+    assert set(forwarded_to) == FORWARDING
     parts = []
     for verb, help_text in VERBS.items():
-        p = sub.choices[verb]
+        p = forwarded_to.get(verb) or sub.choices[verb]
         rows = []
         for action in p._actions:
             if isinstance(action, argparse._HelpAction):

@@ -105,8 +105,9 @@ class BehaviourFactory:
             if arg in STRUCTURAL_ARGUMENTS:
                 raise ValueError(f"{tag}: {arg} cannot be a registration argument: the loader passes it")
         manifest = NodeManifest(
-            tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls)
-        )
+            tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls),
+            deprecated=bool(getattr(cls, "DEPRECATED", False)),
+        )  # fmt: skip
         self._manifests[tag] = self._registered[tag] = manifest
         return manifest
 
@@ -147,9 +148,13 @@ class BehaviourFactory:
         """The BT.CPP built-ins, in the order their documentation lists them."""
         return [m for tag, m in self._manifests.items() if tag in BUILTINS]
 
-    def behaviours(self) -> list[NodeManifest]:
-        """The registered behaviours, sorted by tag (as Groot2 and the README list them)."""
-        return sorted((m for tag, m in self._manifests.items() if tag not in BUILTINS), key=lambda m: m.tag)
+    def behaviours(self, *, deprecated: bool = False) -> list[NodeManifest]:
+        """The registered behaviours, sorted by tag (as Groot2 and the README list them); the deprecated ones
+        (which still load and run) only when asked for."""
+        return sorted(
+            (m for tag, m in self._manifests.items() if tag not in BUILTINS and (deprecated or not m.deprecated)),
+            key=lambda m: m.tag,
+        )
 
 
 def shipped_factory() -> BehaviourFactory:

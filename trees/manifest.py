@@ -53,3 +53,4 @@ class NodeManifest:
     children: tuple[int, int | None] | None = None
     scripts: frozenset[str] = frozenset()
     untyped: frozenset[str] = frozenset()
+    deprecated: bool = False  # still loads and runs; left out of the palette unless a tree uses it

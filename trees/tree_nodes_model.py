@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+from collections.abc import Collection
 from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
@@ -47,13 +48,18 @@ def _port_xml(name: str, port: Port) -> str:
     return f"<{tag} {attrs}>{escape(port.doc)}</{tag}>" if port.doc else f"<{tag} {attrs}/>"
 
 
-def nodes_model_xml(factory: BehaviourFactory, indent: str = "", *, descriptions: bool = False) -> str:
+def nodes_model_xml(
+    factory: BehaviourFactory, indent: str = "", *, descriptions: bool = False, used: Collection[str] = ()
+) -> str:
     """``<TreeNodesModel>`` for every behaviour registered in `factory` (sorted by tag), each line
-    prefixed by `indent`. The built-ins are left out: Groot2 knows them. With `descriptions`, each node
-    also carries what it does, as BT.CPP writes a node's metadata
+    prefixed by `indent`. The built-ins are left out: Groot2 knows them. So are deprecated behaviours
+    (PerceiveTargets), unless their tag is in `used` (the tree being shown uses them). With `descriptions`,
+    each node also carries what it does, as BT.CPP writes a node's metadata
     (``<MetadataFields><Metadata description="…"/></MetadataFields>``): the palette and the monitor do."""
     lines = ["<TreeNodesModel>"]
-    for node in factory.behaviours():
+    for node in factory.behaviours(deprecated=True):
+        if node.deprecated and node.tag not in used:
+            continue
         about = descriptions and bool(node.doc)
         if not node.ports and not about:
             lines.append(f"  <{node.kind} ID={quoteattr(node.tag)}/>")

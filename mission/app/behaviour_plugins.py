@@ -1,4 +1,5 @@
-"""Behaviours from other packages: the entry-point group ``mission.behaviours``, registered on a factory explicitly.
+"""Behaviours from other packages: the entry-point group ``mission.behaviours`` (core/plugins.py, the one way every
+kind of plugin registers), registered on a factory explicitly.
 
 A package that ships behaviours declares them in its ``pyproject.toml``; the name is the XML tag::
 
@@ -17,33 +18,21 @@ naming the entry point; the caller decides whether that stops it.
 from __future__ import annotations
 
 import logging
-from importlib.metadata import EntryPoint, entry_points
 
 from py_trees.behaviour import Behaviour
 
 from mission.behaviours.ports import PortsDeclared
+from mission.core import plugins
 from mission.trees.factory import BehaviourFactory, shipped_factory
 
 log = logging.getLogger(__name__)
-
-ENTRY_POINT_GROUP = "mission.behaviours"
-
-
-def installed() -> list[EntryPoint]:
-    """The installed entry points of the group, sorted by name."""
-    return sorted(entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: ep.name)
-
-
-def _provider(ep: EntryPoint) -> str:
-    dist = getattr(ep, "dist", None)
-    return f" from {dist.name} {dist.version}" if dist is not None else ""
 
 
 def register_installed(factory: BehaviourFactory) -> list[str]:
     """Register every installed ``mission.behaviours`` entry point on `factory`; the problems, one line each."""
     problems: list[str] = []
-    for ep in installed():
-        where = f"entry point {ep.name} = {ep.value!r} ({ENTRY_POINT_GROUP}{_provider(ep)})"
+    for ep in plugins.installed(plugins.BEHAVIOURS).values():
+        where = f"entry point {ep.name} = {ep.value!r} ({plugins.BEHAVIOURS.group}{plugins.provider(ep)})"
         try:
             target = ep.load()
         except Exception as err:  # a broken package must not hide the others

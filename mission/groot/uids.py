@@ -117,7 +117,8 @@ class UidTree:
             tree = ET.SubElement(root, "BehaviorTree", {"ID": inst.tree_id, "_fullpath": inst.path})
             _element_xml(inst.root, tree)
         if factory is not None:
-            root.append(ET.fromstring(nodes_model_xml(factory, descriptions=True)))
+            used = {node.node_type for inst in self.instances for node in inst.nodes()}
+            root.append(ET.fromstring(nodes_model_xml(factory, descriptions=True, used=used)))
         ET.indent(root, space="  ")
         return ET.tostring(root, encoding="unicode")
 

@@ -37,10 +37,13 @@ from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
 from mission.core.errors import ConfigError, MissionError
 from mission.core.perception import PerceptionSource
+from mission.perception_plugins.aruco import ArucoParams
 from mission.perception_plugins.pipeline import source_statuses
 from mission.ros import dds
 
 NODE_NAME = "mission_tree"
+
+_ARUCO_DEFAULTS = ArucoParams()  # the aruco source's own defaults: one place for each (perception_plugins/aruco.py)
 
 # name → (default, description): the node's ROS parameters (the README's table lists the same)
 PARAMETERS: dict[str, tuple[Any, str]] = {
@@ -48,8 +51,9 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
     "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
     "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
-    "marker_size_m": (0.049, "ArUco marker side length (without `config`)"),
-    "dictionary": ("DICT_4X4_250", "ArUco dictionary (without `config`); unknown → warning, DICT_4X4_250"),
+    "marker_size_m": (_ARUCO_DEFAULTS.marker_size_m, "ArUco marker side length (without `config`)"),
+    "dictionary": (_ARUCO_DEFAULTS.dictionary, f"ArUco dictionary (without `config`); unknown → warning, "
+                   f"{_ARUCO_DEFAULTS.dictionary}"),
     "config": ("", "mission config YAML; its perception sources and targets replace the two above"),
     "tree": ("", "tree file or shipped tree name; empty = the config's tree; `none` = perception only"),
     "tick_hz": (0.0, "tree ticks per second; 0 = the config's run.tick_hz (15)"),
@@ -115,8 +119,9 @@ def given_params(argv: Sequence[str]) -> list[str]:
 def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
     """Every parameter has the type of its default and a usable value, and every one given is known.
 
-    ROS itself accepts ``-p tick_hz:=-5`` or ``-p tick_hz:=fast`` (dynamic typing) and ignores an unknown
-    ``-p marker_size:=0.1``: here each is one ConfigError naming the parameter, before anything starts."""
+    ROS itself accepts ``-p tick_hz:=-5`` or ``-p tick_hz:=fast`` (dynamic typing) and ignores a misspelt
+    name (``-p marker_size:=0.1`` for marker_size_m): here each is one ConfigError naming the parameter, with
+    a did-you-mean, before anything starts."""
     for name in given:
         if name not in PARAMETERS and name not in BUILTIN_PARAMETERS:
             close = difflib.get_close_matches(name, list(PARAMETERS), n=1)

@@ -5,15 +5,19 @@ points ``[y, x]`` normalised to 0–1000 (the image's height and width), each wi
 the whole interface (:class:`VlmClient`), so a real remote client replaces the stub without touching the
 budget, consensus and latch around it (source.py).
 
-The source's ``client`` param chooses the client:
+The source's ``client`` param names the client: an entry point of the group ``mission.vlm_clients``
+(core/plugins.py, the one way every kind of plugin registers). Each names a :data:`ClientFactory`, given the
+source's validated params and the request budget. This package registers ``stub``, the colour-and-shape
+stand-in (stub.py); ``gemini``, Google's generateContent REST API (gemini.py); and ``openai``, an
+OpenAI-compatible chat-completions server such as vLLM or Ollama (openai_chat.py). A third-party package adds
+a model by declaring its own factory in its pyproject.toml::
 
-* a built-in name (:data:`BUILTIN_CLIENTS`): ``stub``, the colour-and-shape stand-in (stub.py);
-  ``gemini``, Google's generateContent REST API (gemini.py); ``openai``, an OpenAI-compatible
-  chat-completions server such as vLLM or Ollama (openai_chat.py). A built-in is a factory given the
-  source's validated params and the request budget, named by import path so that it is imported only
-  when chosen — an HTTP client library is then loaded only by the configs that use one;
-* ``package.module:Class``: any class with VlmClient's two methods, built with ``client_params`` as its
-  keyword arguments — how a third-party package adds a model without changing this one.
+    [project.entry-points."mission.vlm_clients"]
+    acme = "acme_vlm.client:acme_client"      # def acme_client(params, budget) -> VlmClient
+
+Entry points load only when named, so an HTTP client library is loaded only by the configs that use one.
+The older spelling ``client: package.module:Class`` (a class built with ``client_params`` as its keyword
+arguments) still works for this release, with a deprecation warning.
 
 A remote client sends more than one request for a call when it retries; each retry asks the source's
 :class:`RequestBudget` first (quota.py), so the persisted per-minute and per-day limits hold for every
@@ -24,13 +28,15 @@ request sent, not only for the call that began it. A client may also expose ``us
 from __future__ import annotations
 
 import importlib
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from mission.core.errors import ConfigError
+from mission.core import plugins
+from mission.core.errors import ConfigError, PluginError
 
 if TYPE_CHECKING:
     from mission.perception_plugins.vlm.source import VlmParams
@@ -75,30 +81,33 @@ class VlmClient(Protocol):
     def close(self) -> None: ...
 
 
-#: Built-in clients by the name the ``client`` param uses → "module:factory", the factory taking the
-#: source's validated params. Paths rather than functions, so a client's dependencies load only when chosen.
-BUILTIN_CLIENTS: dict[str, str] = {
-    "stub": "mission.perception_plugins.vlm.stub:stub_client",
-    "gemini": "mission.perception_plugins.vlm.gemini:gemini_client",
-    "openai": "mission.perception_plugins.vlm.openai_chat:openai_client",
-}
-
 ClientFactory = Callable[["VlmParams", RequestBudget], VlmClient]
 
 
 def make_client(params: VlmParams, budget: RequestBudget) -> VlmClient:
-    """The client `params.client` names: a built-in (given the params and the budget) or a third-party class
-    (given `params.client_params`). A name that is neither, or a class that cannot be built, is a
-    ConfigError on the ``client`` key, so a typo stops start-up instead of every model call failing later."""
+    """The client `params.client` names: an installed ``mission.vlm_clients`` entry point, given the params and
+    the budget. A name that is not installed, or a factory that fails, is a ConfigError on the ``client`` key,
+    so a typo stops start-up instead of every model call failing later."""
     spec = params.client
-    if spec in BUILTIN_CLIENTS:
-        module, attr = BUILTIN_CLIENTS[spec].split(":")
-        factory: ClientFactory = getattr(importlib.import_module(module), attr)
-        return factory(params, budget)  # its ConfigErrors name its own keys (the stub's: target_label)
+    if ":" in spec:
+        return _deprecated_class_client(spec, params)
+    try:
+        factory: ClientFactory = plugins.load(plugins.VLM_CLIENTS, spec)
+    except PluginError as err:
+        raise ConfigError(f"{err} (or register one: entry-point group {plugins.VLM_CLIENTS.group})",
+                          key="client") from None  # fmt: skip
+    return factory(params, budget)  # its ConfigErrors name its own keys (the stub's: label)
+
+
+def _deprecated_class_client(spec: str, params: VlmParams) -> VlmClient:
+    """``client: package.module:Class`` built with ``client_params``: the spelling before entry points."""
     module, _, cls_name = spec.partition(":")
     if not module or not cls_name:
-        names = ", ".join(repr(n) for n in BUILTIN_CLIENTS)
-        raise ConfigError(f"expected {names} or 'package.module:Class', got {spec!r}", key="client")
+        names = ", ".join(repr(n) for n in plugins.installed(plugins.VLM_CLIENTS))
+        raise ConfigError(f"expected {names} or an installed {plugins.VLM_CLIENTS.group} entry point, got {spec!r}",
+                          key="client")  # fmt: skip
+    warnings.warn(f"client: {spec!r} is deprecated; register the client as an entry point of the group "
+                  f"{plugins.VLM_CLIENTS.group!r} and name it", DeprecationWarning, stacklevel=3)  # fmt: skip
     try:
         cls: Callable[..., Any] = getattr(importlib.import_module(module), cls_name)
         return cls(**params.client_params)

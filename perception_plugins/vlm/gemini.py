@@ -129,8 +129,10 @@ def gemini_error_details(resp: httpx.Response) -> ErrorDetails:
 
 
 def gemini_client(params: VlmParams, budget: RequestBudget) -> GeminiClient:
-    """The built-in ``client: gemini``, with the API key from the environment. A missing key is a config
-    error at start-up (naming the variable), not a failed call per frame."""
+    """Gemini Robotics-ER over Google's generateContent REST API (API key from the environment).
+
+    The ``client: gemini`` entry point. A missing key is a config error at start-up (naming the variable),
+    not a failed call per frame."""
     s = params.gemini
     key = os.environ.get(s.api_key_env, "").strip()
     if not key:

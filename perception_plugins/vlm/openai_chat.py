@@ -95,7 +95,9 @@ class OpenAiChatClient:
 
 
 def openai_client(params: VlmParams, budget: RequestBudget) -> OpenAiChatClient:
-    """The built-in ``client: openai``; the key (optional) from ``openai.api_key_env``."""
+    """An OpenAI-compatible chat-completions server (vLLM, Ollama, …); key (optional) from openai.api_key_env.
+
+    The ``client: openai`` entry point."""
     s = params.openai
     key = None
     if s.api_key_env:

@@ -16,7 +16,7 @@ from pydantic import Field, model_validator
 
 from mission.core.config import StrictModel
 
-#: The question asked of a model; ``{label}`` is replaced by the source's target_label (no other braces are
+#: The question asked of a model; ``{label}`` is replaced by the source's label (no other braces are
 #: special, so a prompt may show JSON). The points come back as the design notes' Gemini Robotics-ER
 #: gives them: [y, x] normalised to 0–1000.
 DEFAULT_PROMPT = (
@@ -78,7 +78,7 @@ class GeminiSettings(StrictModel):
     model: str = Field("gemini-robotics-er-1.6-preview", min_length=1)  # the design notes' model
     endpoint: str = GEMINI_ENDPOINT  # API root: requests go to {endpoint}/models/{model}:generateContent
     api_key_env: str = Field("GOOGLE_API_KEY", min_length=1)  # environment variable holding the API key
-    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is target_label; ask for [y, x] in 0–1000
+    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is the source's label; ask for [y, x] in 0–1000
     response_schema: dict[str, Any] | None = Field(default_factory=_schema)  # JSON output schema; null: free text
     temperature: float = Field(0.5, ge=0.0, le=2.0)  # generationConfig.temperature
     thinking_budget: int | None = None  # generationConfig.thinkingConfig.thinkingBudget; null: the model's default
@@ -95,7 +95,7 @@ class OpenAiSettings(StrictModel):
     base_url: str = "http://127.0.0.1:8000/v1"  # the server's /v1 (vLLM: port 8000, Ollama: 11434)
     model: str | None = None  # the served model's name (required with client: openai)
     api_key_env: str | None = None  # environment variable sent as a bearer token (vLLM --api-key); none: no key
-    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is target_label; ask for [y, x] in 0–1000
+    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is the source's label; ask for [y, x] in 0–1000
     system_prompt: str | None = None  # a system message before the question (none by default)
     max_tokens: int = Field(512, ge=16)  # of the answer
     temperature: float = Field(0.0, ge=0.0, le=2.0)  # of the answer

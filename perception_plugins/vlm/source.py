@@ -52,8 +52,9 @@ import numpy as np
 from pydantic import Field
 
 from mission.core import se3
-from mission.core.config import StrictModel, validate_model
+from mission.core.config import Renamed, StrictModel, validate_model
 from mission.core.errors import ConfigError
+from mission.core.perception import TARGET_LABEL
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins.vlm.client import VlmClient, make_client
 from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
@@ -67,9 +68,11 @@ log = logging.getLogger(__name__)
 class VlmParams(StrictModel):
     """Params of the `vlm` source (defaults follow the design notes' Gemini node)."""
 
-    target_label: str = Field("red box", min_length=1)  # what to find (client stub: a colour word + optional shape)
-    client: str = "stub"  # "stub", "gemini", "openai" (built in), or "package.module:Class" built with client_params
-    client_params: dict[str, Any] = Field(default_factory=dict)  # keyword arguments for the client's constructor
+    renamed_keys: ClassVar[dict[str, Renamed]] = {"target_label": "label"}  # before one word for it (issue 31)
+
+    label: str = Field(TARGET_LABEL, min_length=1)  # what to find; detections carry it (stub: colour word [+ shape])
+    client: str = "stub"  # a mission.vlm_clients entry point: stub, gemini, openai shipped (`mission plugins`)
+    client_params: dict[str, Any] = Field(default_factory=dict)  # the client's own settings (a third-party client's)
     confidence_threshold: float = Field(0.4, ge=0.0, le=1.0)  # answers below this are ignored
     publish_rate_limit_hz: float = Field(0.025, gt=0.0)  # model calls per second (0.025 = one per 40 s)
     requests_per_minute: int = Field(5, ge=1)  # requests in any 60 s, retries included (Gemini free tier: 5)
@@ -366,7 +369,7 @@ class VlmSource:
     def _ask(self, req: _Request) -> _Answer:
         """Worker thread: the model call, then the geometry (kept off the tick too)."""
         p = self.params
-        points = [q for q in self._client.locate(req.image, p.target_label) if q.confidence >= p.confidence_threshold]
+        points = [q for q in self._client.locate(req.image, p.label) if q.confidence >= p.confidence_threshold]
         if not points:
             return _Answer(req, "miss")
         best = max(points, key=lambda q: q.confidence)
@@ -433,7 +436,7 @@ class VlmSource:
             self._stale_frames = 0
             self._next_emit = None
             pos = self.latch.T_anchor_target[:3, 3]  # type: ignore[index]
-            log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.target_label,
+            log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.label,
                      np.round(pos, 3).tolist(), self.params.map_frame, self.model_calls)
 
     def _call_failed(self, err: Exception) -> None:
@@ -458,7 +461,7 @@ class VlmSource:
         return Detection(
             source=self.name,
             marker_id=None,
-            label=self.params.target_label,
+            label=self.params.label,
             corners=None,
             position=pos,
             orientation=quat,
@@ -544,4 +547,4 @@ class VlmSource:
         self._stale_frames = 0
         self._next_emit = None
         self.counters["unlatches"] += 1
-        log.info("%s: latch on %r dropped: %s", self.name, self.params.target_label, why)
+        log.info("%s: latch on %r dropped: %s", self.name, self.params.label, why)

@@ -192,17 +192,19 @@ class ColourShapeClient:
 
 
 def stub_client(params: VlmParams, budget: RequestBudget | None = None) -> ColourShapeClient:
-    """The stub built from the VLM source's params (the built-in ``client: stub``, client.py); it never
-    retries, so it has no use for the request budget.
+    """A local stand-in for a VLM: finds '<colour> [shape]' by colour and shape, offline, no quota.
+
+    The ``client: stub`` entry point, built from the VLM source's params; it never retries, so it has no use
+    for the request budget.
 
     A label without a colour word is a config error now rather than a stub that never finds anything.
     With ``clock: frame`` the stub answers at once: the source holds the answer for ``latency_s`` of frame
     time instead, so a seeded simulation repeats whatever the machine's speed."""
-    if parse_label(params.target_label).colour is None:
+    if parse_label(params.label).colour is None:
         raise ConfigError(
             f"the stub client finds objects by colour: name one of {', '.join(known_colours())} "
-            f"in the label, got {params.target_label!r}",
-            key="target_label",
+            f"in the label, got {params.label!r}",
+            key="label",
         )
     return ColourShapeClient(
         latency_s=params.latency_s if params.clock == "wall" else 0.0,
