@@ -131,10 +131,20 @@ class TargetBelief:
         else:
             reach = np.full(sg.shape, np.inf)
         belief = cls(
-            target=target, episode=episode, last_xy=last_xy, velocity=velocity, grid=sg, reach=reach,
-            seen=np.zeros(sg.shape, dtype=bool), prior=_prior(xs, ys, last_xy, velocity), started=now,
-            updated=now, speed_mps=speed_mps, view_range_m=view_range_m, free=free,
-        )  # fmt: skip
+            target=target,
+            episode=episode,
+            last_xy=last_xy,
+            velocity=velocity,
+            grid=sg,
+            reach=reach,
+            seen=np.zeros(sg.shape, dtype=bool),
+            prior=_prior(xs, ys, last_xy, velocity),
+            started=now,
+            updated=now,
+            speed_mps=speed_mps,
+            view_range_m=view_range_m,
+            free=free,
+        )
         belief.front = (reach <= belief.radius_m) & free
         belief.density = belief.front.astype(np.float32)
         belief.grown_to = now

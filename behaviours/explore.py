@@ -165,8 +165,9 @@ class Explore(MissionLeaf):
             self._goal = None
             self.halt()
             why = self.nav_reason()
-            self.feedback_message = (f"EXPLORE: waypoint {self.index}/{len(self.route)} unreachable, skipping it"
-                                     + (f" ({why})" if why else ""))  # fmt: skip
+            self.feedback_message = f"EXPLORE: waypoint {self.index}/{len(self.route)} unreachable, skipping it" + (
+                f" ({why})" if why else ""
+            )
             return py_trees.common.Status.RUNNING
         dist = math.hypot(wx - state.pose.x, wy - state.pose.y) if state is not None else float("nan")
         self.feedback_message = (

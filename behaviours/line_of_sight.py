@@ -122,8 +122,9 @@ def scan_hit_before(
     index = np.flatnonzero(near)
     if index.size and filtered:
         xs, ys, valid = scan_points(scan, robot, grid)
-        wide = np.array([segment_width(xs, ys, valid, ranges, scan.angle_increment, int(i)) > 2 * own_radius_m
-                         for i in index])  # fmt: skip
+        wide = np.array(
+            [segment_width(xs, ys, valid, ranges, scan.angle_increment, int(i)) > 2 * own_radius_m for i in index]
+        )
         clear = ranges[index] < distance - SCAN_MARGIN_M
         on_path = _distance_to_polyline(xs[index], ys[index], own_path) <= own_radius_m
         index = index[wide | (clear & ~on_path)]

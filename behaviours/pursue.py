@@ -144,8 +144,9 @@ class PursueLastSeen(SearchLeaf):
         if sweep_to is not None:
             turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
         timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + turn + p.look_s))
-        return Pursuit(track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback,
-                       sweep_to=sweep_to)  # fmt: skip
+        return Pursuit(
+            track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback, sweep_to=sweep_to
+        )
 
     def _viewpoint(
         self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float], aim: tuple[float, float]
@@ -190,14 +191,22 @@ class PursueLastSeen(SearchLeaf):
         free = sg.target_free()
         walk_m = travel_distances(free, sg.cell(*last), sg.resolution)
         cam = self.camera_pose(robot)
-        visible = view_cells(sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
-                             min_range_m=0.05)  # fmt: skip
+        visible = view_cells(
+            sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M, min_range_m=0.05
+        )
         return (walk_m <= PEEK_SPEED_MPS * p.horizon_s) & free & ~visible
 
     def _sees_more_round_the_edge(
-        self, sg: SearchGrid, robot: Pose2D, blocked: np.ndarray, last: tuple[float, float],
-        aim: tuple[float, float], candidates: np.ndarray, dist: np.ndarray, nearest: tuple[int, int],
-    ) -> tuple[tuple[int, int], float, float | None] | None:  # fmt: skip
+        self,
+        sg: SearchGrid,
+        robot: Pose2D,
+        blocked: np.ndarray,
+        last: tuple[float, float],
+        aim: tuple[float, float],
+        candidates: np.ndarray,
+        dist: np.ndarray,
+        nearest: tuple[int, int],
+    ) -> tuple[tuple[int, int], float, float | None] | None:
         """Of the places that see the predicted walk, the one that also sees, turning across it, most of what
         the target could have walked to unseen per second of driving — its cell, the heading to face first
         (the edge nearer the walk) and the one to sweep on to; None when that is the nearest.

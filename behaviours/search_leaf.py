@@ -110,10 +110,15 @@ class SearchLeaf(MissionLeaf):
         if belief is None or belief.episode != track.last_seen or belief.grid is not sg:
             last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
             belief = TargetBelief.start(
-                track.name, track.last_seen, last, fitted_velocity(track, HEADING_WINDOW_S, steady=True), sg, now,
+                track.name,
+                track.last_seen,
+                last,
+                fitted_velocity(track, HEADING_WINDOW_S, steady=True),
+                sg,
+                now,
                 speed_mps=DEFAULT_SPEED_MPS if speed_mps is None else speed_mps,
                 view_range_m=DEFAULT_VIEW_RANGE_M if view_range_m is None else view_range_m,
-            )  # fmt: skip
+            )
             beliefs[track.name] = belief
             self.write(bbk.BELIEFS, beliefs)
             self._looked_at = None

@@ -108,8 +108,7 @@ class TurnToBearing(SearchLeaf):
         bearing, side = self._bearing()
         o, b = math.radians(self.params.overshoot_deg), math.radians(self.params.back_deg)
         legs = [side * (abs(bearing) + o), side * (abs(bearing) - b)]
-        self.turn = Turn(episode, yaw, legs, [side, -side], yaw_prev=None if state is None else yaw,
-                         started=self.now())  # fmt: skip
+        self.turn = Turn(episode, yaw, legs, [side, -side], yaw_prev=None if state is None else yaw, started=self.now())
         self.turn.why = f"predicted bearing {math.degrees(bearing):+.0f}°"
 
     def _bearing(self) -> tuple[float, float]:

@@ -315,8 +315,7 @@ class ViewpointSearch(SearchLeaf):
         first direction (what _best ranks every candidate by, for one place)."""
         sg = belief.grid
         blocked = self.sight_blocked(sg, robot) | self.mover_paths(sg)
-        masses = ray_masses(sg, blocked, self.weights(belief), np.array([x]), np.array([y]),
-                            RAYS, belief.view_range_m)  # fmt: skip
+        masses = ray_masses(sg, blocked, self.weights(belief), np.array([x]), np.array([y]), RAYS, belief.view_range_m)
         seen, start = best_window(masses, self._windows()[0])
         return masses[0], float(seen[0]), int(start[0])
 
@@ -354,8 +353,17 @@ class SearchBelief(ViewpointSearch):
         replan_s: float = port(1.0, "re-rank the viewpoints this often while driving")
 
         def __post_init__(self) -> None:
-            _check_positive(self, "timeout_s", "target_speed_mps", "view_range_m", "speed_mps", "angular_speed",
-                            "spacing_m", "max_travel_m", "replan_s")  # fmt: skip
+            _check_positive(
+                self,
+                "timeout_s",
+                "target_speed_mps",
+                "view_range_m",
+                "speed_mps",
+                "angular_speed",
+                "spacing_m",
+                "max_travel_m",
+                "replan_s",
+            )
 
     NODE_TYPE = "Action"
     params: Params

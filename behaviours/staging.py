@@ -98,8 +98,9 @@ class GoToStaging(MissionLeaf):
         if tr is None or tr.pose_map is None:
             if tr is not None and tr.last_seen is not None:  # seen, but the camera pose was unknown (TF)
                 fault = self.world_fault()
-                return self.fail(f"DOCK: {self.params.target} seen but not placed in the map"
-                                 + (f" ({fault})" if fault else ""))  # fmt: skip
+                return self.fail(
+                    f"DOCK: {self.params.target} seen but not placed in the map" + (f" ({fault})" if fault else "")
+                )
             return self.fail(f"DOCK: {self.params.target} was never seen, no staging pose")
         if now - self._t0 > self.params.timeout_s:
             return self.fail(f"DOCK: staging pose not reached within {self.params.timeout_s:g} s")

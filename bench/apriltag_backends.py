@@ -46,9 +46,20 @@ def measure(quick: bool = False, seed: int = 0) -> dict[str, Any]:
     size = 0.15
     k = sv.default_intrinsics(640, 480)
     rng = np.random.default_rng(seed)
-    views = {d: [sv.render_marker_view(sv.random_pose(d, 40.0, rng, k, size), marker_id=7, marker_size_m=size,
-                                       dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=k, rng=rng)
-                 for _ in range(n)] for d in ranges}  # fmt: skip
+    views = {
+        d: [
+            sv.render_marker_view(
+                sv.random_pose(d, 40.0, rng, k, size),
+                marker_id=7,
+                marker_size_m=size,
+                dictionary=cv2.aruco.DICT_APRILTAG_36h11,
+                intrinsics=k,
+                rng=rng,
+            )
+            for _ in range(n)
+        ]
+        for d in ranges
+    }
     results: dict[str, Any] = {}
     for label, cfg in CONFIGS.items():
         src = AprilTagSource({**cfg, "tag_size_m": size, "threads": 1, "disambiguation": "naive"})
@@ -92,15 +103,28 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     figures = []
     for rng_label in res[DEFAULT]:
         a, b = res[DEFAULT][rng_label], res[OTHER][rng_label]
-        for key, label, unit in (("corner_px_mean", "mean corner error", "px"),
-                                 ("trans_pct_median", "median translation error", "% of range"),
-                                 ("time_ms_median", "median time per process()", "ms")):  # fmt: skip
+        for key, label, unit in (
+            ("corner_px_mean", "mean corner error", "px"),
+            ("trans_pct_median", "median translation error", "% of range"),
+            ("time_ms_median", "median time per process()", "ms"),
+        ):
             ratio = None if a[key] is None or not b[key] else round(a[key] / b[key], 3)
-            figures.append(Figure(f"{DEFAULT} {label} at {rng_label}", a[key], unit,
-                                  baseline=f"{OTHER} backend on the same views", baseline_value=b[key],
-                                  ratio=ratio).to_json())  # fmt: skip
-    return {"title": "AprilTag backends: apriltag3 (pupil-apriltags) vs OpenCV on the same rendered tag36h11 views",
-            "figures": figures, "details": table, "plots": []}  # fmt: skip
+            figures.append(
+                Figure(
+                    f"{DEFAULT} {label} at {rng_label}",
+                    a[key],
+                    unit,
+                    baseline=f"{OTHER} backend on the same views",
+                    baseline_value=b[key],
+                    ratio=ratio,
+                ).to_json()
+            )
+    return {
+        "title": "AprilTag backends: apriltag3 (pupil-apriltags) vs OpenCV on the same rendered tag36h11 views",
+        "figures": figures,
+        "details": table,
+        "plots": [],
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

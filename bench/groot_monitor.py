@@ -43,8 +43,9 @@ def _steps_us(rec: Recording, observers: list[RunObserver]) -> list[float]:
     config_path = shipped_config(rec.config)
     py_trees.blackboard.Blackboard.clear()
     world = ReplayWorld(rec)
-    runner = TreeRunner(load_config(config_path), world, rec.tree, config_file=config_path, sources=[],
-                        observers=observers)  # fmt: skip
+    runner = TreeRunner(
+        load_config(config_path), world, rec.tree, config_file=config_path, sources=[], observers=observers
+    )
     out: list[float] = []
     try:
         runner.setup()
@@ -117,28 +118,55 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         (out / f"groot_bench_{i}.btlog").unlink(missing_ok=True)
     med = {k: float(np.median(v)) for k, v in (("base", base), ("btlog", btlog), ("groot", groot))}
     figures = [
-        Figure("mission.xml step with --btlog: median µs", round(med["btlog"], 1), "µs",
-               baseline="the same step with no observer, same ticks", baseline_value=round(med["base"], 1),
-               ratio=round(med["btlog"] / med["base"], 2), target=f"ratio ≤ {TARGET}",
-               meets_target=med["btlog"] / med["base"] <= TARGET),
-        Figure(f"mission.xml step with --groot, a client polling STATUS at {1 / POLL_S:g} Hz: median µs",
-               round(med["groot"], 1), "µs", baseline="the same step with no observer, same ticks",
-               baseline_value=round(med["base"], 1), ratio=round(med["groot"] / med["base"], 2),
-               target=f"ratio ≤ {TARGET}", meets_target=med["groot"] / med["base"] <= TARGET),
-        Figure("mission.xml step with --groot: p99", pct(groot, 99, 1), "µs", baseline="no observer p99",
-               baseline_value=pct(base, 99, 1)),
-        Figure("--groot: median µs added per step", round(med["groot"] - med["base"], 1), "µs",
-               baseline="the 15 Hz tick period it comes out of", baseline_value=round(TICK_PERIOD_US, 1),
-               ratio=round((med["groot"] - med["base"]) / TICK_PERIOD_US, 5)),
-    ]  # fmt: skip
+        Figure(
+            "mission.xml step with --btlog: median µs",
+            round(med["btlog"], 1),
+            "µs",
+            baseline="the same step with no observer, same ticks",
+            baseline_value=round(med["base"], 1),
+            ratio=round(med["btlog"] / med["base"], 2),
+            target=f"ratio ≤ {TARGET}",
+            meets_target=med["btlog"] / med["base"] <= TARGET,
+        ),
+        Figure(
+            f"mission.xml step with --groot, a client polling STATUS at {1 / POLL_S:g} Hz: median µs",
+            round(med["groot"], 1),
+            "µs",
+            baseline="the same step with no observer, same ticks",
+            baseline_value=round(med["base"], 1),
+            ratio=round(med["groot"] / med["base"], 2),
+            target=f"ratio ≤ {TARGET}",
+            meets_target=med["groot"] / med["base"] <= TARGET,
+        ),
+        Figure(
+            "mission.xml step with --groot: p99",
+            pct(groot, 99, 1),
+            "µs",
+            baseline="no observer p99",
+            baseline_value=pct(base, 99, 1),
+        ),
+        Figure(
+            "--groot: median µs added per step",
+            round(med["groot"] - med["base"], 1),
+            "µs",
+            baseline="the 15 Hz tick period it comes out of",
+            baseline_value=round(TICK_PERIOD_US, 1),
+            ratio=round((med["groot"] - med["base"]) / TICK_PERIOD_US, 5),
+        ),
+    ]
     return {
         "title": "Groot2: the cost of a .btlog and of a connected Groot2 monitor, per step",
         "figures": [f.to_json() for f in figures],
-        "details": {"scenario": rec.scenario, "sim_seconds": seconds, "ticks": len(rec.ticks), "passes": passes,
-                    "status_replies": replies,
-                    "status_replies_per_s": round(replies / polled_s, 1) if polled_s else None,
-                    "base_us_p50_p90_p99": [pct(base, q, 1) for q in (50, 90, 99)],
-                    "btlog_us_p50_p90_p99": [pct(btlog, q, 1) for q in (50, 90, 99)],
-                    "groot_us_p50_p90_p99": [pct(groot, q, 1) for q in (50, 90, 99)]},
+        "details": {
+            "scenario": rec.scenario,
+            "sim_seconds": seconds,
+            "ticks": len(rec.ticks),
+            "passes": passes,
+            "status_replies": replies,
+            "status_replies_per_s": round(replies / polled_s, 1) if polled_s else None,
+            "base_us_p50_p90_p99": [pct(base, q, 1) for q in (50, 90, 99)],
+            "btlog_us_p50_p90_p99": [pct(btlog, q, 1) for q in (50, 90, 99)],
+            "groot_us_p50_p90_p99": [pct(groot, q, 1) for q in (50, 90, 99)],
+        },
         "plots": [],
-    }  # fmt: skip
+    }

@@ -31,23 +31,41 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     figures = []
     for q in (50, 99):
         a, b = pct(e2e, q, 2), pct(det, q, 2)
-        figures.append(Figure(f"frame → command on the blackboard, p{q}", a, "ms",
-                              baseline="the perception source's process() alone on the same frames",
-                              baseline_value=b, ratio=round(a / b, 3) if a and b else None).to_json())  # fmt: skip
-    figures.append(Figure("tree's share of the reaction time (e2e − detector), p50", pct(added, 50, 2), "ms",
-                          baseline="the detector time it is added to (p50 above)", baseline_value=pct(det, 50, 2),
-                          ).to_json())  # fmt: skip
+        figures.append(
+            Figure(
+                f"frame → command on the blackboard, p{q}",
+                a,
+                "ms",
+                baseline="the perception source's process() alone on the same frames",
+                baseline_value=b,
+                ratio=round(a / b, 3) if a and b else None,
+            ).to_json()
+        )
+    figures.append(
+        Figure(
+            "tree's share of the reaction time (e2e − detector), p50",
+            pct(added, 50, 2),
+            "ms",
+            baseline="the detector time it is added to (p50 above)",
+            baseline_value=pct(det, 50, 2),
+        ).to_json()
+    )
     plot = _plot(e2e, det, out)
     return {
         "title": "End-to-end latency: frame → command on the blackboard vs the detector alone",
         "figures": figures,
-        "details": {"scenario": rec.scenario, "sim_seconds": seconds, "frames": len(e2e),
-                    "config": rec.config, "image": "scenario camera (640x480)",
-                    "e2e_ms_by_state_p50": {k: pct(v, 50, 2) for k, v in by_state.items()},
-                    "e2e_ms_p50_p90_p99": [pct(e2e, q, 2) for q in (50, 90, 99)],
-                    "detector_ms_p50_p90_p99": [pct(det, q, 2) for q in (50, 90, 99)]},
+        "details": {
+            "scenario": rec.scenario,
+            "sim_seconds": seconds,
+            "frames": len(e2e),
+            "config": rec.config,
+            "image": "scenario camera (640x480)",
+            "e2e_ms_by_state_p50": {k: pct(v, 50, 2) for k, v in by_state.items()},
+            "e2e_ms_p50_p90_p99": [pct(e2e, q, 2) for q in (50, 90, 99)],
+            "detector_ms_p50_p90_p99": [pct(det, q, 2) for q in (50, 90, 99)],
+        },
         "plots": [plot],
-    }  # fmt: skip
+    }
 
 
 def _plot(e2e: list[float], det: list[float], out: Path) -> str:

@@ -49,8 +49,9 @@ DESIGN = "design target (seeds/001 follow coordinator, seeds/002 docking)"
 SWEEP_DIR = "missions_sweep"  # the sweep directory (table, summary.html, failing runs' pictures); gitignored
 
 
-def sweep(scenarios: tuple[str, ...], seeds: int, max_duration: float | None, out: Path, budget_s: float | None,
-          workers: int) -> tuple[list[dict[str, Any]], bool, SweepOutcome]:  # fmt: skip
+def sweep(
+    scenarios: tuple[str, ...], seeds: int, max_duration: float | None, out: Path, budget_s: float | None, workers: int
+) -> tuple[list[dict[str, Any]], bool, SweepOutcome]:
     """The runs on `mission sweep`'s engine (a LocalCluster on loopback, one worker per core, a progress bar):
     (rows, cut short by the budget, the sweep's outcome). The sweep directory is made afresh — a benchmark
     measures, it never resumes — and every finished row is also copied to ``<out>/missions_runs.jsonl``."""
@@ -134,11 +135,19 @@ def _vs_target(label: str, value: float | None, unit: str, key: str, target: str
 
 
 def _figures(name: str, a: dict[str, Any]) -> list[Figure]:
-    f = [_vs_target(f"{name}: success rate ({a['runs']} seeds)", a["success_rate"], "fraction", "success_rate",
-                    "≥ 0.90")]  # fmt: skip
+    f = [
+        _vs_target(f"{name}: success rate ({a['runs']} seeds)", a["success_rate"], "fraction", "success_rate", "≥ 0.90")
+    ]
     if a["loss_events"]:
-        f.append(_vs_target(f"{name}: loss events recovered ({a['loss_events_recovered']}/{a['loss_events']})",
-                            a["loss_recovered_fraction"], "fraction", "loss_recovered", "≥ 0.90"))  # fmt: skip
+        f.append(
+            _vs_target(
+                f"{name}: loss events recovered ({a['loss_events_recovered']}/{a['loss_events']})",
+                a["loss_recovered_fraction"],
+                "fraction",
+                "loss_recovered",
+                "≥ 0.90",
+            )
+        )
     worst_runs = (
         ("occlusion_latency_s", "occlusion-detection latency", "s", "occlusion_latency_s", "≤ 0.5 s"),
         ("reacquisition_s", "re-acquisition time", "s", "reacquisition_s", "≤ 10 s"),
@@ -152,10 +161,15 @@ def _figures(name: str, a: dict[str, Any]) -> list[Figure]:
         label = f"{name}: {still}, worst run (median {a['goal_jitter_m_median']} m)"
         f.append(_vs_target(label, a["goal_jitter_m_max"], "m", "goal_jitter_m", "< 0.2 m"))
     if a["docked_runs"]:
-        for key, unit, target in (("lateral_m", "m", "≤ 0.03 m"), ("distance_m", "m", "≤ 0.025 m"),
-                                  ("skew_deg", "°", "≤ 10°")):  # fmt: skip
-            label = (f"{name}: docking {key.split('_')[0]} error, worst of {a['docked_runs']} docks "
-                     f"(median {a[f'dock_{key}_median']})")  # fmt: skip
+        for key, unit, target in (
+            ("lateral_m", "m", "≤ 0.03 m"),
+            ("distance_m", "m", "≤ 0.025 m"),
+            ("skew_deg", "°", "≤ 10°"),
+        ):
+            label = (
+                f"{name}: docking {key.split('_')[0]} error, worst of {a['docked_runs']} docks "
+                f"(median {a[f'dock_{key}_median']})"
+            )
             f.append(_vs_target(label, a[f"dock_{key}_max"], unit, f"dock_{key}", target))
     return f
 
@@ -167,8 +181,10 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     budget = float(os.environ["MISSION_BENCH_BUDGET_S"]) if os.environ.get("MISSION_BENCH_BUDGET_S") else None
     max_duration = QUICK_MAX_DURATION_S if quick else None
     workers = max(1, min(os.cpu_count() or 1, seeds * len(scenarios)))
-    progress(f"missions: {seeds * len(scenarios)} runs ({seeds} seeds × {len(scenarios)} scenarios) on "
-             f"`mission sweep` with {workers} worker processes")  # fmt: skip
+    progress(
+        f"missions: {seeds * len(scenarios)} runs ({seeds} seeds × {len(scenarios)} scenarios) on "
+        f"`mission sweep` with {workers} worker processes"
+    )
     t0 = time.perf_counter()
     results, cut, outcome = sweep(scenarios, seeds, max_duration, out, budget, workers)
     wall = time.perf_counter() - t0
@@ -183,15 +199,23 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     plot = _plot(per, out) if per else None
     return {
         "title": "Mission outcomes over seeds per scenario vs the design targets"
-                 + (" (QUICK: runs cut at 12 s simulated — a smoke test, not outcome figures)" if quick else ""),
+        + (" (QUICK: runs cut at 12 s simulated — a smoke test, not outcome figures)" if quick else ""),
         "figures": [f.to_json() for f in figures],
-        "details": {"scenarios": per, "seeds_requested": seeds, "runs_finished": len(results),
-                    "runs_requested": outcome.planned, "cut_short_by_budget": cut, "workers": outcome.workers,
-                    "wall_s": round(wall, 1), "max_duration_s": max_duration,
-                    "runs_log": "missions_runs.jsonl", "sweep_dir": SWEEP_DIR,
-                    "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1"},
+        "details": {
+            "scenarios": per,
+            "seeds_requested": seeds,
+            "runs_finished": len(results),
+            "runs_requested": outcome.planned,
+            "cut_short_by_budget": cut,
+            "workers": outcome.workers,
+            "wall_s": round(wall, 1),
+            "max_duration_s": max_duration,
+            "runs_log": "missions_runs.jsonl",
+            "sweep_dir": SWEEP_DIR,
+            "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1",
+        },
         "plots": [plot] if plot else [],
-    }  # fmt: skip
+    }
 
 
 def _plot(per: dict[str, Any], out: Path) -> str:
@@ -211,8 +235,12 @@ def _plot(per: dict[str, Any], out: Path) -> str:
     axes[0].legend(fontsize=7)
     axes[0].set_title("Outcomes")
     axes[1].bar(x - 0.2, [per[n]["reacquisition_s_max"] or 0 for n in names], 0.4, label="re-acquisition, worst (s)")
-    axes[1].bar(x + 0.2, [(per[n]["occlusion_latency_s_max"] or 0) * 10 for n in names], 0.4,
-                label="occlusion latency, worst (×0.1 s)")  # fmt: skip
+    axes[1].bar(
+        x + 0.2,
+        [(per[n]["occlusion_latency_s_max"] or 0) * 10 for n in names],
+        0.4,
+        label="occlusion latency, worst (×0.1 s)",
+    )
     axes[1].axhline(10, color="grey", ls="--", lw=0.8, label="targets (10 s; 0.5 s)")
     axes[1].set_xticks(x, names, fontsize=8)
     axes[1].legend(fontsize=7)

@@ -96,13 +96,28 @@ def _raw_pupil() -> Any:
 def _cases() -> list[tuple[str, str, int, Any, Any]]:
     """(label, raw call description, dictionary, our source factory, raw call factory)."""
     return [
-        ("aruco", "cv2 ArucoDetector.detectMarkers + solvePnP(IPPE_SQUARE)", ARUCO_DICT,
-         lambda: ArucoSource({"marker_size_m": SIZE}), lambda: _raw_aruco(ARUCO_DICT)),
-        ("apriltag (apriltag3)", "pupil_apriltags.Detector.detect(estimate_tag_pose=True), same settings",
-         APRILTAG_DICT, lambda: AprilTagSource({"tag_size_m": SIZE}), _raw_pupil),
-        ("apriltag (opencv)", "cv2 ArucoDetector.detectMarkers(APRILTAG_36h11) + solvePnP(IPPE_SQUARE)", APRILTAG_DICT,
-         lambda: AprilTagSource({"tag_size_m": SIZE, "backend": "opencv"}), lambda: _raw_aruco(APRILTAG_DICT)),
-    ]  # fmt: skip
+        (
+            "aruco",
+            "cv2 ArucoDetector.detectMarkers + solvePnP(IPPE_SQUARE)",
+            ARUCO_DICT,
+            lambda: ArucoSource({"marker_size_m": SIZE}),
+            lambda: _raw_aruco(ARUCO_DICT),
+        ),
+        (
+            "apriltag (apriltag3)",
+            "pupil_apriltags.Detector.detect(estimate_tag_pose=True), same settings",
+            APRILTAG_DICT,
+            lambda: AprilTagSource({"tag_size_m": SIZE}),
+            _raw_pupil,
+        ),
+        (
+            "apriltag (opencv)",
+            "cv2 ArucoDetector.detectMarkers(APRILTAG_36h11) + solvePnP(IPPE_SQUARE)",
+            APRILTAG_DICT,
+            lambda: AprilTagSource({"tag_size_m": SIZE, "backend": "opencv"}),
+            lambda: _raw_aruco(APRILTAG_DICT),
+        ),
+    ]
 
 
 def measure(scenes: list[Scene], source: Any, raw: Any, reps: int) -> dict[str, Any]:
@@ -127,9 +142,15 @@ def measure(scenes: list[Scene], source: Any, raw: Any, reps: int) -> dict[str, 
             found_raw += n_raw
     o, r = float(np.median(ours_ms)), float(np.median(raw_ms))
     return {
-        "ours_ms": round(o, 3), "raw_ms": round(r, 3), "ours_fps": round(1000 / o, 1), "raw_fps": round(1000 / r, 1),
-        "ratio": ratio(o, r), "calls": len(ours_ms), "detections_ours": found_ours, "detections_raw": found_raw,
-    }  # fmt: skip
+        "ours_ms": round(o, 3),
+        "raw_ms": round(r, 3),
+        "ours_fps": round(1000 / o, 1),
+        "raw_fps": round(1000 / r, 1),
+        "ratio": ratio(o, r),
+        "calls": len(ours_ms),
+        "detections_ours": found_ours,
+        "detections_raw": found_raw,
+    }
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:
@@ -149,17 +170,30 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                 rows.append({"source": label, "resolution": f"{w}x{h}", "markers": n, "raw": raw_desc, **r})
                 progress(f"perception: {label} {w}x{h} {n} markers: ours {r['ours_ms']} ms, raw {r['raw_ms']} ms")
                 if n == 1 or n == 8:
-                    figures.append(Figure(
-                        f"{label} {w}×{h}, {n} marker{'s' if n > 1 else ''}: ms per frame", r["ours_ms"], "ms",
-                        baseline=raw_desc, baseline_value=r["raw_ms"], ratio=r["ratio"],
-                        target=f"ratio ≤ {TARGET:.2f}", meets_target=r["ratio"] is not None and r["ratio"] <= TARGET,
-                    ))  # fmt: skip
+                    figures.append(
+                        Figure(
+                            f"{label} {w}×{h}, {n} marker{'s' if n > 1 else ''}: ms per frame",
+                            r["ours_ms"],
+                            "ms",
+                            baseline=raw_desc,
+                            baseline_value=r["raw_ms"],
+                            ratio=r["ratio"],
+                            target=f"ratio ≤ {TARGET:.2f}",
+                            meets_target=r["ratio"] is not None and r["ratio"] <= TARGET,
+                        )
+                    )
     worst = max(rows, key=lambda x: x["ratio"] or 0)
-    figures.insert(0, Figure(
-        "worst overhead ratio ours/raw (all sources, resolutions, marker counts)", worst["ratio"], "×",
-        baseline="the raw library call on the same frames, same run",
-        target=f"≤ {TARGET:.2f}", meets_target=worst["ratio"] <= TARGET,
-    ))  # fmt: skip
+    figures.insert(
+        0,
+        Figure(
+            "worst overhead ratio ours/raw (all sources, resolutions, marker counts)",
+            worst["ratio"],
+            "×",
+            baseline="the raw library call on the same frames, same run",
+            target=f"≤ {TARGET:.2f}",
+            meets_target=worst["ratio"] <= TARGET,
+        ),
+    )
     plot = _plot(rows, out)
     return {
         "title": "Perception throughput: our sources vs the raw library calls on the same rendered frames",

@@ -58,8 +58,15 @@ def _pupil_fix(det: pupil_apriltags.Detector) -> np.ndarray:
     """The fixed rotation taking pupil's tag frame to OpenCV's marker frame, from one frontal view."""
     k = sv.default_intrinsics(640, 480)
     truth = se3.transform(sv.R_FRONTAL, (0.0, 0.0, 0.8))
-    v = sv.render_marker_view(truth, marker_id=MARKER_ID, marker_size_m=SIZE, dictionary=APRILTAG_DICT, intrinsics=k,
-                              rng=np.random.default_rng(0), noise_sigma=0.0)  # fmt: skip
+    v = sv.render_marker_view(
+        truth,
+        marker_id=MARKER_ID,
+        marker_size_m=SIZE,
+        dictionary=APRILTAG_DICT,
+        intrinsics=k,
+        rng=np.random.default_rng(0),
+        noise_sigma=0.0,
+    )
     grey = cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY)
     found = det.detect(grey, estimate_tag_pose=True, camera_params=(k.fx, k.fy, k.cx, k.cy), tag_size=SIZE)
     if not found:
@@ -86,14 +93,25 @@ def _raw_pupil() -> Any:
 
 CASES = {
     # label: (dictionary, our source factory, raw label, raw factory)
-    "aruco": (ARUCO_DICT, lambda: ArucoSource({"marker_size_m": SIZE}),
-              "raw cv2 detectMarkers + solvePnP(IPPE_SQUARE), naive", lambda: _raw_opencv(ARUCO_DICT)),
-    "apriltag (apriltag3)": (APRILTAG_DICT, lambda: AprilTagSource({"tag_size_m": SIZE}),
-                             "raw pupil_apriltags estimate_tag_pose, naive", _raw_pupil),
-    "apriltag (opencv)": (APRILTAG_DICT, lambda: AprilTagSource({"tag_size_m": SIZE, "backend": "opencv"}),
-                          "raw cv2 detectMarkers(APRILTAG_36h11) + solvePnP(IPPE_SQUARE), naive",
-                          lambda: _raw_opencv(APRILTAG_DICT)),
-}  # fmt: skip
+    "aruco": (
+        ARUCO_DICT,
+        lambda: ArucoSource({"marker_size_m": SIZE}),
+        "raw cv2 detectMarkers + solvePnP(IPPE_SQUARE), naive",
+        lambda: _raw_opencv(ARUCO_DICT),
+    ),
+    "apriltag (apriltag3)": (
+        APRILTAG_DICT,
+        lambda: AprilTagSource({"tag_size_m": SIZE}),
+        "raw pupil_apriltags estimate_tag_pose, naive",
+        _raw_pupil,
+    ),
+    "apriltag (opencv)": (
+        APRILTAG_DICT,
+        lambda: AprilTagSource({"tag_size_m": SIZE, "backend": "opencv"}),
+        "raw cv2 detectMarkers(APRILTAG_36h11) + solvePnP(IPPE_SQUARE), naive",
+        lambda: _raw_opencv(APRILTAG_DICT),
+    ),
+}
 
 
 def _errors(T_est: np.ndarray | None, view: sv.SyntheticView) -> tuple[float, float] | None:
@@ -108,9 +126,14 @@ def _summary(samples: list[tuple[float, float] | None]) -> dict[str, Any]:
     found = [s for s in samples if s is not None]
     t = [s[0] for s in found]
     r = [s[1] for s in found]
-    return {"n": len(samples), "detected": round(len(found) / max(1, len(samples)), 3),
-            "trans_pct_median": pct(t, 50), "trans_pct_p90": pct(t, 90),
-            "rot_deg_median": pct(r, 50, 2), "rot_deg_p90": pct(r, 90, 2)}  # fmt: skip
+    return {
+        "n": len(samples),
+        "detected": round(len(found) / max(1, len(samples)), 3),
+        "trans_pct_median": pct(t, 50),
+        "trans_pct_p90": pct(t, 90),
+        "rot_deg_median": pct(r, 50, 2),
+        "rot_deg_p90": pct(r, 90, 2),
+    }
 
 
 def _bin(view: sv.SyntheticView) -> str | None:
@@ -135,12 +158,16 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         for d in RANGES:
             rng = np.random.default_rng(int(d * 100) + dictionary)
             for s in range(n_seq):
-                views = sv.render_sequence(d, 60.0, n_frames, rng, marker_id=MARKER_ID, marker_size_m=SIZE,
-                                           dictionary=dictionary, intrinsics=k)  # fmt: skip
+                views = sv.render_sequence(
+                    d, 60.0, n_frames, rng, marker_id=MARKER_ID, marker_size_m=SIZE, dictionary=dictionary, intrinsics=k
+                )
                 source = make_source()  # a fresh source per sequence: no history from another scene
                 for i, v in enumerate(views):
-                    dets = [x for x in source.process(Frame(v.image, stamp=s * 100 + i / 30, intrinsics=k))
-                            if x.marker_id == MARKER_ID]  # fmt: skip
+                    dets = [
+                        x
+                        for x in source.process(Frame(v.image, stamp=s * 100 + i / 30, intrinsics=k))
+                        if x.marker_id == MARKER_ID
+                    ]
                     T = se3.from_pos_quat(dets[0].position, dets[0].orientation) if dets else None
                     e_ours, e_raw = _errors(T, v), _errors(raw(v.image, k), v)
                     b = _bin(v)
@@ -156,19 +183,26 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             for lo, hi in ANGLE_BINS:
                 b = f"{lo}-{hi}°"
                 if (d, b) in ours_by:
-                    rows.append({"range_m": d, "angle": b, "ours": _summary(ours_by[(d, b)]),
-                                 "raw": _summary(raw_by[(d, b)])})  # fmt: skip
+                    rows.append(
+                        {"range_m": d, "angle": b, "ours": _summary(ours_by[(d, b)]), "raw": _summary(raw_by[(d, b)])}
+                    )
         table[label] = {"baseline": raw_label, "rows": rows}
         for row in rows:
             if row["angle"] != "0-60°" or row["range_m"] not in (1.0, 2.0, 3.0):
                 continue
             o, r = row["ours"], row["raw"]
             meets = o["rot_deg_p90"] is not None and o["rot_deg_p90"] <= ROT_TARGET_DEG
-            figures.append(Figure(
-                f"{label} p90 rotation error at {row['range_m']:g} m (0–60°)", o["rot_deg_p90"], "°",
-                baseline=raw_label, baseline_value=r["rot_deg_p90"],
-                target=f"≤ {ROT_TARGET_DEG:g}° up to 3 m", meets_target=meets,
-            ))  # fmt: skip
+            figures.append(
+                Figure(
+                    f"{label} p90 rotation error at {row['range_m']:g} m (0–60°)",
+                    o["rot_deg_p90"],
+                    "°",
+                    baseline=raw_label,
+                    baseline_value=r["rot_deg_p90"],
+                    target=f"≤ {ROT_TARGET_DEG:g}° up to 3 m",
+                    meets_target=meets,
+                )
+            )
         progress(f"pose: {label} done")
     plot = _plot(table, out)
     return {
@@ -191,8 +225,13 @@ def _plot(table: dict[str, Any], out: Path) -> str:
         rows = [r for r in t["rows"] if r["angle"] == "0-60°"]
         xs = [r["range_m"] for r in rows]
         for side, style in (("ours", "-o"), ("raw", ":x")):
-            axes[0].plot(xs, [r[side]["rot_deg_p90"] for r in rows], style, color=color,
-                         label=f"{label} {'(ours)' if side == 'ours' else '(raw naive)'}")  # fmt: skip
+            axes[0].plot(
+                xs,
+                [r[side]["rot_deg_p90"] for r in rows],
+                style,
+                color=color,
+                label=f"{label} {'(ours)' if side == 'ours' else '(raw naive)'}",
+            )
             axes[1].plot(xs, [r[side]["trans_pct_p90"] for r in rows], style, color=color)
     axes[0].axhline(ROT_TARGET_DEG, color="grey", lw=0.8, ls="--")
     axes[0].set(xlabel="range (m)", ylabel="p90 rotation error (°)", title="Rotation, 0–60° off axis")

@@ -188,11 +188,14 @@ class CornerStudy:
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "images": self.images, "markers_ours": self.markers_ours, "markers_raw_opencv": self.markers_raw,
-            "images_with_the_same_ids": self.same_ids, "consensus_corners": self.consensus_corners,
+            "images": self.images,
+            "markers_ours": self.markers_ours,
+            "markers_raw_opencv": self.markers_raw,
+            "images_with_the_same_ids": self.same_ids,
+            "consensus_corners": self.consensus_corners,
             **{f"outliers_{k}": v for k, v in self.outliers.items()},
             **{f"worst_px_{k}": round(v, 2) for k, v in self.worst_px.items()},
-        }  # fmt: skip
+        }
 
 
 def aruco_corner_study(files: Iterable[Path], dictionary: str, params: dict | None = None) -> CornerStudy:
@@ -247,8 +250,10 @@ def aruco_times(files: list[Path], dictionary: str, repeats: int) -> dict[str, f
         h, w = img.shape[:2]
         k = _pinhole(w, h)
         frame = Frame(img, 0.0, intrinsics=k)
-        ms = interleaved_ms({"ours": lambda f=frame: source.process(f),
-                             "raw": lambda i=img, kk=k: raw(i, kk.matrix, kk.dist_coeffs)}, repeats)  # fmt: skip
+        ms = interleaved_ms(
+            {"ours": lambda f=frame: source.process(f), "raw": lambda i=img, kk=k: raw(i, kk.matrix, kk.dist_coeffs)},
+            repeats,
+        )
         for key in total:
             total[key] += ms[key]
     source.close()
@@ -344,20 +349,39 @@ class RecallStudy:
         rows = []
         for k in [*LIBRARY_SETTINGS, "ours (defaults)"]:
             key = "ours" if k.startswith("ours") else k
-            rows.append({
-                "setting": k, "found": self.found.get(key, 0), "reference": self.reference,
-                "recall": round(self.found.get(key, 0) / max(1, self.reference), 3),
-                **({"expected_found": f"{self.expected_found.get(key, 0)}/{self.expected}"} if self.expected else {}),
-                "ms_total": round(self.ms.get(key, 0.0), 1),
-                "time_vs_decimate_2": round(self.ms.get(key, 0.0) / max(1e-9, self.ms.get(BASELINE_SETTING, 0.0)), 2),
-            })  # fmt: skip
-        rows.append({"setting": WITH_POSE, "ms_total": round(self.ms.get(WITH_POSE, 0.0), 1),
-                     "time_vs_decimate_2": round(self.ms.get(WITH_POSE, 0.0)
-                                                 / max(1e-9, self.ms.get(BASELINE_SETTING, 0.0)), 2)})  # fmt: skip
+            rows.append(
+                {
+                    "setting": k,
+                    "found": self.found.get(key, 0),
+                    "reference": self.reference,
+                    "recall": round(self.found.get(key, 0) / max(1, self.reference), 3),
+                    **(
+                        {"expected_found": f"{self.expected_found.get(key, 0)}/{self.expected}"}
+                        if self.expected
+                        else {}
+                    ),
+                    "ms_total": round(self.ms.get(key, 0.0), 1),
+                    "time_vs_decimate_2": round(
+                        self.ms.get(key, 0.0) / max(1e-9, self.ms.get(BASELINE_SETTING, 0.0)), 2
+                    ),
+                }
+            )
+        rows.append(
+            {
+                "setting": WITH_POSE,
+                "ms_total": round(self.ms.get(WITH_POSE, 0.0), 1),
+                "time_vs_decimate_2": round(
+                    self.ms.get(WITH_POSE, 0.0) / max(1e-9, self.ms.get(BASELINE_SETTING, 0.0)), 2
+                ),
+            }
+        )
         sizes = np.asarray(self.sizes_px) if self.sizes_px else np.zeros(1)
-        return {"images": self.images, "reference_tags": self.reference,
-                "tag_side_px": f"{sizes.min():.0f}–{sizes.max():.0f} (median {np.median(sizes):.0f})",
-                "rows": rows}  # fmt: skip
+        return {
+            "images": self.images,
+            "reference_tags": self.reference,
+            "tag_side_px": f"{sizes.min():.0f}–{sizes.max():.0f} (median {np.median(sizes):.0f})",
+            "rows": rows,
+        }
 
 
 def apriltag_recall_study(images: Iterable[tuple[np.ndarray, list[Tag] | None]], repeats: int) -> RecallStudy:
@@ -399,8 +423,14 @@ def rendered_small_tags(n: int, seed: int = 0) -> list[tuple[np.ndarray, list[Ta
     out: list[tuple[np.ndarray, list[Tag] | None]] = []
     for i in range(n):
         d = 4.0 + 3.0 * (i % 4) / 3.0
-        v = sv.render_marker_view(sv.random_pose(d, 50.0, rng, k, 0.15), marker_id=7, marker_size_m=0.15,
-                                  dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=k, rng=rng)  # fmt: skip
+        v = sv.render_marker_view(
+            sv.random_pose(d, 50.0, rng, k, 0.15),
+            marker_id=7,
+            marker_size_m=0.15,
+            dictionary=cv2.aruco.DICT_APRILTAG_36h11,
+            intrinsics=k,
+            rng=rng,
+        )
         side = float(np.mean(np.linalg.norm(np.roll(v.corners, -1, axis=0) - v.corners, axis=1)))
         out.append((cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY), [Tag(7, tuple(v.corners.mean(axis=0)), side)]))
     return out
@@ -423,9 +453,15 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             continue
         details["origins"][ps.name] = ps.origin
         if ps.kind == "apriltag":
-            images = [(read_grey(p), expected_tags(p.with_suffix(ps.expected_suffix))
-                       if ps.expected_suffix and p.with_suffix(ps.expected_suffix).is_file() else None)
-                      for p in files]  # fmt: skip
+            images = [
+                (
+                    read_grey(p),
+                    expected_tags(p.with_suffix(ps.expected_suffix))
+                    if ps.expected_suffix and p.with_suffix(ps.expected_suffix).is_file()
+                    else None,
+                )
+                for p in files
+            ]
             study = apriltag_recall_study(images, repeats)
             _recall_figures(ps.name, ps.origin, study, figures)
             details["apriltag"][ps.name] = {"origin": ps.origin, **study.to_json()}
@@ -435,9 +471,12 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             times = aruco_times(files, dictionary, repeats)
             _corner_figures(ps.name, ps.origin, cs, times, figures)
             details["aruco"][ps.name] = {
-                "origin": ps.origin, "dictionary": ps.dictionary, **cs.to_json(),
-                "ms_ours": round(times["ours"], 1), "ms_raw_opencv": round(times["raw"], 1),
-            }  # fmt: skip
+                "origin": ps.origin,
+                "dictionary": ps.dictionary,
+                **cs.to_json(),
+                "ms_ours": round(times["ours"], 1),
+                "ms_raw_opencv": round(times["raw"], 1),
+            }
         progress(f"real_images: {ps.name} ({len(files)} images)")
     rendered = "rendered small tags (15 cm at 4–7 m, 640×480)"
     study = apriltag_recall_study(rendered_small_tags(12 if quick else 48), repeats)
@@ -455,36 +494,64 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
 def _recall_figures(name: str, origin: str, study: RecallStudy, figures: list[Figure]) -> None:
     best = study.best_library_setting()
     ours = study.found.get("ours", 0)
-    figures.append(Figure(
-        f"{name}: tags found at the defaults (of {study.reference}; images: {origin})", ours, "tags",
-        baseline=f"pupil-apriltags at its best setting here ({best})", baseline_value=study.found.get(best, 0),
-        target="≥ the best library setting", meets_target=ours >= study.found.get(best, 0),
-    ))  # fmt: skip
+    figures.append(
+        Figure(
+            f"{name}: tags found at the defaults (of {study.reference}; images: {origin})",
+            ours,
+            "tags",
+            baseline=f"pupil-apriltags at its best setting here ({best})",
+            baseline_value=study.found.get(best, 0),
+            target="≥ the best library setting",
+            meets_target=ours >= study.found.get(best, 0),
+        )
+    )
     base = study.ms.get(WITH_POSE, 0.0)
     r = round(study.ms.get("ours", 0.0) / base, 3) if base else None
-    figures.append(Figure(
-        f"{name}: time of process() at the defaults, all images", round(study.ms.get("ours", 0.0), 1), "ms",
-        baseline="pupil-apriltags detect(estimate_tag_pose=True) at decimate 2 (its usual setting), interleaved",
-        baseline_value=round(base, 1),
-        ratio=r, target=f"ratio ≤ {TIME_TARGET}", meets_target=None if r is None else r <= TIME_TARGET,
-    ))  # fmt: skip
+    figures.append(
+        Figure(
+            f"{name}: time of process() at the defaults, all images",
+            round(study.ms.get("ours", 0.0), 1),
+            "ms",
+            baseline="pupil-apriltags detect(estimate_tag_pose=True) at decimate 2 (its usual setting), interleaved",
+            baseline_value=round(base, 1),
+            ratio=r,
+            target=f"ratio ≤ {TIME_TARGET}",
+            meets_target=None if r is None else r <= TIME_TARGET,
+        )
+    )
 
 
 def _corner_figures(name: str, origin: str, cs: CornerStudy, times: dict[str, float], figures: list[Figure]) -> None:
-    figures.append(Figure(
-        f"{name}: corners > {OUTLIER_PX:g} px off the refiners' consensus (of {cs.compared.get('ours', 0)}; "
-        f"images: {origin})", cs.outliers["ours"], "corners",
-        baseline="raw OpenCV detectMarkers, unrefined (SUBPIX: " + str(cs.outliers["subpix"]) + ")",
-        baseline_value=cs.outliers["unrefined"], target="≤ unrefined OpenCV",
-        meets_target=cs.outliers["ours"] <= cs.outliers["unrefined"],
-    ))  # fmt: skip
-    figures.append(Figure(
-        f"{name}: markers found", cs.markers_ours, "markers", baseline="raw OpenCV detectMarkers (default parameters)",
-        baseline_value=cs.markers_raw, target="the same ids in every image",
-        meets_target=cs.same_ids == cs.images,
-    ))  # fmt: skip
-    figures.append(Figure(
-        f"{name}: time of process(), all images", round(times["ours"], 1), "ms",
-        baseline="raw OpenCV detectMarkers (SUBPIX) + solvePnP per marker, interleaved",
-        baseline_value=round(times["raw"], 1), ratio=round(times["ours"] / times["raw"], 3) if times["raw"] else None,
-    ))  # fmt: skip
+    figures.append(
+        Figure(
+            f"{name}: corners > {OUTLIER_PX:g} px off the refiners' consensus (of {cs.compared.get('ours', 0)}; "
+            f"images: {origin})",
+            cs.outliers["ours"],
+            "corners",
+            baseline="raw OpenCV detectMarkers, unrefined (SUBPIX: " + str(cs.outliers["subpix"]) + ")",
+            baseline_value=cs.outliers["unrefined"],
+            target="≤ unrefined OpenCV",
+            meets_target=cs.outliers["ours"] <= cs.outliers["unrefined"],
+        )
+    )
+    figures.append(
+        Figure(
+            f"{name}: markers found",
+            cs.markers_ours,
+            "markers",
+            baseline="raw OpenCV detectMarkers (default parameters)",
+            baseline_value=cs.markers_raw,
+            target="the same ids in every image",
+            meets_target=cs.same_ids == cs.images,
+        )
+    )
+    figures.append(
+        Figure(
+            f"{name}: time of process(), all images",
+            round(times["ours"], 1),
+            "ms",
+            baseline="raw OpenCV detectMarkers (SUBPIX) + solvePnP per marker, interleaved",
+            baseline_value=round(times["raw"], 1),
+            ratio=round(times["ours"] / times["raw"], 3) if times["raw"] else None,
+        )
+    )

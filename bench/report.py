@@ -76,14 +76,25 @@ def load_entry(path: Path) -> Entry:
         raise MissionError(f"{path}: expected a JSON object with 'result' or 'figures', got {type(data).__name__}")
     if "result" in data:  # written by `mission bench`
         return Entry(
-            name=str(data.get("name", path.stem)), path=path, result=data["result"], command=data.get("command"),
-            description=str(data.get("description", "")), started_utc=data.get("started_utc"),
-            elapsed_s=data.get("elapsed_s"), quick=bool(data.get("quick")), machine=data.get("machine") or {},
-        )  # fmt: skip
+            name=str(data.get("name", path.stem)),
+            path=path,
+            result=data["result"],
+            command=data.get("command"),
+            description=str(data.get("description", "")),
+            started_utc=data.get("started_utc"),
+            elapsed_s=data.get("elapsed_s"),
+            quick=bool(data.get("quick")),
+            machine=data.get("machine") or {},
+        )
     if "figures" in data:  # a bare run() result (python -m bench.<module>)
         details = data.get("details") or {}
-        return Entry(name=path.stem, path=path, result=data, command=KNOWN_COMMANDS.get(path.stem),
-                     quick=bool(details.get("quick")))  # fmt: skip
+        return Entry(
+            name=path.stem,
+            path=path,
+            result=data,
+            command=KNOWN_COMMANDS.get(path.stem),
+            quick=bool(details.get("quick")),
+        )
     raise MissionError(f"{path}: expected a JSON object with 'result' (mission bench) or 'figures' (a run() result)")
 
 
@@ -141,8 +152,10 @@ def verdict(meets: Any) -> str:
 
 
 def figure_table(figures: list[dict[str, Any]]) -> list[str]:
-    lines = ["| Figure | Value | Baseline (what it is measured against) | Baseline value | Ratio | Target | |",
-             "|---|---|---|---|---|---|---|"]  # fmt: skip
+    lines = [
+        "| Figure | Value | Baseline (what it is measured against) | Baseline value | Ratio | Target | |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for f in figures:
         unit = f.get("unit") or ""
         sep = "" if unit in ("×", "%") else " "
@@ -158,8 +171,17 @@ def figure_table(figures: list[dict[str, Any]]) -> list[str]:
 
 
 def machine_line(m: dict[str, Any], keys: tuple[str, ...] = MACHINE_KEYS) -> str:
-    names = {"cpu": "", "cores": "cores", "os": "", "python": "Python", "opencv": "OpenCV", "pybullet": "pybullet",
-             "pupil_apriltags": "pupil-apriltags", "py_trees": "py_trees", "numpy": "numpy"}  # fmt: skip
+    names = {
+        "cpu": "",
+        "cores": "cores",
+        "os": "",
+        "python": "Python",
+        "opencv": "OpenCV",
+        "pybullet": "pybullet",
+        "pupil_apriltags": "pupil-apriltags",
+        "py_trees": "py_trees",
+        "numpy": "numpy",
+    }
     parts = []
     for k in keys:
         if m.get(k) is None:
@@ -240,8 +262,11 @@ def _details(name: str, v: Any, out: list[str]) -> None:
                     _details(f"{name}.{a}.{k}", y, out)
     elif isinstance(v, dict) and v and all(_flat(x) for x in v.values()):
         out += ["", f"**{name}**", "", *table_of([{"": a, **row} for a, row in v.items()], ""), ""]
-    elif isinstance(v, dict) and v and all(isinstance(x, dict) and x and all(_flat(y) for y in x.values())
-                                           for x in v.values()):  # fmt: skip
+    elif (
+        isinstance(v, dict)
+        and v
+        and all(isinstance(x, dict) and x and all(_flat(y) for y in x.values()) for x in v.values())
+    ):
         rows = [{"": f"{a} / {b}", **row} for a, sub in v.items() for b, row in sub.items()]
         out += ["", f"**{name}**", "", *table_of(rows, ""), ""]
     elif isinstance(v, dict):
@@ -377,16 +402,29 @@ def render(results: Path, out: Path, docs: Path) -> tuple[str, list[str]]:
     for e in entries:
         lines += section(e, machine, docs, rel_docs, results, notes, by_name, warnings)
     if "missions" not in by_name:
-        lines += ["## missions", "", "Not in this results directory yet: `mission bench --only missions -o "
-                  f"{_display(results)}` writes missions.json (≥ 20 seeds per scenario).", ""]  # fmt: skip
+        lines += [
+            "## missions",
+            "",
+            "Not in this results directory yet: `mission bench --only missions -o "
+            f"{_display(results)}` writes missions.json (≥ 20 seeds per scenario).",
+            "",
+        ]
     for f in (f for e in entries for f in e.figures):
         if not f.get("baseline"):
             warnings.append(f"figure without a baseline: {f.get('label')!r}")
     return "\n".join(lines).rstrip() + "\n", warnings
 
 
-def section(e: Entry, machine: dict[str, Any] | None, docs: Path, rel_docs: Path, results: Path,
-            notes: dict[str, str], by_name: dict[str, Entry], warnings: list[str]) -> list[str]:  # fmt: skip
+def section(
+    e: Entry,
+    machine: dict[str, Any] | None,
+    docs: Path,
+    rel_docs: Path,
+    results: Path,
+    notes: dict[str, str],
+    by_name: dict[str, Entry],
+    warnings: list[str],
+) -> list[str]:
     title = e.result.get("title") or e.description or e.name
     lines = [f"## {e.name}", "", f"**{title}**" + (" — *quick run*" if e.quick else ""), ""]
     meta = []
@@ -424,8 +462,7 @@ def section(e: Entry, machine: dict[str, Any] | None, docs: Path, rel_docs: Path
         lines += [fill(notes[e.name], by_name, warnings), ""]
     write_up = e.path.with_suffix(".md")
     if write_up.is_file():
-        lines += [f"### Write-up of this run ({_display(write_up)})", "",
-                  demote(write_up.read_text().strip()), ""]  # fmt: skip
+        lines += [f"### Write-up of this run ({_display(write_up)})", "", demote(write_up.read_text().strip()), ""]
     lines += [*details_block(e.result.get("details") or {}), ""]
     return lines
 
@@ -449,8 +486,13 @@ def _display(p: Path) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.report", description=__doc__.split("\n")[0])
-    ap.add_argument("results", nargs="?", type=Path, default=DEFAULT_RESULTS,
-                    help="results directory (default bench/results, the committed full-run figures)")  # fmt: skip
+    ap.add_argument(
+        "results",
+        nargs="?",
+        type=Path,
+        default=DEFAULT_RESULTS,
+        help="results directory (default bench/results, the committed full-run figures)",
+    )
     ap.add_argument("--out", type=Path, default=None,
                     help="markdown to write (default BENCHMARKS.md; RESULTS/BENCHMARKS.md for another results dir)")
     ap.add_argument("--docs", type=Path, default=None,

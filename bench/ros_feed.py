@@ -59,12 +59,23 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
     return dds.package_env(setup, dds_env, ROOT / ".venv" / "bin")
 
 
-def node_command(marker_id: int, marker_size_m: float, tick_hz: float = 30.0,
-                 subject: Subject | None = None) -> list[str]:  # fmt: skip
+def node_command(
+    marker_id: int, marker_size_m: float, tick_hz: float = 30.0, subject: Subject | None = None
+) -> list[str]:
     """The installed node in perception-only mode (the design notes' aruco_pose_streamer) for one marker;
     with `subject`, on that subject's topics (params for the inputs, a remap for /detected_aruco_pose)."""
-    cmd = [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={marker_size_m}",
-           "-p", f"target_marker_id:={marker_id}", "-p", f"tick_hz:={tick_hz:g}"]  # fmt: skip
+    cmd = [
+        str(TREE_EXE),
+        "--ros-args",
+        "-p",
+        "tree:=none",
+        "-p",
+        f"marker_size_m:={marker_size_m}",
+        "-p",
+        f"target_marker_id:={marker_id}",
+        "-p",
+        f"tick_hz:={tick_hz:g}",
+    ]
     if subject is not None:
         default = Subject(subject.name)
         if subject.image_topic != default.image_topic:
@@ -158,9 +169,16 @@ class Feeder:
     thread receives the answers; :meth:`close` stops both.
     """
 
-    def __init__(self, subjects: list[Subject], views: list[np.ndarray], intrinsics: CameraIntrinsics,
-                 hz: float = 30.0, frames_per_view: int = 1, heartbeat_topic: str | None = None,
-                 name: str = "bench_feeder") -> None:  # fmt: skip
+    def __init__(
+        self,
+        subjects: list[Subject],
+        views: list[np.ndarray],
+        intrinsics: CameraIntrinsics,
+        hz: float = 30.0,
+        frames_per_view: int = 1,
+        heartbeat_topic: str | None = None,
+        name: str = "bench_feeder",
+    ) -> None:
         import rclpy
         from geometry_msgs.msg import PoseStamped
         from rclpy.executors import SingleThreadedExecutor
@@ -189,8 +207,10 @@ class Feeder:
         self._info = intrinsics_to_camera_info(msgs, intrinsics, 0.0, CAMERA_FRAME)
         self._pubs: dict[str, tuple[Any, Any]] = {}
         for s in subjects:
-            self._pubs[s.name] = (self.node.create_publisher(Image, s.image_topic, 10),
-                                  self.node.create_publisher(CameraInfo, s.info_topic, 10))  # fmt: skip
+            self._pubs[s.name] = (
+                self.node.create_publisher(Image, s.image_topic, 10),
+                self.node.create_publisher(CameraInfo, s.info_topic, 10),
+            )
             self.node.create_subscription(PoseStamped, s.answer_topic, self._on_answer, 10)
         if heartbeat_topic:
             self.node.create_subscription(String, heartbeat_topic, self._on_heartbeat, 10)

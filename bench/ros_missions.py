@@ -50,8 +50,20 @@ def _in_process(scenario: str, seed: int) -> dict[str, Any]:
 def _over_ros(scenario: str, seed: int, tree: str, env: dict[str, str], work: Path) -> dict[str, Any]:
     report = work / f"{scenario}_{seed}"
     node_cmd = [str(TREE_EXE), "--config", str(CONFIG), "--tree", tree, "--ros-args", "-p", "use_sim_time:=true"]
-    robot_cmd = [sys.executable, "-m", "mission", "sim-robot", "--scenario", scenario, "--seed", str(seed),
-                 "--config", str(CONFIG), "--report", str(report)]  # fmt: skip
+    robot_cmd = [
+        sys.executable,
+        "-m",
+        "mission",
+        "sim-robot",
+        "--scenario",
+        scenario,
+        "--seed",
+        str(seed),
+        "--config",
+        str(CONFIG),
+        "--report",
+        str(report),
+    ]
     node = Subprocess(node_cmd, env, work / f"{scenario}_{seed}_node.log")
     robot = Subprocess(robot_cmd, {**os.environ, **ros_env_overrides(env)}, work / f"{scenario}_{seed}_robot.log")
     try:
@@ -86,11 +98,20 @@ def _row(world: str, o: dict[str, Any]) -> dict[str, Any]:
     m = o.get("metrics", {})
     reacq = (m.get("reacquisition_time_s") or {}).get("max")
     dock = m.get("dock") or {}
-    return {"world": world, "success": bool(o.get("success")), "reason": o.get("reason", ""),
-            "sim_time_s": o.get("sim_time_s"), "wall_time_s": o.get("wall_time_s"), "reacquisition_max_s": reacq,
-            "loss_events": m.get("loss_events"), "loss_recovered": m.get("loss_events_recovered"),
-            "dock_lateral_m": dock.get("lateral_m"), "dock_distance_m": dock.get("distance_m"),
-            "dock_skew_deg": dock.get("skew_deg"), "collisions": m.get("collisions")}  # fmt: skip
+    return {
+        "world": world,
+        "success": bool(o.get("success")),
+        "reason": o.get("reason", ""),
+        "sim_time_s": o.get("sim_time_s"),
+        "wall_time_s": o.get("wall_time_s"),
+        "reacquisition_max_s": reacq,
+        "loss_events": m.get("loss_events"),
+        "loss_recovered": m.get("loss_events_recovered"),
+        "dock_lateral_m": dock.get("lateral_m"),
+        "dock_distance_m": dock.get("distance_m"),
+        "dock_skew_deg": dock.get("skew_deg"),
+        "collisions": m.get("collisions"),
+    }
 
 
 def _median(rows: list[dict[str, Any]], key: str) -> float | None:
@@ -126,8 +147,10 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                 rows.append(row)
                 with runs_path.open("a") as f:
                     f.write(json.dumps(row) + "\n")
-                progress(f"ros_missions: {scenario} seed {seed} {row['world']}: "
-                         f"{'ok' if row['success'] else 'FAILED'} ({row['reason']})")  # fmt: skip
+                progress(
+                    f"ros_missions: {scenario} seed {seed} {row['world']}: "
+                    f"{'ok' if row['success'] else 'FAILED'} ({row['reason']})"
+                )
     figs = []
     for scenario in scenarios:
         a = [r for r in rows if r["scenario"] == scenario and r["world"] == "ros"]
@@ -135,23 +158,47 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         if not a:
             continue
         sa, sb = sum(r["success"] for r in a) / len(a), sum(r["success"] for r in b) / max(1, len(b))
-        figs.append(Figure(f"{scenario}: success rate over ROS ({len(a)} seeds)", round(sa, 3), "fraction",
-                           baseline="in-process mission run, same seeds", baseline_value=round(sb, 3),
-                           ratio=ratio(sa, sb)).to_json())  # fmt: skip
-        for key, label, unit in (("reacquisition_max_s", "re-acquisition (worst per run), median", "s"),
-                                 ("dock_lateral_m", "dock lateral error, median", "m"),
-                                 ("dock_distance_m", "dock distance error, median", "m"),
-                                 ("dock_skew_deg", "dock skew, median", "°")):  # fmt: skip
+        figs.append(
+            Figure(
+                f"{scenario}: success rate over ROS ({len(a)} seeds)",
+                round(sa, 3),
+                "fraction",
+                baseline="in-process mission run, same seeds",
+                baseline_value=round(sb, 3),
+                ratio=ratio(sa, sb),
+            ).to_json()
+        )
+        for key, label, unit in (
+            ("reacquisition_max_s", "re-acquisition (worst per run), median", "s"),
+            ("dock_lateral_m", "dock lateral error, median", "m"),
+            ("dock_distance_m", "dock distance error, median", "m"),
+            ("dock_skew_deg", "dock skew, median", "°"),
+        ):
             va, vb = _median(a, key), _median(b, key)
             if va is not None or vb is not None:
-                figs.append(Figure(f"{scenario}: {label} over ROS", va, unit, baseline="in process, same seeds",
-                                   baseline_value=vb, ratio=ratio(va, vb)).to_json())  # fmt: skip
+                figs.append(
+                    Figure(
+                        f"{scenario}: {label} over ROS",
+                        va,
+                        unit,
+                        baseline="in process, same seeds",
+                        baseline_value=vb,
+                        ratio=ratio(va, vb),
+                    ).to_json()
+                )
         wa = [r["wall_time_s"] / r["sim_time_s"] for r in a if r.get("sim_time_s")]
         wb = [r["wall_time_s"] / r["sim_time_s"] for r in b if r.get("sim_time_s")]
         if wa and wb:
-            figs.append(Figure(f"{scenario}: wall s per simulated s over ROS", round(float(np.median(wa)), 3), "s/s",
-                               baseline="in process (not paced)", baseline_value=round(float(np.median(wb)), 3),
-                               ratio=ratio(float(np.median(wa)), float(np.median(wb)))).to_json())  # fmt: skip
+            figs.append(
+                Figure(
+                    f"{scenario}: wall s per simulated s over ROS",
+                    round(float(np.median(wa)), 3),
+                    "s/s",
+                    baseline="in process (not paced)",
+                    baseline_value=round(float(np.median(wb)), 3),
+                    ratio=ratio(float(np.median(wa)), float(np.median(wb))),
+                ).to_json()
+            )
     return {
         "title": "The mission over ROS 2 (sim-robot + installed node) vs in process, same seeds",
         "figures": figs,

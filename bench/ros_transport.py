@@ -76,8 +76,9 @@ def render_views(n: int = N_VIEWS, seed: int = 11) -> tuple[list[np.ndarray], Ca
         pos = np.array([rng.uniform(-0.3, 0.3), rng.uniform(-0.15, 0.15), 1.2 + 0.8 * i / max(1, n - 1)])
         tilt = math.radians(rng.uniform(5, 35))
         t = pose_facing_camera(pos, rng.uniform(0, 2 * math.pi), tilt, rng.uniform(-0.5, 0.5))
-        views.append(render_marker_view(t, marker_id=MARKER_ID, marker_size_m=MARKER_SIZE_M, intrinsics=k,
-                                        rng=rng).image)  # fmt: skip
+        views.append(
+            render_marker_view(t, marker_id=MARKER_ID, marker_size_m=MARKER_SIZE_M, intrinsics=k, rng=rng).image
+        )
     return views, k
 
 
@@ -136,8 +137,19 @@ def serve(mode: str, image_topic: str, info_topic: str, answer_topic: str) -> in
 
 
 def _serve_command(mode: str, subject: Subject) -> list[str]:
-    return [sys.executable, "-m", "bench.ros_transport", "--serve", mode, "--image-topic", subject.image_topic,
-            "--info-topic", subject.info_topic, "--answer-topic", subject.answer_topic]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "bench.ros_transport",
+        "--serve",
+        mode,
+        "--image-topic",
+        subject.image_topic,
+        "--info-topic",
+        subject.info_topic,
+        "--answer-topic",
+        subject.answer_topic,
+    ]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -184,8 +196,11 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
         ECHO.name: Subprocess(_serve_command("echo", ECHO), env, log_dir / ".ros_transport_echo.log"),
     }
     if not quick:
-        procs[NODE_FAST.name] = Subprocess(node_command(MARKER_ID, MARKER_SIZE_M, FAST_TICK_HZ, NODE_FAST), env,
-                                           log_dir / ".ros_transport_node_tick120.log")  # fmt: skip
+        procs[NODE_FAST.name] = Subprocess(
+            node_command(MARKER_ID, MARKER_SIZE_M, FAST_TICK_HZ, NODE_FAST),
+            env,
+            log_dir / ".ros_transport_node_tick120.log",
+        )
     feeder = Feeder([NODE, STREAMER, ECHO, NODE_FAST], views, k, hz=HZ)
     source = ArucoSource({"marker_size_m": MARKER_SIZE_M})
     samples: dict[str, list[float]] = {s: [] for s in slots}
@@ -230,39 +245,87 @@ def measure(quick: bool, log_dir: Path) -> dict[str, Any]:
             proc.interrupt()
         for proc in procs.values():
             proc.stop()
-    return {"samples": samples, "fed": fed, "slot_s": slot_s, "rounds": rounds, "startup_s": round(startup_s, 1),
-            "slots": slots, "process_cpu_s": cpu_s, "wall_s": round(wall_s, 1)}  # fmt: skip
+    return {
+        "samples": samples,
+        "fed": fed,
+        "slot_s": slot_s,
+        "rounds": rounds,
+        "startup_s": round(startup_s, 1),
+        "slots": slots,
+        "process_cpu_s": cpu_s,
+        "wall_s": round(wall_s, 1),
+    }
 
 
 def figures(m: dict[str, Any]) -> list[Figure]:
     s, fed = m["samples"], m["fed"]
     node, streamer, echo, det = s[NODE.name], s[STREAMER.name], s[ECHO.name], s[DETECTOR]
-    streamer_desc = ("hand-written rclpy streamer (image callback → raw cv2 detectMarkers + solvePnP → PoseStamped), "
-                     "same DDS profile, same frames, interleaved")  # fmt: skip
+    streamer_desc = (
+        "hand-written rclpy streamer (image callback → raw cv2 detectMarkers + solvePnP → PoseStamped), "
+        "same DDS profile, same frames, interleaved"
+    )
     figs = []
     for q, limit in ((50, 1.1), (99, 1.3)):
         a, b = pct(node, q, 2), pct(streamer, q, 2)
         r = ratio(a, b, 2)
-        figs.append(Figure(f"node: image → /detected_aruco_pose, p{q}", a, "ms", baseline=streamer_desc,
-                           baseline_value=b, ratio=r, target=f"ratio ≤ {limit:g}",
-                           meets_target=None if r is None else r <= limit))  # fmt: skip
+        figs.append(
+            Figure(
+                f"node: image → /detected_aruco_pose, p{q}",
+                a,
+                "ms",
+                baseline=streamer_desc,
+                baseline_value=b,
+                ratio=r,
+                target=f"ratio ≤ {limit:g}",
+                meets_target=None if r is None else r <= limit,
+            )
+        )
     e50, d50 = pct(echo, 50, 2), pct(det, 50, 2)
-    figs.append(Figure("DDS round trip alone (bare rclpy echo of the Image as a PoseStamped), p50", e50, "ms",
-                       baseline="our aruco source's process() alone on the same frames, p50", baseline_value=d50,
-                       ratio=ratio(e50, d50, 2)))  # fmt: skip
-    figs.append(Figure("echo p99", pct(echo, 99, 2), "ms", baseline="detector alone p99",
-                       baseline_value=pct(det, 99, 2), ratio=ratio(pct(echo, 99, 2), pct(det, 99, 2), 2)))  # fmt: skip
+    figs.append(
+        Figure(
+            "DDS round trip alone (bare rclpy echo of the Image as a PoseStamped), p50",
+            e50,
+            "ms",
+            baseline="our aruco source's process() alone on the same frames, p50",
+            baseline_value=d50,
+            ratio=ratio(e50, d50, 2),
+        )
+    )
+    figs.append(
+        Figure(
+            "echo p99",
+            pct(echo, 99, 2),
+            "ms",
+            baseline="detector alone p99",
+            baseline_value=pct(det, 99, 2),
+            ratio=ratio(pct(echo, 99, 2), pct(det, 99, 2), 2),
+        )
+    )
     an, ast = len(node) / max(1, fed[NODE.name]), len(streamer) / max(1, fed[STREAMER.name])
-    figs.append(Figure("frames answered by the node", round(an, 3), "fraction of frames fed",
-                       baseline="same fraction for the hand-written streamer", baseline_value=round(ast, 3),
-                       ratio=ratio(an, ast, 3)))  # fmt: skip
+    figs.append(
+        Figure(
+            "frames answered by the node",
+            round(an, 3),
+            "fraction of frames fed",
+            baseline="same fraction for the hand-written streamer",
+            baseline_value=round(ast, 3),
+            ratio=ratio(an, ast, 3),
+        )
+    )
     if NODE_FAST.name in s:
         fast = s[NODE_FAST.name]
         for q in (50, 99):
             a, b = pct(fast, q, 2), pct(node, q, 2)
-            figs.append(Figure(f"diagnostic: the same node at tick_hz {FAST_TICK_HZ:g}, p{q}", a, "ms",
-                               baseline="the node at tick_hz 30 above (same frames, interleaved)", baseline_value=b,
-                               ratio=ratio(a, b, 2)))  # fmt: skip
+            figs.append(
+                Figure(
+                    f"diagnostic: the same node at tick_hz {FAST_TICK_HZ:g}, p{q}",
+                    a,
+                    "ms",
+                    baseline="the node at tick_hz 30 above (same frames, interleaved)",
+                    baseline_value=b,
+                    ratio=ratio(a, b, 2),
+                )
+            )
     return figs
 
 

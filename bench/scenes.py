@@ -42,8 +42,11 @@ def _grid_poses(n: int, k: CameraIntrinsics, size: float, rng: np.random.Generat
     poses = []
     for i in range(n):
         pos = np.array([xs[i % 4], ys[i // 4], z])
-        poses.append(sv.pose_facing_camera(pos, rng.uniform(0, 2 * math.pi), math.radians(rng.uniform(0, 25)),
-                                           rng.uniform(-0.4, 0.4)))  # fmt: skip
+        poses.append(
+            sv.pose_facing_camera(
+                pos, rng.uniform(0, 2 * math.pi), math.radians(rng.uniform(0, 25)), rng.uniform(-0.4, 0.4)
+            )
+        )
     return poses
 
 
@@ -66,9 +69,16 @@ def render_scene(
     for i, t in enumerate(poses):
         last = i == len(poses) - 1
         v = sv.render_marker_view(
-            t, marker_id=i, marker_size_m=size_m, dictionary=dictionary, intrinsics=k, rng=rng,
-            background=background, blur_sigma=0.7 if last else 0.0, noise_sigma=3.0 if last else 0.0,
-        )  # fmt: skip
+            t,
+            marker_id=i,
+            marker_size_m=size_m,
+            dictionary=dictionary,
+            intrinsics=k,
+            rng=rng,
+            background=background,
+            blur_sigma=0.7 if last else 0.0,
+            noise_sigma=3.0 if last else 0.0,
+        )
         background = cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
         truths.append(v)
     return Scene(truths[-1].image, k, truths)

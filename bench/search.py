@@ -98,9 +98,15 @@ def _groups(scenarios: tuple[str, ...]) -> dict[str, list[str]]:
 
 
 def sweeps(
-    searches: tuple[str, ...], scenarios: tuple[str, ...], seeds: int, baseline_seeds: int, out: Path,
-    workers: int, budget_s: float | None, max_duration: float | None,
-) -> tuple[list[dict[str, Any]], list[str], int]:  # fmt: skip
+    searches: tuple[str, ...],
+    scenarios: tuple[str, ...],
+    seeds: int,
+    baseline_seeds: int,
+    out: Path,
+    workers: int,
+    budget_s: float | None,
+    max_duration: float | None,
+) -> tuple[list[dict[str, Any]], list[str], int]:
     """Every run, each row tagged with its ``search``; the sweep directories, in the order they ran; and how many
     runs were planned (more than the rows when the budget cut the run short)."""
     rows: list[dict[str, Any]] = []
@@ -125,8 +131,10 @@ def sweeps(
         sweep_dir = out / "search_sweeps" / f"{search}__{Path(tree).stem}"
         plan = SweepPlan(tuple(group), tuple(range(n)), tree=tree_path, max_duration=max_duration, pictures="all")
         kept = _resumable(sweep_dir, plan)
-        progress(f"search: {search} on {', '.join(group)} × {n} seeds ({tree})"
-                 + (f"; {kept} runs of the same code finished before, kept" if kept else ""))  # fmt: skip
+        progress(
+            f"search: {search} on {', '.join(group)} × {n} seeds ({tree})"
+            + (f"; {kept} runs of the same code finished before, kept" if kept else "")
+        )
         outcome = run_sweep(plan, sweep_dir, workers=workers, progress=True, budget_s=left)
         dirs.append(sweep_dir.relative_to(out).as_posix())
         wanted = {r.run_id for r in plan.runs()}
@@ -165,10 +173,12 @@ def summarise(name: str, runs: list[dict[str, Any]]) -> dict[str, Any]:
     the tracking fraction and the time to give up."""
     a = aggregate(name, runs)
     reacq = [float(t) for r in runs for t in (r.get("reacquisition_times_s") or [])]
-    tracking = [float(v) for r in runs if isinstance(v := (r.get("metrics") or {}).get("tracking_fraction"),
-                                                     int | float)]  # fmt: skip
-    give_up = [float(v) for r in runs if isinstance(v := (r.get("metrics") or {}).get("give_up_after_gone_s"),
-                                                    int | float)]  # fmt: skip
+    tracking = [
+        float(v) for r in runs if isinstance(v := (r.get("metrics") or {}).get("tracking_fraction"), int | float)
+    ]
+    give_up = [
+        float(v) for r in runs if isinstance(v := (r.get("metrics") or {}).get("give_up_after_gone_s"), int | float)
+    ]
     over = sum(1 for t in reacq if t > REACQUISITION_GOAL_S)
     return {
         "runs": a["runs"],
@@ -193,22 +203,52 @@ def _figures(search: str, scenario: str, c: dict[str, Any]) -> list[Figure]:
     kind = "existing" if scenario in EXISTING else "new"
     goal = GOALS[kind]
     base = f"{kind} scenario goal (issue 15)"
-    f = [Figure(f"{search} / {scenario}: success rate ({c['runs']} seeds)", c["success_rate"], "fraction",
-                baseline=base, baseline_value=goal, target=f"≥ {goal:g}",
-                meets_target=None if c["success_rate"] is None else c["success_rate"] >= goal)]  # fmt: skip
+    f = [
+        Figure(
+            f"{search} / {scenario}: success rate ({c['runs']} seeds)",
+            c["success_rate"],
+            "fraction",
+            baseline=base,
+            baseline_value=goal,
+            target=f"≥ {goal:g}",
+            meets_target=None if c["success_rate"] is None else c["success_rate"] >= goal,
+        )
+    ]
     if c["loss_events"]:
-        f.append(Figure(f"{search} / {scenario}: loss events recovered ({c['loss_events_recovered']}/"
-                        f"{c['loss_events']})", c["loss_recovered_fraction"], "fraction",
-                        baseline="every loss recovered", baseline_value=1.0))  # fmt: skip
+        f.append(
+            Figure(
+                f"{search} / {scenario}: loss events recovered ({c['loss_events_recovered']}/{c['loss_events']})",
+                c["loss_recovered_fraction"],
+                "fraction",
+                baseline="every loss recovered",
+                baseline_value=1.0,
+            )
+        )
     if c["reacquisition_s_worst"] is not None:
-        f.append(Figure(f"{search} / {scenario}: re-acquisition, worst loss (median {c['reacquisition_s_median']} s)",
-                        c["reacquisition_s_worst"], "s", baseline="design target", baseline_value=REACQUISITION_GOAL_S,
-                        target="≤ 10 s", meets_target=c["reacquisition_s_worst"] <= REACQUISITION_GOAL_S))  # fmt: skip
+        f.append(
+            Figure(
+                f"{search} / {scenario}: re-acquisition, worst loss (median {c['reacquisition_s_median']} s)",
+                c["reacquisition_s_worst"],
+                "s",
+                baseline="design target",
+                baseline_value=REACQUISITION_GOAL_S,
+                target="≤ 10 s",
+                meets_target=c["reacquisition_s_worst"] <= REACQUISITION_GOAL_S,
+            )
+        )
     if c["give_up_after_gone_s_max"] is not None:
-        f.append(Figure(f"{search} / {scenario}: gave up after the target left, worst run (median "
-                        f"{c['give_up_after_gone_s_median']} s)", c["give_up_after_gone_s_max"], "s",
-                        baseline="scenario limit (success.give_up_within_s)", baseline_value=110.0,
-                        target="≤ 110 s", meets_target=c["give_up_after_gone_s_max"] <= 110.0))  # fmt: skip
+        f.append(
+            Figure(
+                f"{search} / {scenario}: gave up after the target left, worst run (median "
+                f"{c['give_up_after_gone_s_median']} s)",
+                c["give_up_after_gone_s_max"],
+                "s",
+                baseline="scenario limit (success.give_up_within_s)",
+                baseline_value=110.0,
+                target="≤ 110 s",
+                meets_target=c["give_up_after_gone_s_max"] <= 110.0,
+            )
+        )
     return f
 
 
@@ -244,17 +284,31 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         "title": "Finding the target again: the search ladder vs the in-place sweep vs a ±90° rotation, same seeds"
         + (" (QUICK: runs cut at 12 s simulated — a smoke test)" if quick else "")
         + (" — REDUCED run: fewer seeds than the acceptance's 20" if reduced and not quick else "")
-        + (f" — CUT SHORT: {len(rows)} of {planned} runs finished (MISSION_BENCH_BUDGET_S); the same command goes on"
-           if len(rows) < planned and not quick else ""),
+        + (
+            f" — CUT SHORT: {len(rows)} of {planned} runs finished (MISSION_BENCH_BUDGET_S); the same command goes on"
+            if len(rows) < planned and not quick
+            else ""
+        ),
         "figures": [f.to_json() for f in figures],
-        "details": {"searches": {s: DESCRIBE[s] for s in searches}, "by_search": cells,
-                    "seeds_ladder": seeds, "seeds_baselines": baseline_seeds, "scenarios": list(scenarios),
-                    "runs_finished": len(rows), "runs_planned": planned, "workers": workers, "wall_s": round(wall, 1),
-                    "max_duration_s": max_duration, "reduced": reduced, "full_run": "mission bench --only search",
-                    "runs_log": "search_runs.jsonl", "sweep_dirs": dirs,
-                    "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1"},
+        "details": {
+            "searches": {s: DESCRIBE[s] for s in searches},
+            "by_search": cells,
+            "seeds_ladder": seeds,
+            "seeds_baselines": baseline_seeds,
+            "scenarios": list(scenarios),
+            "runs_finished": len(rows),
+            "runs_planned": planned,
+            "workers": workers,
+            "wall_s": round(wall, 1),
+            "max_duration_s": max_duration,
+            "reduced": reduced,
+            "full_run": "mission bench --only search",
+            "runs_log": "search_runs.jsonl",
+            "sweep_dirs": dirs,
+            "engine": "mission sweep (mission/sweep), Dask LocalCluster on 127.0.0.1",
+        },
         "plots": plots,
-    }  # fmt: skip
+    }
 
 
 def _plot(cells: dict[str, dict[str, Any]], out: Path) -> str | None:
@@ -323,9 +377,17 @@ def _typical(rows: list[dict[str, Any]], out: Path) -> str | None:
     ladder re-acquisition time is the median of the ladder's runs (a typical search, not the best)."""
     ladder = [r for r in rows if r["search"] == "ladder" and r["scenario"] == TYPICAL_SCENARIO and r.get("pictures")]
     searches = sorted({r["search"] for r in rows}, key=SEARCHES.index)
-    common = [r for r in ladder if all(any(o["search"] == s and o["scenario"] == TYPICAL_SCENARIO
-                                           and o["seed"] == r["seed"] and o.get("pictures") for o in rows)
-                                       for s in searches)]  # fmt: skip
+    common = [
+        r
+        for r in ladder
+        if all(
+            any(
+                o["search"] == s and o["scenario"] == TYPICAL_SCENARIO and o["seed"] == r["seed"] and o.get("pictures")
+                for o in rows
+            )
+            for s in searches
+        )
+    ]
     if not common:
         return None
     common.sort(key=lambda r: r.get("reacquisition_max_s") or 0.0)

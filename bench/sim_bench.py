@@ -66,22 +66,34 @@ def render_times(width: int, height: int, renderer: str, frames: int) -> dict[st
             T = adapter.T_map_optical()
             eye, fwd, up = T[:3, 3], T[:3, 2], -T[:3, 1]
             view = p.computeViewMatrix(eye.tolist(), (eye + fwd).tolist(), up.tolist(), physicsClientId=cid)
-            proj = p.computeProjectionMatrixFOV(cam.vfov_deg, width / height, cam.near_m, cam.far_m,
-                                                physicsClientId=cid)  # fmt: skip
+            proj = p.computeProjectionMatrixFOV(
+                cam.vfov_deg, width / height, cam.near_m, cam.far_m, physicsClientId=cid
+            )
             for _ in range(frames):
                 t0 = time.perf_counter()
                 adapter.capture()
                 t1 = time.perf_counter()
                 with quiet():
-                    p.getCameraImage(width, height, view, proj, shadow=0, renderer=flag,
-                                     flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=cid)  # fmt: skip
+                    p.getCameraImage(
+                        width,
+                        height,
+                        view,
+                        proj,
+                        shadow=0,
+                        renderer=flag,
+                        flags=p.ER_NO_SEGMENTATION_MASK,
+                        physicsClientId=cid,
+                    )
                 t2 = time.perf_counter()
                 times.append(1000 * (t1 - t0))
                 bare.append(1000 * (t2 - t1))
     finally:
         adapter.close()
-    return {"median_ms": round(float(np.median(times)), 1), "p90_ms": round(float(np.percentile(times, 90)), 1),
-            "bare_median_ms": round(float(np.median(bare)), 1)}  # fmt: skip
+    return {
+        "median_ms": round(float(np.median(times)), 1),
+        "p90_ms": round(float(np.percentile(times, 90)), 1),
+        "bare_median_ms": round(float(np.median(bare)), 1),
+    }
 
 
 def sim_only(duration_s: float) -> dict[str, float]:
@@ -110,8 +122,13 @@ def sim_only(duration_s: float) -> dict[str, float]:
         frames = adapter.frames_rendered
     finally:
         adapter.close()
-    return {"sim_s": round(adapter.t, 1), "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
-            "sim_s_per_wall_s": round(adapter.t / wall, 2), "frames": frames}  # fmt: skip
+    return {
+        "sim_s": round(adapter.t, 1),
+        "wall_s": round(wall, 2),
+        "cpu_s": round(cpu, 2),
+        "sim_s_per_wall_s": round(adapter.t / wall, 2),
+        "frames": frames,
+    }
 
 
 def closed_loop(duration_s: float) -> dict[str, Any]:
@@ -161,18 +178,33 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     res = measure(quick)
     figures = []
     for label, r in res["render"].items():
-        figures.append(Figure(f"capture {label}: median ms per frame", r["median_ms"], "ms",
-                              baseline="bare pybullet getCameraImage, same matrices and pose",
-                              baseline_value=r["bare_median_ms"],
-                              ratio=round(r["median_ms"] / r["bare_median_ms"], 3) if r["bare_median_ms"] else None,
-                              ).to_json())  # fmt: skip
+        figures.append(
+            Figure(
+                f"capture {label}: median ms per frame",
+                r["median_ms"],
+                "ms",
+                baseline="bare pybullet getCameraImage, same matrices and pose",
+                baseline_value=r["bare_median_ms"],
+                ratio=round(r["median_ms"] / r["bare_median_ms"], 3) if r["bare_median_ms"] else None,
+            ).to_json()
+        )
     cl, so = res["closed_loop_follow_open"], res["sim_only_follow_open"]
-    figures.append(Figure("closed loop (aruco + follow tree + sim) on follow_open", cl["sim_s_per_wall_s"],
-                          "sim-s per wall-s", baseline="the sim alone with a ground-truth follower (no perception, "
-                          "no tree)", baseline_value=so["sim_s_per_wall_s"],
-                          ratio=round(cl["sim_s_per_wall_s"] / so["sim_s_per_wall_s"], 3)).to_json())  # fmt: skip
-    return {"title": "Simulation: render cost per frame and simulated seconds per wall second",
-            "figures": figures, "details": res, "plots": []}  # fmt: skip
+    figures.append(
+        Figure(
+            "closed loop (aruco + follow tree + sim) on follow_open",
+            cl["sim_s_per_wall_s"],
+            "sim-s per wall-s",
+            baseline="the sim alone with a ground-truth follower (no perception, no tree)",
+            baseline_value=so["sim_s_per_wall_s"],
+            ratio=round(cl["sim_s_per_wall_s"] / so["sim_s_per_wall_s"], 3),
+        ).to_json()
+    )
+    return {
+        "title": "Simulation: render cost per frame and simulated seconds per wall second",
+        "figures": figures,
+        "details": res,
+        "plots": [],
+    }
 
 
 def main() -> None:
@@ -190,8 +222,10 @@ def main() -> None:
               f"(bare getCameraImage {r['bare_median_ms']:.1f} ms)")
     for key in ("sim_only_follow_open", "closed_loop_follow_open"):
         r = res[key]
-        print(f"{key:>24}: {r['sim_s']:.0f} s simulated in {r['wall_s']:.1f} s wall ({r['cpu_s']:.1f} s CPU) "
-              f"= {r['sim_s_per_wall_s']:.2f} sim-s per wall-s")  # fmt: skip
+        print(
+            f"{key:>24}: {r['sim_s']:.0f} s simulated in {r['wall_s']:.1f} s wall ({r['cpu_s']:.1f} s CPU) "
+            f"= {r['sim_s_per_wall_s']:.2f} sim-s per wall-s"
+        )
 
 
 if __name__ == "__main__":

@@ -102,8 +102,10 @@ class _Sampler(RunObserver):
                 self._snap0 = snap
             else:
                 top = snap.compare_to(self._snap0, "lineno")[:5]
-                s["top_growth"] = [f"{st.traceback[0].filename.split('/')[-1]}:{st.traceback[0].lineno} "
-                                   f"{st.size_diff / 1e3:+.0f} kB" for st in top]  # fmt: skip
+                s["top_growth"] = [
+                    f"{st.traceback[0].filename.split('/')[-1]}:{st.traceback[0].lineno} {st.size_diff / 1e3:+.0f} kB"
+                    for st in top
+                ]
         self.tick_ms = []
         self.samples.append(s)
         if self.out is not None:
@@ -172,9 +174,16 @@ def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
     K = default_intrinsics()
     rng = np.random.default_rng(5)
     T = se3.transform(R_FRONTAL @ se3.rot_y(0.3), (0.12, -0.06, 1.6))
-    views = [render_marker_view(T, marker_id=MARKER_ID, marker_size_m=MARKER_SIZE, intrinsics=K, rng=rng).image,
-             render_marker_view(se3.transform(R_FRONTAL, (30.0, 0.0, 2.0)), marker_id=MARKER_ID,
-                                marker_size_m=MARKER_SIZE, intrinsics=K, rng=rng).image]  # fmt: skip
+    views = [
+        render_marker_view(T, marker_id=MARKER_ID, marker_size_m=MARKER_SIZE, intrinsics=K, rng=rng).image,
+        render_marker_view(
+            se3.transform(R_FRONTAL, (30.0, 0.0, 2.0)),
+            marker_id=MARKER_ID,
+            marker_size_m=MARKER_SIZE,
+            intrinsics=K,
+            rng=rng,
+        ).image,
+    ]
     node = Subject("node")
     proc = Subprocess(node_command(MARKER_ID, MARKER_SIZE, 30.0), env, (out or Path("/tmp")) / ".soak_ros_node.log")
     feeder = Feeder([node], views, K, hz=30.0, frames_per_view=30, heartbeat_topic="/aruco/debug", name="soak_feeder")
@@ -192,14 +201,20 @@ def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
             if time.monotonic() >= next_t:
                 next_t += period
                 chunk, beat = feeder.take(node.name), feeder.newest_heartbeat()
-                samples.append({
-                    "t_min": round((time.monotonic() - start) / 60.0, 3),
-                    "rss_mb": round(rss_mb(proc.pid), 2),
-                    "latency_p50_ms": pct(chunk, 50), "latency_p99_ms": pct(chunk, 99), "answers": len(chunk),
-                    "published": feeder.published[node.name], "frames_received": beat.get("frames_received"),
-                    "frames_processed": beat.get("frames_processed"), "frames_dropped": beat.get("frames_dropped"),
-                    "tick": beat.get("tick"),
-                })  # fmt: skip
+                samples.append(
+                    {
+                        "t_min": round((time.monotonic() - start) / 60.0, 3),
+                        "rss_mb": round(rss_mb(proc.pid), 2),
+                        "latency_p50_ms": pct(chunk, 50),
+                        "latency_p99_ms": pct(chunk, 99),
+                        "answers": len(chunk),
+                        "published": feeder.published[node.name],
+                        "frames_received": beat.get("frames_received"),
+                        "frames_processed": beat.get("frames_processed"),
+                        "frames_dropped": beat.get("frames_dropped"),
+                        "tick": beat.get("tick"),
+                    }
+                )
                 if out is not None:
                     _write(out, ".soak_ros_partial.json", {"samples": samples})
     finally:
@@ -218,14 +233,20 @@ def run_ros(seconds: float, out: Path | None = None) -> dict[str, Any]:
         "seconds": seconds,
         "node_alive_at_end": alive,
         "frames_published": published,
-        "rss_first_mb": rss[0], "rss_last_mb": rss[-1], "rss_growth_mb": round(rss[-1] - rss[0], 2),
+        "rss_first_mb": rss[0],
+        "rss_last_mb": rss[-1],
+        "rss_growth_mb": round(rss[-1] - rss[0], 2),
         "rss_slope_mb_per_min": slope_per_min([s["t_min"] for s in samples], rss),
-        "latency_slope_ms_per_min": slope_per_min([s["t_min"] for s in samples if s["latency_p50_ms"] is not None],
-                                                  [s["latency_p50_ms"] for s in samples if s["latency_p50_ms"] is not None]),  # noqa: E501
-        "latency_first_p50_ms": pct(first, 50), "latency_last_p50_ms": pct(last, 50),
-        "latency_first_p99_ms": pct(first99, 50), "latency_last_p99_ms": pct(last99, 50),
+        "latency_slope_ms_per_min": slope_per_min(
+            [s["t_min"] for s in samples if s["latency_p50_ms"] is not None],
+            [s["latency_p50_ms"] for s in samples if s["latency_p50_ms"] is not None],
+        ),
+        "latency_first_p50_ms": pct(first, 50),
+        "latency_last_p50_ms": pct(last, 50),
+        "latency_first_p99_ms": pct(first99, 50),
+        "latency_last_p99_ms": pct(last99, 50),
         "samples": samples,
-    }  # fmt: skip
+    }
 
 
 # --------------------------------------------------------------------------------------------------
@@ -237,23 +258,53 @@ def figures(sim: dict[str, Any] | None, ros: dict[str, Any] | None) -> list[Figu
     figs: list[Figure] = []
     if sim and "rss_growth_mb" in sim:
         figs += [
-            Figure("sim: RSS growth after the first simulated minute", sim["rss_growth_mb"], "MB",
-                   "RSS at the first sample", sim["rss_first_mb"], target="flat (< 5% of RSS)",
-                   meets_target=None if sim["rss_growth_mb"] is None
-                   else sim["rss_growth_mb"] < 0.05 * sim["rss_first_mb"]),
-            Figure("sim: tick p50, last window", sim["tick_last_p50_ms"], "ms", "tick p50, first window",
-                   sim["tick_first_p50_ms"], None),
-            Figure("sim: tick p99, last window", sim["tick_last_p99_ms"], "ms", "tick p99, first window",
-                   sim["tick_first_p99_ms"], None),
-        ]  # fmt: skip
+            Figure(
+                "sim: RSS growth after the first simulated minute",
+                sim["rss_growth_mb"],
+                "MB",
+                "RSS at the first sample",
+                sim["rss_first_mb"],
+                target="flat (< 5% of RSS)",
+                meets_target=None
+                if sim["rss_growth_mb"] is None
+                else sim["rss_growth_mb"] < 0.05 * sim["rss_first_mb"],
+            ),
+            Figure(
+                "sim: tick p50, last window",
+                sim["tick_last_p50_ms"],
+                "ms",
+                "tick p50, first window",
+                sim["tick_first_p50_ms"],
+                None,
+            ),
+            Figure(
+                "sim: tick p99, last window",
+                sim["tick_last_p99_ms"],
+                "ms",
+                "tick p99, first window",
+                sim["tick_first_p99_ms"],
+                None,
+            ),
+        ]
     if ros and "rss_growth_mb" in ros:
         figs += [
-            Figure("ros node: RSS growth", ros["rss_growth_mb"], "MB", "node RSS at the first sample",
-                   ros["rss_first_mb"], target="flat (< 5% of RSS)",
-                   meets_target=ros["rss_growth_mb"] < 0.05 * ros["rss_first_mb"]),
-            Figure("ros node: frame → pose latency p50, last window", ros["latency_last_p50_ms"], "ms",
-                   "same, first window", ros["latency_first_p50_ms"]),
-        ]  # fmt: skip
+            Figure(
+                "ros node: RSS growth",
+                ros["rss_growth_mb"],
+                "MB",
+                "node RSS at the first sample",
+                ros["rss_first_mb"],
+                target="flat (< 5% of RSS)",
+                meets_target=ros["rss_growth_mb"] < 0.05 * ros["rss_first_mb"],
+            ),
+            Figure(
+                "ros node: frame → pose latency p50, last window",
+                ros["latency_last_p50_ms"],
+                "ms",
+                "same, first window",
+                ros["latency_first_p50_ms"],
+            ),
+        ]
     for f in figs:
         if isinstance(f.value, float | int) and isinstance(f.baseline_value, float | int) and f.baseline_value:
             f.ratio = round(f.value / f.baseline_value, 3)
@@ -278,10 +329,13 @@ def sim_from_samples(samples: list[dict[str, Any]], planned_min: float) -> dict[
     mins = [s["sim_min"] for s in samples]
     n = min(5, max(1, len(samples) // 2))
     return {
-        "partial": True, "planned_sim_minutes": planned_min, "sim_minutes": mins[-1] if mins else 0,
+        "partial": True,
+        "planned_sim_minutes": planned_min,
+        "sim_minutes": mins[-1] if mins else 0,
         "ticks": samples[-1]["ticks"] if samples else 0,
         "outcome": {"final_state": samples[-1]["state"] if samples else ""},
-        "rss_first_mb": rss[0] if rss else None, "rss_last_mb": rss[-1] if rss else None,
+        "rss_first_mb": rss[0] if rss else None,
+        "rss_last_mb": rss[-1] if rss else None,
         "rss_growth_mb": round(rss[-1] - rss[0], 2) if len(rss) > 1 else None,
         "rss_slope_mb_per_min": slope_per_min(mins, rss),
         "tick_slope_ms_per_min": slope_per_min(mins, [s["tick_p50_ms"] for s in samples]),
@@ -291,7 +345,7 @@ def sim_from_samples(samples: list[dict[str, Any]], planned_min: float) -> dict[
         "tick_last_p50_ms": pct([s["tick_p50_ms"] for s in samples[-n:]], 50),
         "tick_last_p99_ms": pct([s["tick_p99_ms"] for s in samples[-n:]], 50),
         "samples": samples,
-    }  # fmt: skip
+    }
 
 
 def merge(out: Path) -> dict[str, Any]:

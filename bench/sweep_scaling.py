@@ -52,8 +52,9 @@ def _alone_in_process(plan: SweepPlan) -> dict[str, tuple[float, float]]:
         py_trees.blackboard.Blackboard.clear()
         with tempfile.TemporaryDirectory() as tmp:
             t0, c0 = time.perf_counter(), time.process_time()
-            outcome, recorder, adapter = run_scenario(spec.scenario, seed=spec.seed, max_duration=spec.max_duration,
-                                                      observers=report_observers(tmp))  # fmt: skip
+            outcome, recorder, adapter = run_scenario(
+                spec.scenario, seed=spec.seed, max_duration=spec.max_duration, observers=report_observers(tmp)
+            )
             write_report(tmp, outcome, recorder, adapter)
             out[spec.run_id] = (time.perf_counter() - t0, time.process_time() - c0)
     return out
@@ -64,8 +65,21 @@ def _alone_as_processes(plan: SweepPlan) -> list[float]:
     walls = []
     for spec in plan.runs():
         with tempfile.TemporaryDirectory() as tmp:
-            cmd = [sys.executable, "-m", "mission", "run", "--scenario", spec.scenario, "--seed", str(spec.seed),
-                   "--max-duration", str(spec.max_duration), "--report", tmp, "--quiet"]  # fmt: skip
+            cmd = [
+                sys.executable,
+                "-m",
+                "mission",
+                "run",
+                "--scenario",
+                spec.scenario,
+                "--seed",
+                str(spec.seed),
+                "--max-duration",
+                str(spec.max_duration),
+                "--report",
+                tmp,
+                "--quiet",
+            ]
             t0 = time.perf_counter()
             subprocess.run(cmd, cwd=ROOT, capture_output=True, check=False, timeout=600)
             walls.append(time.perf_counter() - t0)
@@ -82,14 +96,19 @@ def _swept(plan: SweepPlan, workers: int) -> dict[str, Any]:
     tasks = [float(r.get("task_s") or 0) for r in outcome.rows]
     cpus = [float(r.get("task_cpu_s") or 0) for r in outcome.rows]
     by_run = {r["run_id"]: (float(r.get("task_s") or 0), float(r.get("task_cpu_s") or 0)) for r in outcome.rows}
-    return {"workers": outcome.workers, "runs": n, "wall_s": round(wall, 2),
-            "runs_per_min": round(60 * n / wall, 3) if wall else None,
-            "per_run_wall_s": round(wall / n, 3) if n else None,
-            "task_s_mean": round(statistics.mean(tasks), 3) if tasks else None,
-            "task_cpu_s_mean": round(statistics.mean(cpus), 3) if cpus else None,
-            # what is not a run: cluster start, worker imports, transfer, recording, table and summary
-            "fixed_s": round(wall - sum(tasks) / max(1, outcome.workers), 2),
-            "unfinished": len(outcome.unfinished), "by_run": by_run}  # fmt: skip
+    return {
+        "workers": outcome.workers,
+        "runs": n,
+        "wall_s": round(wall, 2),
+        "runs_per_min": round(60 * n / wall, 3) if wall else None,
+        "per_run_wall_s": round(wall / n, 3) if n else None,
+        "task_s_mean": round(statistics.mean(tasks), 3) if tasks else None,
+        "task_cpu_s_mean": round(statistics.mean(cpus), 3) if cpus else None,
+        # what is not a run: cluster start, worker imports, transfer, recording, table and summary
+        "fixed_s": round(wall - sum(tasks) / max(1, outcome.workers), 2),
+        "unfinished": len(outcome.unfinished),
+        "by_run": by_run,
+    }
 
 
 def _full_run_cost_s(sim_speed: float) -> tuple[float, str]:
@@ -97,8 +116,11 @@ def _full_run_cost_s(sim_speed: float) -> tuple[float, str]:
     committed = ROOT / "bench" / "results" / "missions_runs.jsonl"
     if committed.is_file():
         rows = [json.loads(line) for line in committed.read_text().splitlines() if line.strip()]
-        per = [statistics.mean(float(r["wall_time_s"]) for r in rows if r["scenario"] == s)
-               for s in REGRESSION_SCENARIOS if any(r["scenario"] == s for r in rows)]  # fmt: skip
+        per = [
+            statistics.mean(float(r["wall_time_s"]) for r in rows if r["scenario"] == s)
+            for s in REGRESSION_SCENARIOS
+            if any(r["scenario"] == s for r in rows)
+        ]
         if per:
             return statistics.mean(per), "mean wall time of a full run per scenario (bench/results/missions_runs.jsonl)"
     from mission.sim.scenario import load_scenario
@@ -136,23 +158,50 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     cluster_h = (core_s / CLUSTER_CORES + one["fixed_s"]) / 3600
     here_h = (core_s / 2 + one["fixed_s"]) / 3600
     figures = [
-        Figure("sweep throughput, 2 workers vs 1 (runs per minute)", two["runs_per_min"], "runs/min",
-               baseline="the same sweep on 1 worker, this run", baseline_value=one["runs_per_min"], ratio=scaling,
-               target="2.0 = perfect scaling on 2 idle cores"),
-        Figure("sweep per-run wall time on 1 worker vs the run alone (run_scenario + report, in-process)",
-               one["per_run_wall_s"], "s", baseline="the same runs alone in this process, warmed",
-               baseline_value=round(alone_s, 3), ratio=overhead),
-        Figure("sweep per-run wall time on 1 worker vs `mission run --report` processes in a loop",
-               one["per_run_wall_s"], "s", baseline="one `mission run --report` process per run",
-               baseline_value=round(process_s, 3), ratio=ratio(one["per_run_wall_s"], process_s)),
-        Figure("sweep CPU seconds per run on 1 worker vs the run alone (load-independent; ratio: median of "
-               "the runs' own ratios)", one["task_cpu_s_mean"], "s", baseline="the same runs alone in this process, "
-               "warmed", baseline_value=round(alone_cpu_s, 3), ratio=per_run),
-        Figure(f"paper estimate: {REGRESSION_SEEDS} seeds × {len(REGRESSION_SCENARIOS)} scenarios on a "
-               f"{CLUSTER_CORES}-core cluster", round(cluster_h, 2), "h",
-               baseline="the same regression on this machine's 2 cores, idle", baseline_value=round(here_h, 1),
-               ratio=ratio(cluster_h, here_h)),
-    ]  # fmt: skip
+        Figure(
+            "sweep throughput, 2 workers vs 1 (runs per minute)",
+            two["runs_per_min"],
+            "runs/min",
+            baseline="the same sweep on 1 worker, this run",
+            baseline_value=one["runs_per_min"],
+            ratio=scaling,
+            target="2.0 = perfect scaling on 2 idle cores",
+        ),
+        Figure(
+            "sweep per-run wall time on 1 worker vs the run alone (run_scenario + report, in-process)",
+            one["per_run_wall_s"],
+            "s",
+            baseline="the same runs alone in this process, warmed",
+            baseline_value=round(alone_s, 3),
+            ratio=overhead,
+        ),
+        Figure(
+            "sweep per-run wall time on 1 worker vs `mission run --report` processes in a loop",
+            one["per_run_wall_s"],
+            "s",
+            baseline="one `mission run --report` process per run",
+            baseline_value=round(process_s, 3),
+            ratio=ratio(one["per_run_wall_s"], process_s),
+        ),
+        Figure(
+            "sweep CPU seconds per run on 1 worker vs the run alone (load-independent; ratio: median of "
+            "the runs' own ratios)",
+            one["task_cpu_s_mean"],
+            "s",
+            baseline="the same runs alone in this process, warmed",
+            baseline_value=round(alone_cpu_s, 3),
+            ratio=per_run,
+        ),
+        Figure(
+            f"paper estimate: {REGRESSION_SEEDS} seeds × {len(REGRESSION_SCENARIOS)} scenarios on a "
+            f"{CLUSTER_CORES}-core cluster",
+            round(cluster_h, 2),
+            "h",
+            baseline="the same regression on this machine's 2 cores, idle",
+            baseline_value=round(here_h, 1),
+            ratio=ratio(cluster_h, here_h),
+        ),
+    ]
     return {
         "title": "mission sweep: throughput on 1 and 2 workers, per-run overhead, a 1,000-seed estimate"
         + (" (QUICK: 2 runs of 2 s — a smoke test)" if quick else ""),

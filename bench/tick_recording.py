@@ -117,9 +117,18 @@ class _Recorder(RunObserver):
             det_s = sum(s.calls[stamp][0] for s in self.sources if stamp in s.calls)
         twist, goal = run.get(bbk.TWIST), run.get(bbk.NAV_GOAL)
         command = "twist" if twist is not None else ("goal" if goal is not None else "none")
-        self.rec.ticks.append(TickRecord(self._inputs, frame is not None, stamp, self._tick_end - self._tick_start,
-                                         self._tick_end - self.world.sensed_at, det_s,
-                                         str(run.get(bbk.STATE, "")), command))  # fmt: skip
+        self.rec.ticks.append(
+            TickRecord(
+                self._inputs,
+                frame is not None,
+                stamp,
+                self._tick_end - self._tick_start,
+                self._tick_end - self.world.sensed_at,
+                det_s,
+                str(run.get(bbk.STATE, "")),
+                command,
+            )
+        )
 
 
 _CACHE: dict[tuple[str, float, int], Recording] = {}
@@ -139,8 +148,9 @@ def record(scenario_name: str = "mission_full", seconds: float = 20.0, seed: int
     sources = [TimedSource(s) for s in registry.create_all(config.perception.sources, file=str(config_path))]
     tree = choose_tree(None, config, scenario)
     rec = Recording(scenario_name, seed, tree, config_path.name)
-    runner = TreeRunner(config, world, tree, config_file=config_path, sources=list(sources),
-                        observers=[_Recorder(rec, world, sources)])  # fmt: skip
+    runner = TreeRunner(
+        config, world, tree, config_file=config_path, sources=list(sources), observers=[_Recorder(rec, world, sources)]
+    )
     wall0 = time.perf_counter()
     try:
         runner.setup()

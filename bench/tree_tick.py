@@ -104,8 +104,9 @@ def _replay_tree(rec: Recording, observers: list[RunObserver]) -> TreeRunner:
     """mission.xml stepped by the runner over the recorded inputs (the caller closes it)."""
     config_path = shipped_config(rec.config)
     py_trees.blackboard.Blackboard.clear()
-    runner = TreeRunner(load_config(config_path), ReplayWorld(rec), rec.tree, config_file=config_path, sources=[],
-                        observers=observers)  # fmt: skip
+    runner = TreeRunner(
+        load_config(config_path), ReplayWorld(rec), rec.tree, config_file=config_path, sources=[], observers=observers
+    )
     runner.setup()
     runner.run()
     return runner
@@ -159,8 +160,11 @@ def bare_mirror(node: py_trees.behaviour.Behaviour, leaf: Leaf) -> py_trees.beha
             if isinstance(node, decorators.Repeat):
                 return deco.Repeat(node.name, child, limit)
             return deco.Retry(node.name, child, limit)
-        bare = {decorators.Inverter: deco.Inverter, decorators.ForceFailure: deco.SuccessIsFailure,
-                decorators.ForceSuccess: deco.FailureIsSuccess}  # fmt: skip
+        bare = {
+            decorators.Inverter: deco.Inverter,
+            decorators.ForceFailure: deco.SuccessIsFailure,
+            decorators.ForceSuccess: deco.FailureIsSuccess,
+        }
         base = next((bare[c] for c in type(node).__mro__ if c in bare), deco.PassThrough)
         return base(name=node.name, child=child)
     return leaf(node)
@@ -243,10 +247,15 @@ def replay(rec: Recording, passes: int) -> dict[str, Any]:
         same_us.extend(same.us)
         same_match += sum(s == t.state for s, t in zip(same.states, rec.ticks, strict=False))
     py_trees.blackboard.Blackboard.clear()
-    return {"real_us": real_us, "bare_us": bare_us, "same_leaves_us": same_us, "nodes": n_nodes,
-            "state_matches_live": round(state_match / max(1, total), 3),
-            "same_leaves_state_matches_live": round(same_match / max(1, total), 3),
-            "bare_root_status_matches": round(root_match / max(1, total), 3)}  # fmt: skip
+    return {
+        "real_us": real_us,
+        "bare_us": bare_us,
+        "same_leaves_us": same_us,
+        "nodes": n_nodes,
+        "state_matches_live": round(state_match / max(1, total), 3),
+        "same_leaves_state_matches_live": round(same_match / max(1, total), 3),
+        "bare_root_status_matches": round(root_match / max(1, total), 3),
+    }
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:
@@ -265,40 +274,74 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     figures = [
         # The target's comparison: the tree alone, the leaves' own work on both sides. The mirror is the
         # same leaf objects under py_trees' Sequence/Selector/decorators, ticked by py_trees' generators.
-        Figure("mission.xml tick on scripted inputs vs the same leaves in a py_trees tree: median µs per tick",
-               round(real_med, 1), "µs",
-               baseline="the same leaves in a py_trees tree of the same shape (py_trees' composites, tick)",
-               baseline_value=round(same_med, 1), ratio=round(real_med / same_med, 2),
-               target=f"ratio ≤ {TARGET}", meets_target=real_med / same_med <= TARGET),
-        Figure("mission.xml tick on scripted inputs: median µs per tick", round(real_med, 1), "µs",
-               baseline="bare py_trees tree of the same shape (leaves only return the real ones' statuses)",
-               baseline_value=round(bare_med, 1), ratio=round(real_med / bare_med, 2)),
-        Figure("mission.xml: median µs per node per tick", round(real_med / r["nodes"], 2), "µs",
-               baseline="bare tree µs per node", baseline_value=round(bare_med / r["nodes"], 2),
-               ratio=round(real_med / bare_med, 2)),
-        Figure("mission.xml tick p99", pct(r["real_us"], 99, 1), "µs", baseline="bare tree p99",
-               baseline_value=pct(r["bare_us"], 99, 1)),
+        Figure(
+            "mission.xml tick on scripted inputs vs the same leaves in a py_trees tree: median µs per tick",
+            round(real_med, 1),
+            "µs",
+            baseline="the same leaves in a py_trees tree of the same shape (py_trees' composites, tick)",
+            baseline_value=round(same_med, 1),
+            ratio=round(real_med / same_med, 2),
+            target=f"ratio ≤ {TARGET}",
+            meets_target=real_med / same_med <= TARGET,
+        ),
+        Figure(
+            "mission.xml tick on scripted inputs: median µs per tick",
+            round(real_med, 1),
+            "µs",
+            baseline="bare py_trees tree of the same shape (leaves only return the real ones' statuses)",
+            baseline_value=round(bare_med, 1),
+            ratio=round(real_med / bare_med, 2),
+        ),
+        Figure(
+            "mission.xml: median µs per node per tick",
+            round(real_med / r["nodes"], 2),
+            "µs",
+            baseline="bare tree µs per node",
+            baseline_value=round(bare_med / r["nodes"], 2),
+            ratio=round(real_med / bare_med, 2),
+        ),
+        Figure(
+            "mission.xml tick p99",
+            pct(r["real_us"], 99, 1),
+            "µs",
+            baseline="bare tree p99",
+            baseline_value=pct(r["bare_us"], 99, 1),
+        ),
         # Where the ratio comes from: the tick minus the time inside the leaves' update() (the breakdown
         # pass) is the rest — composites, decorators, the leaves' initialise()/terminate(), py_trees' own
         # bookkeeping — against the bare tree, which has only that rest.
-        Figure("mission.xml tick minus its leaves' update() time: mean µs per tick", structure, "µs",
-               baseline="bare tree mean µs per tick (composites + leaves that only return a status)",
-               baseline_value=round(bare_mean, 1), ratio=round(structure / bare_mean, 2)),
-    ]  # fmt: skip
+        Figure(
+            "mission.xml tick minus its leaves' update() time: mean µs per tick",
+            structure,
+            "µs",
+            baseline="bare tree mean µs per tick (composites + leaves that only return a status)",
+            baseline_value=round(bare_mean, 1),
+            ratio=round(structure / bare_mean, 2),
+        ),
+    ]
     return {
-        "title": ("Tree tick cost: the shipped mission.xml vs py_trees trees of the same shape "
-                  "(the same leaves; leaves that do no work)"),
+        "title": (
+            "Tree tick cost: the shipped mission.xml vs py_trees trees of the same shape "
+            "(the same leaves; leaves that do no work)"
+        ),
         "figures": [f.to_json() for f in figures],
-        "details": {"scenario": rec.scenario, "sim_seconds": seconds, "ticks": len(rec.ticks), "passes": passes,
-                    "nodes": r["nodes"], "ticks_in_state": states,
-                    "leaf_update_us_per_tick": breakdown,
-                    "replay_state_matches_live_run": r["state_matches_live"],
-                    "same_leaves_state_matches_live_run": r["same_leaves_state_matches_live"],
-                    "same_leaves_us_p50_p90_p99": [pct(r["same_leaves_us"], q, 1) for q in (50, 90, 99)],
-                    "bare_root_status_matches_real": r["bare_root_status_matches"],
-                    "real_us_mean": round(real_mean, 1), "bare_us_mean": round(bare_mean, 1),
-                    "leaf_update_us_per_tick_total": round(sum(breakdown.values()), 1),
-                    "real_us_p50_p90_p99": [pct(r["real_us"], q, 1) for q in (50, 90, 99)],
-                    "bare_us_p50_p90_p99": [pct(r["bare_us"], q, 1) for q in (50, 90, 99)]},
+        "details": {
+            "scenario": rec.scenario,
+            "sim_seconds": seconds,
+            "ticks": len(rec.ticks),
+            "passes": passes,
+            "nodes": r["nodes"],
+            "ticks_in_state": states,
+            "leaf_update_us_per_tick": breakdown,
+            "replay_state_matches_live_run": r["state_matches_live"],
+            "same_leaves_state_matches_live_run": r["same_leaves_state_matches_live"],
+            "same_leaves_us_p50_p90_p99": [pct(r["same_leaves_us"], q, 1) for q in (50, 90, 99)],
+            "bare_root_status_matches_real": r["bare_root_status_matches"],
+            "real_us_mean": round(real_mean, 1),
+            "bare_us_mean": round(bare_mean, 1),
+            "leaf_update_us_per_tick_total": round(sum(breakdown.values()), 1),
+            "real_us_p50_p90_p99": [pct(r["real_us"], q, 1) for q in (50, 90, 99)],
+            "bare_us_p50_p90_p99": [pct(r["bare_us"], q, 1) for q in (50, 90, 99)],
+        },
         "plots": [],
-    }  # fmt: skip
+    }

@@ -94,7 +94,12 @@ def scan_segments(
         else:
             segments.append([int(k)])
     full_circle = abs(angle_increment) * n >= 2 * math.pi - 1e-6
-    if (len(segments) > 1 and full_circle and segments[0][0] == 0 and segments[-1][-1] == n - 1
-            and _continues(xs, ys, ranges, angle_increment, n - 1, 0)):  # fmt: skip
+    if (
+        len(segments) > 1
+        and full_circle
+        and segments[0][0] == 0
+        and segments[-1][-1] == n - 1
+        and _continues(xs, ys, ranges, angle_increment, n - 1, 0)
+    ):
         segments[0] = segments.pop() + segments[0]
     return [np.asarray(s) for s in segments]

@@ -101,9 +101,14 @@ class CameraIntrinsics:
 
     def to_dict(self) -> dict[str, Any]:
         return {
-            "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy,
-            "width": self.width, "height": self.height, "distortion": list(self.distortion),
-        }  # fmt: skip
+            "fx": self.fx,
+            "fy": self.fy,
+            "cx": self.cx,
+            "cy": self.cy,
+            "width": self.width,
+            "height": self.height,
+            "distortion": list(self.distortion),
+        }
 
 
 @dataclass

@@ -129,9 +129,14 @@ def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="mission config YAML")
     p.add_argument("--rate", type=rate, default=0.0, help="1.0 = recorded rate; 0 = as fast as possible")
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
-    for name, what in (("image", "camera images, raw or compressed"), ("camera-info", "sensor_msgs/CameraInfo"),
-                       ("depth", "depth images, raw or compressedDepth"), ("odom", "nav_msgs/Odometry"),
-                       ("scan", "sensor_msgs/LaserScan"), ("map", "nav_msgs/OccupancyGrid")):  # fmt: skip
+    for name, what in (
+        ("image", "camera images, raw or compressed"),
+        ("camera-info", "sensor_msgs/CameraInfo"),
+        ("depth", "depth images, raw or compressedDepth"),
+        ("odom", "nav_msgs/Odometry"),
+        ("scan", "sensor_msgs/LaserScan"),
+        ("map", "nav_msgs/OccupancyGrid"),
+    ):
         p.add_argument(f"--{name}-topic", default=None, metavar="TOPIC",
                        help=f"{what} (default: the config's topics section, else the node's default)")
     p.add_argument("--calibration", default=None, metavar="FILE",

@@ -32,6 +32,9 @@ class FrameIntrinsics:
             detail = "" if problem is None else f" ({problem})"
             self.log.warning(
                 "%s: camera intrinsics %s%s; using the fallback pinhole fx = fy = 0.9·width, principal point at "
-                "the image centre (degraded pose accuracy)", self.source_name, reason, detail,
-            )  # fmt: skip
+                "the image centre (degraded pose accuracy)",
+                self.source_name,
+                reason,
+                detail,
+            )
         return CameraIntrinsics.fallback(frame.width, frame.height), True

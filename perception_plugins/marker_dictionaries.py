@@ -96,8 +96,9 @@ def from_file(path: str, key: str = "dictionary") -> MarkerDictionary:
     p = Path(path).expanduser()
     if not p.is_file():
         why = "no such file" if not p.exists() else "not a file"
-        raise ConfigError(f"{path}: {why} (expected an OpenCV dictionary file or one of {', '.join(PREDEFINED)})",
-                          key=key)  # fmt: skip
+        raise ConfigError(
+            f"{path}: {why} (expected an OpenCV dictionary file or one of {', '.join(PREDEFINED)})", key=key
+        )
     try:
         storage = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
         root = storage.root()
@@ -112,8 +113,9 @@ def from_file(path: str, key: str = "dictionary") -> MarkerDictionary:
     if not ok or len(d.bytesList) != nmarkers:
         raise ConfigError(
             f"{path}: not an OpenCV dictionary file (expected nmarkers, markersize and marker_0 … marker_N bit "
-            f"strings of markersize² bits)", key=key,
-        )  # fmt: skip
+            f"strings of markersize² bits)",
+            key=key,
+        )
     if not has_correction:
         d.maxCorrectionBits = correctable_bits(d)
     return MarkerDictionary(str(path), d, custom=True)

@@ -151,9 +151,12 @@ class PerceptionStage:
             return None
         self._last_key = key
         perceived = self.process(
-            frame, int(seq or 0), robot=bbk.get(bb, bbk.ROBOT_STATE), extrinsics=bbk.get(bb, bbk.CAMERA_EXTRINSICS),
+            frame,
+            int(seq or 0),
+            robot=bbk.get(bb, bbk.ROBOT_STATE),
+            extrinsics=bbk.get(bb, bbk.CAMERA_EXTRINSICS),
             now=bbk.get(bb, bbk.CLOCK),
-        )  # fmt: skip
+        )
         if perceived.processed:
             bbk.set_(bb, bbk.DETECTIONS, perceived.detections)
         bbk.set_(bb, bbk.TRACKS, self.tracks)
@@ -237,9 +240,9 @@ class PerceptionStage:
         if why is not None:
             counter = "frames_duplicate" if why.startswith("duplicate") else "frames_stale"
             n = self._count(counter)
-            return self._done(Perceived(
-                frame, seq, summary=f"dropped {why} frame {seq} ({n} {counter[7:]} so far)", dropped=counter
-            ))  # fmt: skip
+            return self._done(
+                Perceived(frame, seq, summary=f"dropped {why} frame {seq} ({n} {counter[7:]} so far)", dropped=counter)
+            )
         self._last_stamp = stamp
         self._last_image = frame.image
 

@@ -352,8 +352,14 @@ class Navigator:
             return None  # not hemmed in: turning to the aim point is the right thing
         best, best_score = None, 0.0
         before = math.hypot(aim[0] - pose.x, aim[1] - pose.y)
-        for v, w in [*((v, w) for v in (0.5 * self.max_v, 0.25 * self.max_v)
-                       for w in np.linspace(-0.8 * self.max_w, 0.8 * self.max_w, 9)), (-0.1, 0.0)]:  # fmt: skip
+        for v, w in [
+            *(
+                (v, w)
+                for v in (0.5 * self.max_v, 0.25 * self.max_v)
+                for w in np.linspace(-0.8 * self.max_w, 0.8 * self.max_w, 9)
+            ),
+            (-0.1, 0.0),
+        ]:
             if self._unsafe(pose, v, w):
                 continue
             x, y = _rollout(pose, v, w)[-1]

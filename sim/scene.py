@@ -168,8 +168,9 @@ class World:
         p, tg = self.p, self.sc.target
         assert tg is not None
         hx, hy, hz = tg.size[0] / 2, tg.size[1] / 2, tg.size[2] / 2
-        vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[hx, hy, hz], rgbaColor=_rgba(tg.color),
-                                  physicsClientId=self.cid)  # fmt: skip
+        vis = p.createVisualShape(
+            p.GEOM_BOX, halfExtents=[hx, hy, hz], rgbaColor=_rgba(tg.color), physicsClientId=self.cid
+        )
         col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, hz], physicsClientId=self.cid)
         link_vis, link_pos, link_orn = [], [], []
         for i, m in enumerate(tg.markers):
@@ -178,8 +179,10 @@ class World:
             half_depth = hx if m.face in ("front", "back") else hy
             height = self.camera_height() if m.height_m is None else m.height_m
             height = min(max(height, side / 2), tg.size[2] - side / 2)
-            T = se3.transform(face_rotation(nx, ny), (nx * (half_depth + MARKER_OFFSET_M),
-                                                      ny * (half_depth + MARKER_OFFSET_M), height - hz))  # fmt: skip
+            T = se3.transform(
+                face_rotation(nx, ny),
+                (nx * (half_depth + MARKER_OFFSET_M), ny * (half_depth + MARKER_OFFSET_M), height - hz),
+            )
             if i < len(self._marker_jitter):
                 T = T @ self._marker_jitter[i]  # mounted slightly off-centre / rotated in its plane
             self.markers.append(MarkerMount(m.face, m.id, m.dictionary, m.marker_size_m, T))
@@ -189,12 +192,23 @@ class World:
             link_orn.append(quat.tolist())
         n = len(link_vis)
         self.bodies.target = p.createMultiBody(
-            0, col, vis, [tg.x, tg.y, hz], p.getQuaternionFromEuler([0, 0, math.radians(tg.yaw_deg)]),
-            linkMasses=[0.0] * n, linkCollisionShapeIndices=[-1] * n, linkVisualShapeIndices=link_vis,
-            linkPositions=link_pos, linkOrientations=link_orn, linkInertialFramePositions=[[0, 0, 0]] * n,
-            linkInertialFrameOrientations=[[0, 0, 0, 1]] * n, linkParentIndices=[0] * n,
-            linkJointTypes=[p.JOINT_FIXED] * n, linkJointAxis=[[0, 0, 1]] * n, physicsClientId=self.cid,
-        )  # fmt: skip
+            0,
+            col,
+            vis,
+            [tg.x, tg.y, hz],
+            p.getQuaternionFromEuler([0, 0, math.radians(tg.yaw_deg)]),
+            linkMasses=[0.0] * n,
+            linkCollisionShapeIndices=[-1] * n,
+            linkVisualShapeIndices=link_vis,
+            linkPositions=link_pos,
+            linkOrientations=link_orn,
+            linkInertialFramePositions=[[0, 0, 0]] * n,
+            linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+            linkParentIndices=[0] * n,
+            linkJointTypes=[p.JOINT_FIXED] * n,
+            linkJointAxis=[[0, 0, 1]] * n,
+            physicsClientId=self.cid,
+        )
 
     def _build_dock(self) -> None:
         p, d = self.p, self.sc.dock
@@ -205,8 +219,9 @@ class World:
         side = marker_asset(d.dictionary, d.id, d.marker_size_m, d.quiet_cells).quad_side_m
         panel = side + 0.06
         # The board's front face sits DOCK_PANEL_T/2 in front of (x, y); its back half is inside the wall.
-        self.bodies.dock = self._box((d.x, d.y, max(z, panel / 2)), (DOCK_PANEL_T / 2, panel / 2, panel / 2), yaw,
-                                     (0.95, 0.95, 0.95))  # fmt: skip
+        self.bodies.dock = self._box(
+            (d.x, d.y, max(z, panel / 2)), (DOCK_PANEL_T / 2, panel / 2, panel / 2), yaw, (0.95, 0.95, 0.95)
+        )
         off = DOCK_PANEL_T / 2 + MARKER_OFFSET_M
         self.T_map_dock = se3.transform(face_rotation(nx, ny), (d.x + nx * off, d.y + ny * off, z))
         pos, quat = se3.to_pos_quat(self.T_map_dock)
@@ -215,10 +230,12 @@ class World:
 
     def _build_robot(self) -> None:
         p, r = self.p, self.sc.robot
-        vis = p.createVisualShape(p.GEOM_CYLINDER, radius=r.radius, length=r.height, rgbaColor=_rgba(r.color),
-                                  physicsClientId=self.cid)  # fmt: skip
-        self.bodies.robot = p.createMultiBody(0, -1, vis, [r.x, r.y, r.height / 2], [0, 0, 0, 1],
-                                              physicsClientId=self.cid)  # fmt: skip
+        vis = p.createVisualShape(
+            p.GEOM_CYLINDER, radius=r.radius, length=r.height, rgbaColor=_rgba(r.color), physicsClientId=self.cid
+        )
+        self.bodies.robot = p.createMultiBody(
+            0, -1, vis, [r.x, r.y, r.height / 2], [0, 0, 0, 1], physicsClientId=self.cid
+        )
 
     def _probe_colors(self) -> dict[str, np.ndarray]:
         """How TinyRenderer shades the floor and each wall under this lighting (one tiny render each).
@@ -244,11 +261,19 @@ class World:
             view = p.computeViewMatrix(eye.tolist(), face.tolist(), up, physicsClientId=self.cid)
             proj = p.computeProjectionMatrixFOV(20, 1.0, 0.05, 10.0, physicsClientId=self.cid)
             _, _, rgba, _, _ = p.getCameraImage(
-                8, 8, view, proj, shadow=0, renderer=p.ER_TINY_RENDERER,
-                lightDirection=list(light.direction), lightAmbientCoeff=light.ambient,
-                lightDiffuseCoeff=light.diffuse, lightSpecularCoeff=light.specular,
-                flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=self.cid,
-            )  # fmt: skip
+                8,
+                8,
+                view,
+                proj,
+                shadow=0,
+                renderer=p.ER_TINY_RENDERER,
+                lightDirection=list(light.direction),
+                lightAmbientCoeff=light.ambient,
+                lightDiffuseCoeff=light.diffuse,
+                lightSpecularCoeff=light.specular,
+                flags=p.ER_NO_SEGMENTATION_MASK,
+                physicsClientId=self.cid,
+            )
             px = np.asarray(rgba, dtype=np.uint8).reshape(8, 8, 4)[4, 4, :3]
             out[name] = px[::-1].copy()  # BGR
             p.removeBody(body, physicsClientId=self.cid)
@@ -257,21 +282,24 @@ class World:
     # -- moving things -------------------------------------------------------------------------------
     def set_robot_pose(self, x: float, y: float, yaw: float) -> None:
         q = self.p.getQuaternionFromEuler([0, 0, yaw])
-        self.p.resetBasePositionAndOrientation(self.bodies.robot, [x, y, self.sc.robot.height / 2], q,
-                                               physicsClientId=self.cid)  # fmt: skip
+        self.p.resetBasePositionAndOrientation(
+            self.bodies.robot, [x, y, self.sc.robot.height / 2], q, physicsClientId=self.cid
+        )
 
     def set_target_pose(self, x: float, y: float, yaw: float) -> None:
         if self.bodies.target is None or self.sc.target is None:
             return
         q = self.p.getQuaternionFromEuler([0, 0, yaw])
-        self.p.resetBasePositionAndOrientation(self.bodies.target, [x, y, self.sc.target.size[2] / 2], q,
-                                               physicsClientId=self.cid)  # fmt: skip
+        self.p.resetBasePositionAndOrientation(
+            self.bodies.target, [x, y, self.sc.target.size[2] / 2], q, physicsClientId=self.cid
+        )
 
     def remove_target(self) -> None:
         """The target has left the map: its body goes far below the floor, out of every camera and ray."""
         if self.bodies.target is not None:
-            self.p.resetBasePositionAndOrientation(self.bodies.target, [0.0, 0.0, -100.0], [0, 0, 0, 1],
-                                                   physicsClientId=self.cid)  # fmt: skip
+            self.p.resetBasePositionAndOrientation(
+                self.bodies.target, [0.0, 0.0, -100.0], [0, 0, 0, 1], physicsClientId=self.cid
+            )
 
     def set_mover_pose(self, i: int, x: float, y: float, yaw: float) -> None:
         ob = self.sc.moving_obstacles[i]
@@ -293,16 +321,25 @@ class World:
         fwd = T_map_optical[:3, 2]
         up = -T_map_optical[:3, 1]
         view = p.computeViewMatrix(eye.tolist(), (eye + fwd).tolist(), up.tolist(), physicsClientId=self.cid)
-        proj = p.computeProjectionMatrixFOV(cam.vfov_deg, cam.width / cam.height, cam.near_m, cam.far_m,
-                                            physicsClientId=self.cid)  # fmt: skip
+        proj = p.computeProjectionMatrixFOV(
+            cam.vfov_deg, cam.width / cam.height, cam.near_m, cam.far_m, physicsClientId=self.cid
+        )
         renderer = p.ER_BULLET_HARDWARE_OPENGL if self.renderer == "egl" else p.ER_TINY_RENDERER
         with quiet():
             _, _, rgba, zbuf, _ = p.getCameraImage(
-                cam.width, cam.height, view, proj, shadow=0, renderer=renderer,
-                lightDirection=list(light.direction), lightAmbientCoeff=light.ambient,
-                lightDiffuseCoeff=light.diffuse, lightSpecularCoeff=light.specular,
-                flags=p.ER_NO_SEGMENTATION_MASK, physicsClientId=self.cid,
-            )  # fmt: skip
+                cam.width,
+                cam.height,
+                view,
+                proj,
+                shadow=0,
+                renderer=renderer,
+                lightDirection=list(light.direction),
+                lightAmbientCoeff=light.ambient,
+                lightDiffuseCoeff=light.diffuse,
+                lightSpecularCoeff=light.specular,
+                flags=p.ER_NO_SEGMENTATION_MASK,
+                physicsClientId=self.cid,
+            )
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(cam.height, cam.width, 4)
         bgr = cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR)
         d = np.asarray(zbuf, dtype=np.float32).reshape(cam.height, cam.width)
@@ -320,8 +357,9 @@ class World:
         out = np.ones(len(froms))
         step = 16000
         for i in range(0, len(froms), step):
-            res = self.p.rayTestBatch(froms[i : i + step].tolist(), tos[i : i + step].tolist(),
-                                      physicsClientId=self.cid)  # fmt: skip
+            res = self.p.rayTestBatch(
+                froms[i : i + step].tolist(), tos[i : i + step].tolist(), physicsClientId=self.cid
+            )
             out[i : i + len(res)] = [r[2] if r[0] >= 0 else 1.0 for r in res]
         return out
 
@@ -370,10 +408,12 @@ def unknown_footprints(sc: Scenario) -> list[Footprint]:
 def intrinsics_for(cam: CameraSpec, renderer: str) -> CameraIntrinsics:
     """The pinhole that matches pybullet's image (FIELD_NOTES: TinyRenderer cy = H/2 − 1; EGL half-pixel)."""
     if renderer == "egl":
-        return CameraIntrinsics.from_vertical_fov(cam.width, cam.height, cam.vfov_deg,
-                                                  cx=cam.width / 2 - 0.5, cy=cam.height / 2 - 0.5)  # fmt: skip
-    return CameraIntrinsics.from_vertical_fov(cam.width, cam.height, cam.vfov_deg,
-                                              cx=cam.width / 2, cy=cam.height / 2 - 1)  # fmt: skip
+        return CameraIntrinsics.from_vertical_fov(
+            cam.width, cam.height, cam.vfov_deg, cx=cam.width / 2 - 0.5, cy=cam.height / 2 - 0.5
+        )
+    return CameraIntrinsics.from_vertical_fov(
+        cam.width, cam.height, cam.vfov_deg, cx=cam.width / 2, cy=cam.height / 2 - 1
+    )
 
 
 class RoomPainter:

@@ -232,8 +232,15 @@ class SimAdapter:
             plus, minus = self._noise_image(sigma)
             img = cv2.subtract(cv2.add(img, plus), minus)  # saturating uint8 img + noise
         self.frames_rendered += 1
-        return Frame(image=img, stamp=self.t, frame_id="camera_optical_frame", intrinsics=self.intrinsics,
-                     depth=depth, T_anchor_camera=T, anchor_frame="map")  # fmt: skip
+        return Frame(
+            image=img,
+            stamp=self.t,
+            frame_id="camera_optical_frame",
+            intrinsics=self.intrinsics,
+            depth=depth,
+            T_anchor_camera=T,
+            anchor_frame="map",
+        )
 
     def _noise_image(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
         """Gaussian image noise as (positive part, negative part): fresh for the first NOISE_BANK frames,
@@ -263,9 +270,15 @@ class SimAdapter:
         if li.noise_sigma_m > 0:
             ranges = ranges + self._rng_noise.normal(0.0, li.noise_sigma_m, li.beams)
         ranges = np.where(frac >= 1.0, np.inf, np.maximum(ranges, li.range_min_m)).astype(np.float32)
-        self._scan = LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / li.beams, ranges=ranges,
-                               range_min=li.range_min_m, range_max=li.range_max_m, stamp=self.t,
-                               frame_id="base_scan")  # fmt: skip
+        self._scan = LaserScan(
+            angle_min=-math.pi,
+            angle_increment=2 * math.pi / li.beams,
+            ranges=ranges,
+            range_min=li.range_min_m,
+            range_max=li.range_max_m,
+            stamp=self.t,
+            frame_id="base_scan",
+        )
         self._scan_seq += 1
         assert self.navigator is not None
         self.navigator.update_scan(pose, self._scan)
@@ -313,8 +326,9 @@ class SimAdapter:
             self._target_blocked = False
             return
         pose = self.target_path.pose(self._tau + h)
-        if pose != self._target_pose and self._would_crowd(self._target_footprint(*self._target_pose),
-                                                           self._target_footprint(*pose)):  # fmt: skip
+        if pose != self._target_pose and self._would_crowd(
+            self._target_footprint(*self._target_pose), self._target_footprint(*pose)
+        ):
             self._target_blocked = True
             return
         self._target_blocked = False
@@ -416,11 +430,24 @@ class SimAdapter:
             dock_los, dock_fov = self._visibility(T_opt, dock_T)
         s = self.base.state
         return GroundTruth(
-            stamp=self.t, robot=Pose2D(s.x, s.y, s.yaw), robot_v=s.v, robot_w=s.w, T_map_optical=T_opt,
-            target=target, target_moving=moving, T_map_target_marker=marker_T, target_in_los=los,
-            target_in_fov=fov, T_map_dock=None if dock_T is None else dock_T.copy(), dock_in_los=dock_los,
-            dock_in_fov=dock_fov, collisions=self.base.contacts, nav_status=self.navigator.status,
-            T_map_target_markers=all_markers, collision_log=list(self.base.contact_log),
-            target_blocked=self._target_blocked, target_gone=self.target_gone,
+            stamp=self.t,
+            robot=Pose2D(s.x, s.y, s.yaw),
+            robot_v=s.v,
+            robot_w=s.w,
+            T_map_optical=T_opt,
+            target=target,
+            target_moving=moving,
+            T_map_target_marker=marker_T,
+            target_in_los=los,
+            target_in_fov=fov,
+            T_map_dock=None if dock_T is None else dock_T.copy(),
+            dock_in_los=dock_los,
+            dock_in_fov=dock_fov,
+            collisions=self.base.contacts,
+            nav_status=self.navigator.status,
+            T_map_target_markers=all_markers,
+            collision_log=list(self.base.contact_log),
+            target_blocked=self._target_blocked,
+            target_gone=self.target_gone,
             movers=[Pose2D(*m.pose) for m in self.movers],
-        )  # fmt: skip
+        )

@@ -109,8 +109,9 @@ def lint_imports(tree: Path, pyproject: Path = PYPROJECT) -> subprocess.Complete
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["PYTHONPATH"] = str(tree)
     exe = Path(sys.executable).with_name("lint-imports")
-    return subprocess.run([str(exe), "--no-cache"], cwd=tree, env=env, capture_output=True, text=True,
-                          check=False, timeout=300)  # fmt: skip
+    return subprocess.run(
+        [str(exe), "--no-cache"], cwd=tree, env=env, capture_output=True, text=True, check=False, timeout=300
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -150,8 +150,11 @@ def plugins_block() -> str:
 
 def _params_model(cls: type) -> type[BaseModel] | None:
     module = sys.modules[cls.__module__]
-    models = [v for k, v in vars(module).items() if k.endswith("Params") and isinstance(v, type)
-              and issubclass(v, BaseModel) and v.__module__ == module.__name__]  # fmt: skip
+    models = [
+        v
+        for k, v in vars(module).items()
+        if k.endswith("Params") and isinstance(v, type) and issubclass(v, BaseModel) and v.__module__ == module.__name__
+    ]
     return models[0] if len(models) == 1 else None
 
 
@@ -159,8 +162,11 @@ def scenario_block() -> str:
     from mission.sim import scenario as sc
 
     items = []
-    lists = (("Each of `obstacles` / `unknown_obstacles`", sc.Obstacle), ("Each of `target.markers`", sc.Marker),
-             ("Each of `target.waypoints`", sc.Waypoint))  # fmt: skip
+    lists = (
+        ("Each of `obstacles` / `unknown_obstacles`", sc.Obstacle),
+        ("Each of `target.markers`", sc.Marker),
+        ("Each of `target.waypoints`", sc.Waypoint),
+    )
     for label, model in lists:
         items.append(f"\n{label}:\n\n" + model_table(model))
     return model_table(sc.Scenario) + "".join(items)
@@ -169,8 +175,9 @@ def scenario_block() -> str:
 def ros_block() -> str:
     from mission.ros.node import PARAMETERS
 
-    return _table(("parameter", "default", "meaning"),
-                  [(f"`{k}`", f"`{d!r}`", doc) for k, (d, doc) in PARAMETERS.items()])  # fmt: skip
+    return _table(
+        ("parameter", "default", "meaning"), [(f"`{k}`", f"`{d!r}`", doc) for k, (d, doc) in PARAMETERS.items()]
+    )
 
 
 def behaviours_block() -> str:

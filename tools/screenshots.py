@@ -29,8 +29,13 @@ def _run(scenario: str, seconds: float, observers: list) -> Path:
     )
     write_json(report / "report.json", outcome.to_json())
     title = f"{outcome.scenario} seed {outcome.seed}: {'SUCCESS' if outcome.success else 'FAILURE'}"
-    plot_trajectories(recorder, getattr(adapter, "occupancy_grid", None), report / "trajectories.png", title,
-                      getattr(adapter, "dock_xy", None))  # fmt: skip
+    plot_trajectories(
+        recorder,
+        getattr(adapter, "occupancy_grid", None),
+        report / "trajectories.png",
+        title,
+        getattr(adapter, "dock_xy", None),
+    )
     plot_timeline(recorder, report / "timeline.png", title)
     return report
 

@@ -200,8 +200,10 @@ def render_marker_view(
     if x1 > x0 and y1 > y0:
         side_hi = float(np.max(np.linalg.norm(np.roll(corners_px, -1, axis=0) - corners_px, axis=1))) * s
         tex, origin, side = _marker_texture(dictionary, marker_id, int(min(4096, max(48, side_hi))))
-        src = np.array([[origin, origin], [origin + side, origin], [origin + side, origin + side],
-                        [origin, origin + side]], dtype=np.float32)  # fmt: skip
+        src = np.array(
+            [[origin, origin], [origin + side, origin], [origin + side, origin + side], [origin, origin + side]],
+            dtype=np.float32,
+        )
         # Low-res pixel u covers high-res pixels s·u … s·u + s − 1, whose centres average to s·u + (s − 1)/2.
         dst = (s * (corners_px - np.array([x0, y0])) + (s - 1) / 2.0).astype(np.float32)
         hom = cv2.getPerspectiveTransform(src, dst)
@@ -210,8 +212,9 @@ def render_marker_view(
         white = rng.uniform(190, 245) if white is None else white
         tex_f = black + (white - black) * (tex.astype(np.float32) / 255.0)
         warped = cv2.warpPerspective(tex_f, hom, size_hi, flags=cv2.INTER_LINEAR, borderValue=0.0)
-        mask = cv2.warpPerspective(np.ones(tex.shape, np.float32), hom, size_hi, flags=cv2.INTER_LINEAR,
-                                   borderValue=0.0)  # fmt: skip
+        mask = cv2.warpPerspective(
+            np.ones(tex.shape, np.float32), hom, size_hi, flags=cv2.INTER_LINEAR, borderValue=0.0
+        )
         size_lo = (x1 - x0, y1 - y0)
         warped = cv2.resize(warped, size_lo, interpolation=cv2.INTER_AREA)
         alpha = cv2.resize(mask, size_lo, interpolation=cv2.INTER_AREA)
@@ -226,8 +229,9 @@ def render_marker_view(
     # A slight colour cast per channel, so BGR input is really colour (detectors convert it to grey).
     tint = rng.uniform(0.9, 1.0, size=3)
     out = cv2.merge([cv2.convertScaleAbs(grey, alpha=float(a)) for a in tint])
-    return SyntheticView(out, k, np.asarray(T_cam_marker, dtype=np.float64).copy(), marker_id, marker_size_m,
-                         corners_px)  # fmt: skip
+    return SyntheticView(
+        out, k, np.asarray(T_cam_marker, dtype=np.float64).copy(), marker_id, marker_size_m, corners_px
+    )
 
 
 def pose_sequence(

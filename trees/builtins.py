@@ -112,22 +112,29 @@ def _switch(n: int) -> NodeManifest:
     for i in range(1, n + 1):
         ports[f"case_{i}"] = Port(str, REQUIRED, f"child {i} runs when variable equals this")
     return _manifest(
-        f"Switch{n}", "Control", f"the child whose case equals variable runs, else the last one ({n} cases)",
-        lambda name, ch, _p, ctx: controls.Switch(name, ch, n, dict(ctx.enums)), ports, children=(n + 1, n + 1),
-    )  # fmt: skip
+        f"Switch{n}",
+        "Control",
+        f"the child whose case equals variable runs, else the last one ({n} cases)",
+        lambda name, ch, _p, ctx: controls.Switch(name, ch, n, dict(ctx.enums)),
+        ports,
+        children=(n + 1, n + 1),
+    )
 
 
 def _loop(item: type, type_name: str) -> NodeManifest:
     return _manifest(
-        f"Loop{type_name}", "Decorator", "ticks its child once per item of queue, the item in value",
+        f"Loop{type_name}",
+        "Decorator",
+        "ticks its child once per item of queue, the item in value",
         lambda name, ch, _p, _c: decorators.Loop(name, ch[0], item),
         {
             "queue": Port(str, REQUIRED, "items, ';'-separated, or an entry holding a list", "inout"),
             "if_empty": Port(str, "SUCCESS", "status when the queue is empty: SUCCESS, FAILURE or SKIPPED"),
             "value": Port(item, REQUIRED, "the current item", "output"),
         },
-        _status_port("if_empty", ("SUCCESS", "FAILURE", "SKIPPED")), untyped=frozenset({"queue"}),
-    )  # fmt: skip
+        _status_port("if_empty", ("SUCCESS", "FAILURE", "SKIPPED")),
+        untyped=frozenset({"queue"}),
+    )
 
 
 _STATUSES = tuple(STATUS_NAMES)

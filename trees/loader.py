@@ -218,8 +218,9 @@ def _read_file(
             tree_id = el.attrib.get("ID")
             if not tree_id:
                 if sum(child.tag == "BehaviorTree" for child in root.children) > 1:
-                    raise TreeError(el.error('missing ID; a file with several trees must name each: '
-                                             '<BehaviorTree ID="Name">'))  # fmt: skip
+                    raise TreeError(
+                        el.error('missing ID; a file with several trees must name each: <BehaviorTree ID="Name">')
+                    )
                 # one unnamed tree in its file: BT.CPP names it BehaviorTree_<n>, n counting such trees
                 tree_id = f"BehaviorTree_{sum(not t.attrib.get('ID') for t in trees.values())}"
                 el.name = tree_id
@@ -293,10 +294,12 @@ def _read_include(
     if target in files:  # already read through another include (a diamond, not a cycle)
         return
     if not target.is_file():
-        raise TreeError(el.error(
-            f"included file not found: {display_path(target)} "
-            f"(paths are relative to this file, or name a shipped tree: {', '.join(shipped_trees())})"
-        ))  # fmt: skip
+        raise TreeError(
+            el.error(
+                f"included file not found: {display_path(target)} "
+                f"(paths are relative to this file, or name a shipped tree: {', '.join(shipped_trees())})"
+            )
+        )
     _read_file(target, chain, trees, files, models)
 
 
@@ -441,10 +444,12 @@ class _Compiler:
                 self.types[ref.path] = (kind, where)
                 return
         if first[0] is not str and first[0] is not kind:
-            self.problem(el.error(
-                f"port {attr}: blackboard entry {ref} is {_type_name(kind)} here but {_type_name(first[0])} "
-                f"for {first[1]}; BT.CPP refuses an entry whose type changes"
-            ))  # fmt: skip
+            self.problem(
+                el.error(
+                    f"port {attr}: blackboard entry {ref} is {_type_name(kind)} here but {_type_name(first[0])} "
+                    f"for {first[1]}; BT.CPP refuses an entry whose type changes"
+                )
+            )
 
     def other_attribute(self, el: SourceElement, attr: str, text: str, other: dict[str, str]) -> None:
         """An attribute starting with ``_`` that is no port or condition: BT.CPP keeps it for the application
@@ -454,10 +459,13 @@ class _Compiler:
             iter(difflib.get_close_matches(attr, known, n=1, cutoff=0.85)), None
         )
         if hint is not None:
-            self.problem(el.error(
-                f"unknown attribute {attr!r} (did you mean {hint}?); BT.CPP's are {', '.join(CONDITION_ATTRIBUTES)}; "
-                "other attributes starting with '_' are kept for the application, not run"
-            ))  # fmt: skip
+            self.problem(
+                el.error(
+                    f"unknown attribute {attr!r} (did you mean {hint}?); "
+                    f"BT.CPP's are {', '.join(CONDITION_ATTRIBUTES)}; "
+                    "other attributes starting with '_' are kept for the application, not run"
+                )
+            )
             return
         other[attr] = text
 
@@ -487,10 +495,12 @@ class _Compiler:
             key = _pointer_key(attr, text)
             if key is None:
                 if not port.reads:
-                    self.problem(el.error(
-                        f'port {attr}="{text}" is an output: it takes a blackboard entry to write, such as '
-                        f'{attr}="{{{attr}}}"'
-                    ))  # fmt: skip
+                    self.problem(
+                        el.error(
+                            f'port {attr}="{text}" is an output: it takes a blackboard entry to write, such as '
+                            f'{attr}="{{{attr}}}"'
+                        )
+                    )
                     continue
                 if attr in manifest.scripts:
                     script = self.script(el, attr, text)
@@ -588,9 +598,22 @@ class _Compiler:
             if message:
                 self.problem(el.error(message))
         return TreeDescription(
-            node_type, name, kind, display_path(el.file), el.line, written, effective, children, manifest=manifest,
-            uid=uid, conditions=conditions, scope=scope, wiring=wiring, scripts=scripts, other_attributes=other,
-        )  # fmt: skip
+            node_type,
+            name,
+            kind,
+            display_path(el.file),
+            el.line,
+            written,
+            effective,
+            children,
+            manifest=manifest,
+            uid=uid,
+            conditions=conditions,
+            scope=scope,
+            wiring=wiring,
+            scripts=scripts,
+            other_attributes=other,
+        )
 
     def child_count(self, el: SourceElement, node_type: str, manifest: NodeManifest, n: int) -> None:
         kind = manifest.kind
@@ -608,11 +631,13 @@ class _Compiler:
         if node_type == "ReactiveSequence":  # BT.CPP's VerifyXML counts the <AsyncSequence> children
             asynchronous = [child for child in el.children if child.tag == "AsyncSequence"]
             if len(asynchronous) > 1:
-                self.problem(el.error(
-                    f"ReactiveSequence has {len(asynchronous)} asynchronous children (<AsyncSequence> at lines "
-                    f"{', '.join(str(c.line) for c in asynchronous)}); expected at most 1, as BT.CPP: it would "
-                    "restart one while the other runs"
-                ))  # fmt: skip
+                self.problem(
+                    el.error(
+                        f"ReactiveSequence has {len(asynchronous)} asynchronous children (<AsyncSequence> at lines "
+                        f"{', '.join(str(c.line) for c in asynchronous)}); expected at most 1, as BT.CPP: it would "
+                        "restart one while the other runs"
+                    )
+                )
 
     def subtree(
         self, el: SourceElement, attrs: dict[str, str], scope: scopes.Scope, stack: tuple[str, ...]
@@ -662,10 +687,12 @@ class _Compiler:
             if port_name in remap or port_name in constants or autoremap:
                 continue
             if model.default is None:
-                self.problem(el.error(
-                    f"the <SubTree ID=\"{tree_id}\"> model ({model.where}) has a mandatory port {port_name}, "
-                    f'which this SubTree does not remap; add {port_name}="{{key}}" or a value'
-                ))  # fmt: skip
+                self.problem(
+                    el.error(
+                        f'the <SubTree ID="{tree_id}"> model ({model.where}) has a mandatory port {port_name}, '
+                        f'which this SubTree does not remap; add {port_name}="{{key}}" or a value'
+                    )
+                )
                 continue
             key = _pointer_key(port_name, model.default)
             if key is not None:
@@ -688,11 +715,13 @@ class _Compiler:
         instance = name if "name" in el.attrib else f"{tree_id}::{uid}"
         child_scope = scope.child(instance, remap, constants, autoremap)
         if child_scope.path in self.instances:  # Groot2 and the blackboards tell instances apart by path
-            self.problem(el.error(
-                f"duplicate SubTree path {child_scope.path!r} (also {self.instances[child_scope.path]}); "
-                "BT.CPP refuses two SubTrees with the same name under one parent: give each a unique name, "
-                "or leave name out to number them"
-            ))  # fmt: skip
+            self.problem(
+                el.error(
+                    f"duplicate SubTree path {child_scope.path!r} (also {self.instances[child_scope.path]}); "
+                    "BT.CPP refuses two SubTrees with the same name under one parent: give each a unique name, "
+                    "or leave name out to number them"
+                )
+            )
         self.instances[child_scope.path] = f"at {el.where}"
         entries: dict[str, Any] = {}
         for attr, text in constants.items():
@@ -704,10 +733,20 @@ class _Compiler:
                 self.types.setdefault(path, (type(value), f'the constant {attr}="{text}" of <SubTree> at {el.where}'))
         inner = self.tree(tree_id, child_scope, stack)
         return TreeDescription(
-            "SubTree", name, "SubTree", display_path(el.file), el.line, ports=shown, subtree=tree_id,
-            children=inner.children, uid=uid, conditions=conditions, scope=scope, entries=entries,
+            "SubTree",
+            name,
+            "SubTree",
+            display_path(el.file),
+            el.line,
+            ports=shown,
+            subtree=tree_id,
+            children=inner.children,
+            uid=uid,
+            conditions=conditions,
+            scope=scope,
+            entries=entries,
             other_attributes=other,
-        )  # fmt: skip
+        )
 
     def _unknown_node(self, node_type: str) -> str:
         builtins = [m.tag for m in self.factory.builtins()]

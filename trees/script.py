@@ -96,11 +96,26 @@ _PARSER = lark.Lark(_GRAMMAR, parser="lalr", maybe_placeholders=False)
 
 #: what each terminal looks like to a user reading an error message
 _TERMINALS = {
-    "NAME": "a name", "NUMBER": "a number", "STRING": "a 'string'", "BOOLEAN": "true/false", "ASSIGN": "an assignment",
-    "OR": "'||'", "AND": "'&&'", "COMPARE": "a comparison", "BIT_OR_XOR": "'|' or '^'", "BIT_AND": "'&'",
-    "SUM_OP": "'+', '-' or '..'", "PRODUCT_OP": "'*' or '/'", "PREFIX_OP": "'-', '~' or '!'", "LPAR": "'('",
-    "RPAR": "')'", "QMARK": "'?'", "COLON": "':'", "_SEMI": "';'", "$END": "the end of the script",
-}  # fmt: skip
+    "NAME": "a name",
+    "NUMBER": "a number",
+    "STRING": "a 'string'",
+    "BOOLEAN": "true/false",
+    "ASSIGN": "an assignment",
+    "OR": "'||'",
+    "AND": "'&&'",
+    "COMPARE": "a comparison",
+    "BIT_OR_XOR": "'|' or '^'",
+    "BIT_AND": "'&'",
+    "SUM_OP": "'+', '-' or '..'",
+    "PRODUCT_OP": "'*' or '/'",
+    "PREFIX_OP": "'-', '~' or '!'",
+    "LPAR": "'('",
+    "RPAR": "')'",
+    "QMARK": "'?'",
+    "COLON": "':'",
+    "_SEMI": "';'",
+    "$END": "the end of the script",
+}
 
 
 class ScriptSyntaxError(ValueError):

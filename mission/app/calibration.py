@@ -106,8 +106,15 @@ def _intrinsics(fields: dict[str, Any], file: str) -> CameraIntrinsics:
         raise ConfigError("expected a list of numbers", file=file, key=dkey)
     width = int(fields.get("image_width", fields.get("width", 0)) or 0)
     height = int(fields.get("image_height", fields.get("height", 0)) or 0)
-    intr = CameraIntrinsics(fx=float(k[0]), fy=float(k[4]), cx=float(k[2]), cy=float(k[5]), width=width,
-                            height=height, distortion=tuple(float(v) for v in d))  # fmt: skip
+    intr = CameraIntrinsics(
+        fx=float(k[0]),
+        fy=float(k[4]),
+        cx=float(k[2]),
+        cy=float(k[5]),
+        width=width,
+        height=height,
+        distortion=tuple(float(v) for v in d),
+    )
     problem = intr.problem()
     if problem is not None:
         raise ConfigError(problem, file=file, key=key if "distortion" not in problem else dkey)

@@ -338,8 +338,12 @@ class MetricsRecorder(RunObserver):
 
     def _give_up_summary(self) -> dict[str, Any]:
         """When the target left the map and when (and how long after) the search gave up."""
-        out: dict[str, Any] = {"target_gone_at_s": _round(self.target_gone_at, 3), "gave_up_at_s": None,
-                               "give_up_after_loss_s": None, "give_up_after_gone_s": None}  # fmt: skip
+        out: dict[str, Any] = {
+            "target_gone_at_s": _round(self.target_gone_at, 3),
+            "gave_up_at_s": None,
+            "give_up_after_loss_s": None,
+            "give_up_after_gone_s": None,
+        }
         if self.gave_up_at is not None:
             out["gave_up_at_s"] = round(self.gave_up_at, 3)
             if self.gave_up_loss_start is not None:

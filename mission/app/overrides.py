@@ -170,8 +170,11 @@ def parse_settings(texts: Iterable[str], *, many: bool) -> list[tuple[str, list[
     for text in texts:
         key, settings = parse_setting(text, many=many)
         if any(k == key or k.removeprefix("sim.") == key.removeprefix("sim.") for k, _ in out):
-            raise ConfigError("given twice; expected each key once" + (" (values comma-separated)" if many else ""),
-                              file=WHERE, key=key)  # fmt: skip
+            raise ConfigError(
+                "given twice; expected each key once" + (" (values comma-separated)" if many else ""),
+                file=WHERE,
+                key=key,
+            )
         out.append((key, settings))
     return out
 
@@ -199,8 +202,9 @@ def classify(key: str, factory: BehaviourFactory | None = None) -> Kind:
             raise ConfigError(
                 f"{head} has no port {rest!r}{f' (did you mean {head}.{hint[0]}?)' if hint else ''}; "
                 f"its ports: {', '.join(ports[head]) or 'none'}",
-                file=WHERE, key=key,
-            )  # fmt: skip
+                file=WHERE,
+                key=key,
+            )
         return "port"
     if head == "sim" and rest:
         _check_path(Scenario, rest.split("."), key, prefix="sim.")
@@ -215,8 +219,9 @@ def classify(key: str, factory: BehaviourFactory | None = None) -> Kind:
     raise ConfigError(
         f"unknown key{f' (did you mean {hint[0]}?)' if hint else ''}; expected Behaviour.port "
         "(e.g. SearchSweep.angular_speed), a config key (e.g. run.tick_hz) or a scenario key (e.g. camera.width)",
-        file=WHERE, key=key,
-    )  # fmt: skip
+        file=WHERE,
+        key=key,
+    )
 
 
 def _check_path(model: type, parts: list[str], key: str, prefix: str = "") -> None:

@@ -142,13 +142,15 @@ def plugin_records(sources: Iterable[SourceConfig]) -> list[dict[str, Any]]:
     for source in sources:
         ep = registry.entry_point(source.plugin)
         dist = _distribution_of(ep) if ep is not None else None
-        out.append({
-            "name": source.name or source.plugin,
-            "plugin": source.plugin,
-            "entry_point": ep.value if ep is not None else None,
-            "distribution": dist.metadata["Name"] if dist is not None else None,
-            "version": dist.version if dist is not None else None,
-        })  # fmt: skip
+        out.append(
+            {
+                "name": source.name or source.plugin,
+                "plugin": source.plugin,
+                "entry_point": ep.value if ep is not None else None,
+                "distribution": dist.metadata["Name"] if dist is not None else None,
+                "version": dist.version if dist is not None else None,
+            }
+        )
     return out
 
 
@@ -208,8 +210,9 @@ def source_revision() -> dict[str, Any] | None:
 
     def git(*args: str) -> str | None:
         try:
-            proc = subprocess.run(["git", "-C", str(here), *args], capture_output=True, text=True, timeout=5,
-                                  check=False)  # fmt: skip
+            proc = subprocess.run(
+                ["git", "-C", str(here), *args], capture_output=True, text=True, timeout=5, check=False
+            )
         except (OSError, subprocess.SubprocessError):
             return None
         return proc.stdout if proc.returncode == 0 else None

@@ -250,13 +250,22 @@ def run_scenario(
     adapter = SimAdapter(scenario, seed=seed)
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
-    criteria = {k: float(getattr(success_spec, k)) for k in ("min_tracking_fraction", "give_up_within_s")
-                if hasattr(success_spec, k)}  # fmt: skip
+    criteria = {
+        k: float(getattr(success_spec, k))
+        for k in ("min_tracking_fraction", "give_up_within_s")
+        if hasattr(success_spec, k)
+    }
     recorder = MetricsRecorder(dock_standoff_m=float(getattr(success_spec, "standoff_m", 0.30) or 0.30))
     world = adapter if robot is None else robot(adapter)
-    runner = TreeRunner(config, world, prepared.tree if robot is None else None,
-                        config_file=config_path, observers=[recorder, *(observers or [])],
-                        perception_only=robot is not None, sources=[] if robot is not None else None)  # fmt: skip
+    runner = TreeRunner(
+        config,
+        world,
+        prepared.tree if robot is None else None,
+        config_file=config_path,
+        observers=[recorder, *(observers or [])],
+        perception_only=robot is not None,
+        sources=[] if robot is not None else None,
+    )
     prepared.overrides.apply_to_factory(runner.factory)
     duration = float(max_duration or scenario.duration_s)
     until: Any = duration
@@ -266,8 +275,9 @@ def run_scenario(
     try:
         runner.setup()
         wrap_sources(runner.sources, scenario.faults, adapter.faults.injected)  # perception-side faults, if any
-        provenance = run_provenance(config, tree_file=runner.tree_path or "", seed=seed, config_file=config_path,
-                                    scenario=scenario.name)  # fmt: skip
+        provenance = run_provenance(
+            config, tree_file=runner.tree_path or "", seed=seed, config_file=config_path, scenario=scenario.name
+        )
         provenance["set"] = prepared.overrides.as_dict()  # the --set keys that made this run (empty: none)
         status = runner.run(until=until, pacer=pacer)
         if robot is not None:
@@ -295,8 +305,7 @@ def _outcome(
     sim_time = runner.elapsed()
     recorder.finish(recorder.last_ground_truth, final_state, tree_failed=status == py_trees.common.Status.FAILURE)
     summary = recorder.summary(sim_time)
-    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time,
-                          **criteria)  # fmt: skip
+    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time, **criteria)
     stats = dict(runner.get(bbk.PERCEPTION_STATS, {}) or {})
     signum = runner.stop_signal
     if signum is not None:

@@ -134,8 +134,10 @@ def _table(path: str, img: np.ndarray, dets: list[Detection]) -> str:
             x, y, z = (float(v) for v in d.position)
             mid = "-" if d.marker_id is None else str(d.marker_id)
             label = d.label or "-"
-            lines.append(f"  {mid:>5} {label:<12} {d.distance:7.3f} {x:7.3f} {y:7.3f} {z:7.3f} "
-                         f"{d.confidence:5.2f} {d.reprojection_error:9.3f}")  # fmt: skip
+            lines.append(
+                f"  {mid:>5} {label:<12} {d.distance:7.3f} {x:7.3f} {y:7.3f} {z:7.3f} "
+                f"{d.confidence:5.2f} {d.reprojection_error:9.3f}"
+            )
         if any(d.extra.get("intrinsics") == "fallback" for d in dets):
             lines.append("  (no --intrinsics: fallback pinhole fx = fy = 0.9·width; distances are approximate)")
     return "\n".join(lines)
@@ -150,13 +152,16 @@ def _requirements(args: argparse.Namespace, cls: type) -> set[str]:
             f"depth): give --depth FILE ({DEPTH_FORMATS}), one per IMAGE in the same order"
         )
     if args.depth and len(args.depth) != len(args.images):
-        raise MissionError(f"--depth: {len(args.depth)} depth image(s) for {len(args.images)} image(s); give one "
-                           "per IMAGE, in the same order")  # fmt: skip
+        raise MissionError(
+            f"--depth: {len(args.depth)} depth image(s) for {len(args.images)} image(s); give one "
+            "per IMAGE, in the same order"
+        )
     return requires
 
 
-def _intrinsics(args: argparse.Namespace, calibration: CameraIntrinsics | None, w: int, h: int,
-                requires: set[str]) -> CameraIntrinsics | None:  # fmt: skip
+def _intrinsics(
+    args: argparse.Namespace, calibration: CameraIntrinsics | None, w: int, h: int, requires: set[str]
+) -> CameraIntrinsics | None:
     if calibration is not None:
         problem = calibration.problem(w, h)
         if problem is not None:
@@ -218,8 +223,13 @@ def main(args: argparse.Namespace) -> int:
                 if depth is not None and depth.shape != (h, w):
                     raise ValueError(f"depth {args.depth[i]} is {depth.shape[1]}×{depth.shape[0]}, the image {w}×{h}")
                 intrinsics = _intrinsics(args, calibration, w, h, requires)
-                frame = Frame(image=img, stamp=i * FRAME_PERIOD_S, frame_id="camera_optical_frame",
-                              intrinsics=intrinsics, depth=depth)  # fmt: skip
+                frame = Frame(
+                    image=img,
+                    stamp=i * FRAME_PERIOD_S,
+                    frame_id="camera_optical_frame",
+                    intrinsics=intrinsics,
+                    depth=depth,
+                )
                 dets = _detect(source, frame)
             except ValueError as err:
                 print(f"mission: error: {path}: {err}", file=sys.stderr)

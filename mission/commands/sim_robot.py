@@ -28,9 +28,13 @@ def main(args: argparse.Namespace) -> int:
     label = f"{Path(scenario).stem} seed {args.seed} (sim-robot)"
     pacer = WallClockPacer(args.rate) if args.rate > 0 else None
     outcome, recorder, adapter = run_scenario(
-        scenario, config_file=args.config, seed=args.seed, max_duration=args.max_duration, pacer=pacer,
+        scenario,
+        config_file=args.config,
+        seed=args.seed,
+        max_duration=args.max_duration,
+        pacer=pacer,
         robot=lambda sim: SimRobot(sim, faults),
-    )  # fmt: skip
+    )
     if args.report:
         write_report(args.report, outcome, recorder, adapter)
     return result_line(outcome, label, args.report)

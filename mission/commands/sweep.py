@@ -49,11 +49,24 @@ def main(args: argparse.Namespace) -> int:
     from mission.sweep.engine import run_sweep
     from mission.sweep.plan import SweepPlan
 
-    plan = SweepPlan.from_args(args.scenarios, args.seeds, args.set, config_file=args.config, tree=args.tree,
-                               max_duration=args.max_duration, pictures=args.pictures)  # fmt: skip
+    plan = SweepPlan.from_args(
+        args.scenarios,
+        args.seeds,
+        args.set,
+        config_file=args.config,
+        tree=args.tree,
+        max_duration=args.max_duration,
+        pictures=args.pictures,
+    )
     with _signals_interrupt() as caught:
-        outcome = run_sweep(plan, args.out, scheduler=args.scheduler, workers=args.workers,
-                            dashboard=args.dashboard, progress=not args.quiet)  # fmt: skip
+        outcome = run_sweep(
+            plan,
+            args.out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            dashboard=args.dashboard,
+            progress=not args.quiet,
+        )
     out = Path(args.out)
     rows = outcome.rows
     ok = sum(1 for r in rows if r.get("success"))

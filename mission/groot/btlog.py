@@ -71,8 +71,9 @@ class BtLogWriter(RunObserver):
     def __init__(self, path: str | Path, *, option: str = "--btlog") -> None:
         self.path = Path(path)
         if self.path.suffix != SUFFIX:
-            raise MissionError(f"{option} {path}: expected a file name ending in {SUFFIX} "
-                               "(Groot2 opens logs by that suffix)")  # fmt: skip
+            raise MissionError(
+                f"{option} {path}: expected a file name ending in {SUFFIX} (Groot2 opens logs by that suffix)"
+            )
         try:
             ensure_parent(self.path)
             self._fh: IO[bytes] | None = self.path.open("wb")
@@ -147,8 +148,10 @@ def read_btlog(path: str | Path) -> BtLog:
     except OSError as err:
         raise MissionError(f"{path}: cannot read the log ({err.strerror or err})") from None
     if not data.startswith(MAGIC):
-        raise MissionError(f"{path}: not a Groot2 log; expected a file starting with {MAGIC.decode()} "
-                           "(BT.CPP FileLogger2, `mission run --btlog`)")  # fmt: skip
+        raise MissionError(
+            f"{path}: not a Groot2 log; expected a file starting with {MAGIC.decode()} "
+            "(BT.CPP FileLogger2, `mission run --btlog`)"
+        )
     at = len(MAGIC)
     if len(data) < at + 1 + _XML_SIZE.size:
         raise MissionError(f"{path}: the log ends inside its header ({len(data)} bytes)")
@@ -157,8 +160,9 @@ def read_btlog(path: str | Path) -> BtLog:
     (size,) = _XML_SIZE.unpack_from(data, at + 1)
     at += 1 + _XML_SIZE.size
     if size < 0 or len(data) < at + size + _START.size:
-        raise MissionError(f"{path}: the log ends inside its tree XML (declared {size} bytes, "
-                           f"{max(0, len(data) - at)} present)")  # fmt: skip
+        raise MissionError(
+            f"{path}: the log ends inside its tree XML (declared {size} bytes, {max(0, len(data) - at)} present)"
+        )
     try:
         xml = data[at : at + size].decode("utf-8")
     except UnicodeDecodeError as err:
@@ -171,6 +175,9 @@ def read_btlog(path: str | Path) -> BtLog:
     transitions = [LoggedTransition(*p.unpack_transition(body, i)) for i in range(0, whole, p.TRANSITION_SIZE)]
     log_data = BtLog(path, xml, start_us, transitions, torn=whole != len(body))
     if log_data.torn:
-        log.warning("%s: the last transition was cut off mid-write (the run was interrupted); read %d before it",
-                    path, len(transitions))  # fmt: skip
+        log.warning(
+            "%s: the last transition was cut off mid-write (the run was interrupted); read %d before it",
+            path,
+            len(transitions),
+        )
     return log_data

@@ -59,8 +59,9 @@ class Groot2Publisher(RunObserver):
     `port` 0 picks a free pair (PORT, PORT + 1); :attr:`port` is the one bound. `option` names the
     setting in error messages (``--groot``, ``-p groot_port``)."""
 
-    def __init__(self, port: int = DEFAULT_PORT, host: str = HOST, *, option: str = "--groot",
-                 quiet: bool = False) -> None:  # fmt: skip
+    def __init__(
+        self, port: int = DEFAULT_PORT, host: str = HOST, *, option: str = "--groot", quiet: bool = False
+    ) -> None:
         self.host = host
         self.quiet = quiet
         self._ctx = zmq.Context()
@@ -124,8 +125,11 @@ class Groot2Publisher(RunObserver):
             self._instances = {inst.name: inst.path for inst in tree.instances} | {"": ""}
             self._recorder, self._run = recorder, run
         if not self.quiet:
-            print(f"mission: Groot2 monitor on {self.host}:{self.port} (Groot2 → Monitor → connect)",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"mission: Groot2 monitor on {self.host}:{self.port} (Groot2 → Monitor → connect)",
+                file=sys.stderr,
+                flush=True,
+            )
 
     def on_tick(self, run: TreeRunner, tick: Tick) -> None:
         if self._recorder is None:

@@ -42,8 +42,12 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-BT_STATUS: dict[Status, int] = {Status.INVALID: IDLE, Status.RUNNING: RUNNING, Status.SUCCESS: SUCCESS,
-                                Status.FAILURE: FAILURE}  # fmt: skip
+BT_STATUS: dict[Status, int] = {
+    Status.INVALID: IDLE,
+    Status.RUNNING: RUNNING,
+    Status.SUCCESS: SUCCESS,
+    Status.FAILURE: FAILURE,
+}
 _FINISHED = (SUCCESS, FAILURE)
 #: BT.CPP controls that reset the children before a RUNNING child on every tick
 RESET_BEFORE_RUNNING = frozenset({"ReactiveSequence", "ReactiveFallback"})
@@ -65,8 +69,12 @@ class TransitionRecorder(py_trees.visitors.VisitorBase):
     :meth:`for_tree` takes them from a numbered tree.
     """
 
-    def __init__(self, uids: Mapping[int, Behaviour], children: Mapping[int, Sequence[int]],
-                 reactive: frozenset[int] = frozenset()) -> None:  # fmt: skip
+    def __init__(
+        self,
+        uids: Mapping[int, Behaviour],
+        children: Mapping[int, Sequence[int]],
+        reactive: frozenset[int] = frozenset(),
+    ) -> None:
         super().__init__(full=False)
         self._uids_of: dict[object, list[int]] = {}
         for uid, behaviour in sorted(uids.items(), reverse=True):  # inner first: a subtree root before its SubTree

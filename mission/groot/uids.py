@@ -193,8 +193,9 @@ def _pair(out: dict[int, Behaviour], node: UidNode, behaviour: Behaviour, named:
     out[node.uid] = behaviour
     if node.is_subtree:
         if behaviour.name != node.name:
-            raise BindError(node.element.error(f"expected the subtree root {node.name!r}, "
-                                               f"the tree has {behaviour.name!r}"))  # fmt: skip
+            raise BindError(
+                node.element.error(f"expected the subtree root {node.name!r}, the tree has {behaviour.name!r}")
+            )
         inner = node.children[0]
         flat: dict[int, Behaviour] = {}
         try:
@@ -206,16 +207,17 @@ def _pair(out: dict[int, Behaviour], node: UidNode, behaviour: Behaviour, named:
             try:
                 _pair(scoped, inner, behaviour.children[0], named=False)
             except BindError:
-                raise BindError(node.element.error(
-                    f"{node.name!r} is neither the subtree's root nor a node above it"
-                )) from None  # fmt: skip
+                raise BindError(
+                    node.element.error(f"{node.name!r} is neither the subtree's root nor a node above it")
+                ) from None
             flat = scoped
         out.update(flat)
         return
     if named and behaviour.name != node.name:
         raise BindError(node.element.error(f"expected a node named {node.name!r}, the tree has {behaviour.name!r}"))
     if len(behaviour.children) != len(node.children):
-        raise BindError(node.element.error(f"{len(node.children)} children in the file, "
-                                           f"{len(behaviour.children)} in the tree"))  # fmt: skip
+        raise BindError(
+            node.element.error(f"{len(node.children)} children in the file, {len(behaviour.children)} in the tree")
+        )
     for child_node, child in zip(node.children, behaviour.children, strict=True):
         _pair(out, child_node, child, named=True)

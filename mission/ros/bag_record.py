@@ -181,8 +181,11 @@ class BagRecorder:
     ) -> None:
         """One tick's worth of sensors (any may be None). A message whose stamp is not newer than the last
         one recorded on its topic is skipped, so a runner may pass the blackboard's values every tick."""
-        for key, item, write in (("odom", state, self.write_state), ("scan", scan, self.write_scan),
-                                 ("image", frame, self.write_frame)):  # fmt: skip
+        for key, item, write in (
+            ("odom", state, self.write_state),
+            ("scan", scan, self.write_scan),
+            ("image", frame, self.write_frame),
+        ):
             if item is not None and item.stamp > self._last_stamp.get(key, -math.inf):
                 self._last_stamp[key] = item.stamp
                 write(item)

@@ -137,14 +137,18 @@ class BagWorld(CachedWorld):
             cameras = _camera_topics(bag, t.depth_topic)
             if "image_topic" not in self.explicit and len(cameras) == 1:
                 image = cameras[0]
-                self.warn(f"{self.path}: no {t.image_topic} in this bag; using {image}, its only image topic "
-                          f"(--image-topic chooses another)")  # fmt: skip
+                self.warn(
+                    f"{self.path}: no {t.image_topic} in this bag; using {image}, its only image topic "
+                    f"(--image-topic chooses another)"
+                )
             else:
                 listed = ", ".join(cameras) or "none"
                 others = ", ".join(sorted(present - set(cameras))) or "none"
                 choose = "choose one with --image-topic" if cameras else "the bag has no camera images"
-                raise MissionError(f"{self.path}: no image topic {t.image_topic} in this bag (image topics: {listed}; "
-                                   f"other topics: {others}); {choose}")  # fmt: skip
+                raise MissionError(
+                    f"{self.path}: no image topic {t.image_topic} in this bag (image topics: {listed}; "
+                    f"other topics: {others}); {choose}"
+                )
         info = twin(t.camera_info_topic, "")
         infos = bag.topics((CAMERA_INFO_TYPE,))
         if info is None and "camera_info_topic" not in self.explicit and len(infos) == 1:
@@ -156,11 +160,14 @@ class BagWorld(CachedWorld):
         depth = twin(t.depth_topic, "/compressedDepth")
         handlers: dict[str, Callable[[Any, str], bool]] = {image: c.on_image}
         self.read["image"] = image
-        for kind, topic, handler in (("camera_info", info, c.on_camera_info), ("depth", depth, c.on_depth),
-                                     ("odom", twin(t.odom_topic, ""), c.on_odometry),
-                                     ("scan", twin(t.scan_topic, ""), c.on_scan),
-                                     ("map", twin(t.map_topic, ""), c.on_map),
-                                     ("amcl_pose", twin(t.amcl_topic, ""), c.on_amcl_pose)):  # fmt: skip
+        for kind, topic, handler in (
+            ("camera_info", info, c.on_camera_info),
+            ("depth", depth, c.on_depth),
+            ("odom", twin(t.odom_topic, ""), c.on_odometry),
+            ("scan", twin(t.scan_topic, ""), c.on_scan),
+            ("map", twin(t.map_topic, ""), c.on_map),
+            ("amcl_pose", twin(t.amcl_topic, ""), c.on_amcl_pose),
+        ):
             if topic is not None:
                 handlers[topic] = handler
                 self.read[kind] = topic
@@ -209,8 +216,11 @@ class BagWorld(CachedWorld):
                 msg = self.bag.deserialize(raw, msgtype)
             except Exception as err:  # bytes that do not decode as the bag's own type
                 self.undecodable += 1
-                self.cache.log(f"undecodable:{topic}", f"dropped a message on {topic} that does not decode as "
-                               f"{msgtype} ({' '.join(str(err).split())[:120]})")  # fmt: skip
+                self.cache.log(
+                    f"undecodable:{topic}",
+                    f"dropped a message on {topic} that does not decode as "
+                    f"{msgtype} ({' '.join(str(err).split())[:120]})",
+                )
                 continue
             self._handlers[topic](msg, topic)
             if topic == self._image:

@@ -542,8 +542,10 @@ def open_bag(path: str | Path) -> BagSource:
     if not (directory / "metadata.yaml").exists():
         files = _data_files(directory)
         if not files:
-            raise MissionError(f"{p}: not a readable rosbag2 (mcap or sqlite3): no metadata.yaml and no .mcap or "
-                               ".db3 file; or a ROS 1 .bag file")  # fmt: skip
+            raise MissionError(
+                f"{p}: not a readable rosbag2 (mcap or sqlite3): no metadata.yaml and no .mcap or "
+                ".db3 file; or a ROS 1 .bag file"
+            )
         note = f"{directory}: no metadata.yaml (the recording was not closed): reading its data files directly"
         parts = [_file_source(f, note if i == 0 else None) for i, f in enumerate(files)]
         return parts[0] if len(parts) == 1 else _Concatenated(directory, parts)

@@ -236,8 +236,12 @@ def array_to_compressed_image(
     ok, buf = cv2.imencode(".jpg" if fmt == "jpeg" else ".png", a, params)
     if not ok:
         raise BadMessage("encoding", f"OpenCV could not encode a {a.shape} image as {fmt}")
-    return factory.new("sensor_msgs/msg/CompressedImage", header=header_msg(factory, stamp, frame_id),
-                       format=f"{encoding}; {fmt} compressed {encoding}", data=buf.reshape(-1))  # fmt: skip
+    return factory.new(
+        "sensor_msgs/msg/CompressedImage",
+        header=header_msg(factory, stamp, frame_id),
+        format=f"{encoding}; {fmt} compressed {encoding}",
+        data=buf.reshape(-1),
+    )
 
 
 def depth_to_compressed_depth(factory: MessageFactory, depth_m: np.ndarray, stamp: float, frame_id: str) -> Any:
@@ -249,8 +253,12 @@ def depth_to_compressed_depth(factory: MessageFactory, depth_m: np.ndarray, stam
     if not ok:
         raise BadMessage("encoding", f"OpenCV could not encode a {mm.shape} depth image as PNG")
     data = np.concatenate([np.frombuffer(COMPRESSED_DEPTH_HEADER.pack(0, 0.0, 0.0), np.uint8), buf.reshape(-1)])
-    return factory.new("sensor_msgs/msg/CompressedImage", header=header_msg(factory, stamp, frame_id),
-                       format="16UC1; compressedDepth png", data=data)  # fmt: skip
+    return factory.new(
+        "sensor_msgs/msg/CompressedImage",
+        header=header_msg(factory, stamp, frame_id),
+        format="16UC1; compressedDepth png",
+        data=data,
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -274,9 +282,14 @@ def camera_info_to_intrinsics(msg: Any) -> CameraIntrinsics:
     if not np.all(np.isfinite(d)):
         raise BadMessage("value", "camera_info distortion d has non-finite values")
     intr = CameraIntrinsics(
-        fx=fx, fy=fy, cx=cx, cy=cy, width=int(msg.width), height=int(msg.height),
+        fx=fx,
+        fy=fy,
+        cx=cx,
+        cy=cy,
+        width=int(msg.width),
+        height=int(msg.height),
         distortion=tuple(float(v) for v in d),
-    )  # fmt: skip
+    )
     problem = intr.problem()
     if problem is not None:  # e.g. a d of the wrong length: OpenCV would reject it on every frame
         raise BadMessage("value", f"camera_info {problem} (distortion_model {str(msg.distortion_model)!r})")
@@ -335,8 +348,9 @@ def matrix_to_pose(factory: MessageFactory, t: np.ndarray) -> Any:
 
 
 def pose_stamped(factory: MessageFactory, t: np.ndarray, stamp: float, frame_id: str) -> Any:
-    return factory.new("geometry_msgs/msg/PoseStamped", header=header_msg(factory, stamp, frame_id),
-                       pose=matrix_to_pose(factory, t))  # fmt: skip
+    return factory.new(
+        "geometry_msgs/msg/PoseStamped", header=header_msg(factory, stamp, frame_id), pose=matrix_to_pose(factory, t)
+    )
 
 
 def pose_stamped_to_matrix(msg: Any) -> tuple[np.ndarray, float, str]:
@@ -410,10 +424,11 @@ def state_to_odometry(factory: MessageFactory, state: RobotState, frame_id: str,
         "nav_msgs/msg/Odometry",
         header=header_msg(factory, state.stamp, frame_id),
         child_frame_id=child_frame_id,
-        pose=factory.new("geometry_msgs/msg/PoseWithCovariance", pose=matrix_to_pose(factory, t),
-                         covariance=np.zeros(36)),
+        pose=factory.new(
+            "geometry_msgs/msg/PoseWithCovariance", pose=matrix_to_pose(factory, t), covariance=np.zeros(36)
+        ),
         twist=factory.new("geometry_msgs/msg/TwistWithCovariance", twist=twist, covariance=np.zeros(36)),
-    )  # fmt: skip
+    )
 
 
 def scan_from_msg(msg: Any) -> LaserScan:
@@ -427,9 +442,14 @@ def scan_from_msg(msg: Any) -> LaserScan:
         raise BadMessage("value", f"scan has angle_min={a0:g}, angle_increment={da:g}; expected finite, increment ≠ 0")
     ranges[~np.isfinite(ranges) | (ranges < rmin) | (ranges > rmax)] = np.inf
     return LaserScan(
-        angle_min=a0, angle_increment=da, ranges=ranges,
-        range_min=rmin, range_max=rmax, stamp=stamp_to_sec(msg.header.stamp), frame_id=str(msg.header.frame_id),
-    )  # fmt: skip
+        angle_min=a0,
+        angle_increment=da,
+        ranges=ranges,
+        range_min=rmin,
+        range_max=rmax,
+        stamp=stamp_to_sec(msg.header.stamp),
+        frame_id=str(msg.header.frame_id),
+    )
 
 
 def scan_to_msg(factory: MessageFactory, scan: LaserScan) -> Any:
@@ -460,9 +480,11 @@ def grid_from_msg(msg: Any) -> OccupancyGrid:
     if not (math.isfinite(res) and res > 0):
         raise BadMessage("value", f"map resolution is {res:g}; expected a cell size > 0 (m)")
     return OccupancyGrid(
-        data=data.reshape(h, w).copy(), resolution=res, origin=_pose2d_of(info.origin),
+        data=data.reshape(h, w).copy(),
+        resolution=res,
+        origin=_pose2d_of(info.origin),
         frame_id=str(msg.header.frame_id) or "map",
-    )  # fmt: skip
+    )
 
 
 def twist_msg(factory: MessageFactory, twist: Twist) -> Any:
@@ -477,8 +499,14 @@ def grid_to_msg(factory: MessageFactory, grid: OccupancyGrid, stamp: float) -> A
     info = factory.new(
         "nav_msgs/msg/MapMetaData",
         map_load_time=factory.new("builtin_interfaces/msg/Time", sec=0, nanosec=0),
-        resolution=float(grid.resolution), width=int(w), height=int(h),
+        resolution=float(grid.resolution),
+        width=int(w),
+        height=int(h),
         origin=matrix_to_pose(factory, se3.planar(o.x, o.y, o.yaw)),
-    )  # fmt: skip
-    return factory.new("nav_msgs/msg/OccupancyGrid", header=header_msg(factory, stamp, grid.frame_id or "map"),
-                       info=info, data=np.ascontiguousarray(grid.data, dtype=np.int8).reshape(-1))  # fmt: skip
+    )
+    return factory.new(
+        "nav_msgs/msg/OccupancyGrid",
+        header=header_msg(factory, stamp, grid.frame_id or "map"),
+        info=info,
+        data=np.ascontiguousarray(grid.data, dtype=np.int8).reshape(-1),
+    )

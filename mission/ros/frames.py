@@ -115,8 +115,11 @@ class RobotFrames:
             if self._base_from_tf:
                 newest = self.tf.newest_stamp(self.base_frame)
                 if newest is not None and now - newest > self.stale_after_s:
-                    raise TfError("stale", f"TF {self.odom_frame} → {self.base_frame} is stale: the newest transform "
-                                           f"is {now - newest:.1f} s old")  # fmt: skip
+                    raise TfError(
+                        "stale",
+                        f"TF {self.odom_frame} → {self.base_frame} is stale: the newest transform "
+                        f"is {now - newest:.1f} s old",
+                    )
                 t_odom_base = self.tf.lookup(self.odom_frame, self.base_frame, None)
             else:
                 p = odom.pose
@@ -136,7 +139,10 @@ class RobotFrames:
         except TfError as err:
             return None, f"TF: {err}"
         t_base_cam = self.camera_mount(camera_frame)
-        t = se3.compose(t_odom_base, t_base_cam) if t_map_odom is None else se3.compose(t_map_odom, t_odom_base,
-                                                                                         t_base_cam)  # fmt: skip
+        t = (
+            se3.compose(t_odom_base, t_base_cam)
+            if t_map_odom is None
+            else se3.compose(t_map_odom, t_odom_base, t_base_cam)
+        )
         return t, ""
 

@@ -67,16 +67,18 @@ def observation_json(frame_id: str, stamp: float, detections: list[Detection]) -
     markers = []
     for det in detections:
         rvec = se3.matrix_to_rvec(se3.quat_to_matrix(det.orientation))
-        markers.append({
-            "id": det.marker_id,
-            "label": det.label,
-            "source": det.source,
-            "tvec_m": [round(float(v), 5) for v in det.position],
-            "rvec_rad": [round(float(v), 5) for v in rvec],
-            "distance_m": round(det.distance, 5),
-            "confidence": round(float(det.confidence), 4),
-            "reprojection_error_px": round(float(det.reprojection_error), 4),
-        })  # fmt: skip
+        markers.append(
+            {
+                "id": det.marker_id,
+                "label": det.label,
+                "source": det.source,
+                "tvec_m": [round(float(v), 5) for v in det.position],
+                "rvec_rad": [round(float(v), 5) for v in rvec],
+                "distance_m": round(det.distance, 5),
+                "confidence": round(float(det.confidence), 4),
+                "reprojection_error_px": round(float(det.reprojection_error), 4),
+            }
+        )
     return {
         "frame_id": frame_id,
         "stamp": round(float(stamp), 6),

@@ -105,8 +105,10 @@ class ActionNavigation:
             if time.monotonic() - self._waiting_since >= self.server_timeout_s:
                 if not self._said_missing:
                     self._said_missing = True
-                    self.warn(f"{NO_SERVER} (is Nav2's bt_navigator running, on this ROS_DOMAIN_ID?); "
-                              "navigation leaves fail until one appears")  # fmt: skip
+                    self.warn(
+                        f"{NO_SERVER} (is Nav2's bt_navigator running, on this ROS_DOMAIN_ID?); "
+                        "navigation leaves fail until one appears"
+                    )
                 self._fail(NO_SERVER)
             return
         if self._said_missing:

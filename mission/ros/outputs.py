@@ -94,10 +94,13 @@ class PerceptionOutputs(RunObserver):
         self.pub_debug.publish(
             m.new("std_msgs/msg/String", data=json.dumps(observation_json(frame_id, stamp, detections)))
         )
-        self.pub_poses.publish(m.new(
-            "geometry_msgs/msg/PoseArray", header=header_msg(m, stamp, frame_id),
-            poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
-        ))  # fmt: skip
+        self.pub_poses.publish(
+            m.new(
+                "geometry_msgs/msg/PoseArray",
+                header=header_msg(m, stamp, frame_id),
+                poses=[matrix_to_pose(m, detection_matrix(d)) for d in detections],
+            )
+        )
         if self.emit_dock is not None:
             dock = current_detection(tracks, "dock", stamp)
             if dock is not None:
@@ -173,8 +176,15 @@ class BehaviorTreeLogPublisher(RunObserver):
             previous = self._last.get(uid, "IDLE")
             if status != previous:
                 self._last[uid] = status
-                events.append(self.event_type(timestamp=stamp, node_name=behaviour.name, uid=uid,
-                                              previous_status=previous, current_status=status))  # fmt: skip
+                events.append(
+                    self.event_type(
+                        timestamp=stamp,
+                        node_name=behaviour.name,
+                        uid=uid,
+                        previous_status=previous,
+                        current_status=status,
+                    )
+                )
         if events:
             self.pub_log.publish(self.log_type(timestamp=stamp, event_log=events))
             self.published += 1
@@ -191,11 +201,21 @@ class StatusPublisher(RunObserver):
         self._last: tuple[str, ...] = ()
 
     def on_tick(self, run: Any, tick: Tick) -> None:
-        body = (str(run.get(bbk.STATE, "")), tick.status.name, str(run.get(bbk.REASON, "")),
-                str(run.get(bbk.WORLD_FAULT, "")))  # fmt: skip
+        body = (
+            str(run.get(bbk.STATE, "")),
+            tick.status.name,
+            str(run.get(bbk.REASON, "")),
+            str(run.get(bbk.WORLD_FAULT, "")),
+        )
         if body != self._last:
             self._last = body
             state, status, reason, fault = body
-            data = {"state": state, "status": status, "reason": reason, "fault": fault, "tick": tick.index,
-                    "clock": round(float(tick.clock), 3)}  # fmt: skip
+            data = {
+                "state": state,
+                "status": status,
+                "reason": reason,
+                "fault": fault,
+                "tick": tick.index,
+                "clock": round(float(tick.clock), 3),
+            }
             self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(data)))

@@ -79,8 +79,9 @@ class RosAdapter(CachedWorld):
                 what = f"{tr.header.frame_id} → {tr.child_frame_id}"
                 self.cache.log("tf", f"dropped a transform {what} on /tf: not a rigid transform")
                 continue
-            self.frames.on_tf(str(tr.header.frame_id), str(tr.child_frame_id), stamp_to_sec(tr.header.stamp), t,
-                              static=static)  # fmt: skip
+            self.frames.on_tf(
+                str(tr.header.frame_id), str(tr.child_frame_id), stamp_to_sec(tr.header.stamp), t, static=static
+            )
 
     def setup(self) -> None:
         t, n, m, c = self.topics, self.node, self.msgs, self.cache
@@ -91,19 +92,28 @@ class RosAdapter(CachedWorld):
         compressed, compressed_topic = m.cls("sensor_msgs/msg/CompressedImage"), f"{t.image_topic}/compressed"
         self._subs = [
             n.create_subscription(image, t.image_topic, lambda msg: self._image(msg, t.image_topic), sensor),
-            n.create_subscription(compressed, compressed_topic, lambda msg: self._image(msg, compressed_topic),
-                                  sensor),
+            n.create_subscription(compressed, compressed_topic, lambda msg: self._image(msg, compressed_topic), sensor),
             n.create_subscription(image, t.depth_topic, lambda msg: c.on_depth(msg, t.depth_topic), sensor),
-            n.create_subscription(m.cls("sensor_msgs/msg/CameraInfo"), t.camera_info_topic,
-                                  lambda msg: c.on_camera_info(msg, t.camera_info_topic), sensor),
+            n.create_subscription(
+                m.cls("sensor_msgs/msg/CameraInfo"),
+                t.camera_info_topic,
+                lambda msg: c.on_camera_info(msg, t.camera_info_topic),
+                sensor,
+            ),
             n.create_subscription(m.cls("nav_msgs/msg/Odometry"), t.odom_topic, self._odometry, sensor),
-            n.create_subscription(m.cls("sensor_msgs/msg/LaserScan"), t.scan_topic,
-                                  lambda msg: c.on_scan(msg, t.scan_topic), sensor),
-            n.create_subscription(m.cls("nav_msgs/msg/OccupancyGrid"), t.map_topic,
-                                  lambda msg: c.on_map(msg, t.map_topic), LATCHED),
-            n.create_subscription(m.cls("geometry_msgs/msg/PoseWithCovarianceStamped"), t.amcl_topic,
-                                  lambda msg: c.on_amcl_pose(msg, t.amcl_topic), RELIABLE),
-        ]  # fmt: skip
+            n.create_subscription(
+                m.cls("sensor_msgs/msg/LaserScan"), t.scan_topic, lambda msg: c.on_scan(msg, t.scan_topic), sensor
+            ),
+            n.create_subscription(
+                m.cls("nav_msgs/msg/OccupancyGrid"), t.map_topic, lambda msg: c.on_map(msg, t.map_topic), LATCHED
+            ),
+            n.create_subscription(
+                m.cls("geometry_msgs/msg/PoseWithCovarianceStamped"),
+                t.amcl_topic,
+                lambda msg: c.on_amcl_pose(msg, t.amcl_topic),
+                RELIABLE,
+            ),
+        ]
         if self.tf_message is not None:
             self._subs += [
                 n.create_subscription(self.tf_message, "/tf", lambda msg: self._tf(msg, False), TF_QOS),

@@ -246,9 +246,12 @@ class SensorCache:
         self._taken_seq = self._image_seq
         stamp, frame_id, image = self._image
         return Frame(
-            image=image, stamp=stamp, frame_id=frame_id, intrinsics=self._intrinsics_for(stamp, image),
+            image=image,
+            stamp=stamp,
+            frame_id=frame_id,
+            intrinsics=self._intrinsics_for(stamp, image),
             depth=self._depth_for(stamp, image),
-        )  # fmt: skip
+        )
 
     def _intrinsics_for(self, stamp: float, image: np.ndarray) -> CameraIntrinsics:
         h, w = image.shape[:2]

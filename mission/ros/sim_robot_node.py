@@ -152,10 +152,18 @@ class SimRobot:
             n.create_subscription(pose, "/goal_pose", self._on_goal_pose, RELIABLE),
             n.create_subscription(string, "/mission/status", self._on_status, LATCHED),
         ]
-        self.server = None if self.faults.no_nav_server else ActionServer(
-            n, self.nav_action, "navigate_to_pose", execute_callback=self._execute,
-            goal_callback=lambda _req: GoalResponse.ACCEPT, cancel_callback=lambda _h: CancelResponse.ACCEPT,
-        )  # fmt: skip
+        self.server = (
+            None
+            if self.faults.no_nav_server
+            else ActionServer(
+                n,
+                self.nav_action,
+                "navigate_to_pose",
+                execute_callback=self._execute,
+                goal_callback=lambda _req: GoalResponse.ACCEPT,
+                cancel_callback=lambda _h: CancelResponse.ACCEPT,
+            )
+        )
         self._publish_static()
 
     def _publish_static(self) -> None:
@@ -166,11 +174,16 @@ class SimRobot:
         if self.faults.no_tf:
             return
         statics = [
-            transform_stamped(m, se3.transform(se3.rot_y(math.radians(cam.pitch_deg)), (cam.x, cam.y, cam.z)), t,
-                              "base_link", "camera_link"),
+            transform_stamped(
+                m,
+                se3.transform(se3.rot_y(math.radians(cam.pitch_deg)), (cam.x, cam.y, cam.z)),
+                t,
+                "base_link",
+                "camera_link",
+            ),
             transform_stamped(m, se3.transform(se3.R_BODY_OPTICAL), t, "camera_link", "camera_optical_frame"),
             transform_stamped(m, se3.transform(None, (0.0, 0.0, lidar_z)), t, "base_link", "base_scan"),
-        ]  # fmt: skip
+        ]
         self.pub["tf_static"].publish(self.tf_message(transforms=statics))
 
     # -- ROS callbacks (run by _spin, on this thread) ------------------------------------------------------

@@ -66,13 +66,17 @@ class _Link:
         if stamp > newest:
             if stamp - newest <= tolerance_s:
                 return self.transforms[-1]
-            raise TfError("stale", f"{self.parent} → {child}: the newest transform ({newest:.3f} s) is "
-                                   f"{stamp - newest:.2f} s older than the time asked for ({stamp:.3f} s)")  # fmt: skip
+            raise TfError(
+                "stale",
+                f"{self.parent} → {child}: the newest transform ({newest:.3f} s) is "
+                f"{stamp - newest:.2f} s older than the time asked for ({stamp:.3f} s)",
+            )
         if stamp < oldest:
             if oldest - stamp <= tolerance_s:
                 return self.transforms[0]
-            raise TfError("past", f"{self.parent} → {child}: {stamp:.3f} s is older than the buffer holds "
-                                  f"(from {oldest:.3f} s)")  # fmt: skip
+            raise TfError(
+                "past", f"{self.parent} → {child}: {stamp:.3f} s is older than the buffer holds (from {oldest:.3f} s)"
+            )
         i = bisect.bisect_left(self.stamps, stamp)
         t1 = self.stamps[i]
         if t1 == stamp:

@@ -118,8 +118,9 @@ CLOCK_JUMP_NOTICE_S = 2.0  # /robot/fault says the clock jumped back for this lo
 class CachedWorld:
     """The shared half of a ROS-message world. Subclasses provide ``now()`` and ``emit()``."""
 
-    def __init__(self, topics: RosTopics, msgs: MessageFactory, warn: Any = lambda message: None,
-                 say: Any = None) -> None:  # fmt: skip
+    def __init__(
+        self, topics: RosTopics, msgs: MessageFactory, warn: Any = lambda message: None, say: Any = None
+    ) -> None:
         self.topics = topics
         self.msgs = msgs
         self.warn = warn
@@ -127,9 +128,13 @@ class CachedWorld:
             camera_frame=topics.camera_frame, info_tolerance_s=topics.camera_info_tolerance_s, warn=warn
         )
         self.frames = RobotFrames(
-            map_frame=topics.map_frame, odom_frame=topics.odom_frame, base_frame=topics.base_frame,
-            fallback_mount=topics.camera_extrinsics(), tolerance_s=topics.tf_tolerance_s, say=say or (lambda m: None),
-        )  # fmt: skip
+            map_frame=topics.map_frame,
+            odom_frame=topics.odom_frame,
+            base_frame=topics.base_frame,
+            fallback_mount=topics.camera_extrinsics(),
+            tolerance_s=topics.tf_tolerance_s,
+            say=say or (lambda m: None),
+        )
         self.navigation: Navigation = TopicNavigation(self.emit, msgs, topics.goal_tolerance_m)
         self._frame_seq = 0
         self._goal: NavGoal | None = None

@@ -37,8 +37,9 @@ def compare_sweeps(a: str | Path, b: str | Path) -> tuple[list[CellComparison], 
         sa, sb = _one_cell_per_scenario(ca), _one_cell_per_scenario(cb)
         if sa and sb and set(sa) & set(sb):
             pairs = [(sa[s], sb[s]) for s in sa if s in sb]
-            notes.append("no cell has the same settings in both sweeps; scenarios matched instead (A's settings "
-                         "against B's)")  # fmt: skip
+            notes.append(
+                "no cell has the same settings in both sweeps; scenarios matched instead (A's settings against B's)"
+            )
     matched_a, matched_b = {p[0] for p in pairs}, {p[1] for p in pairs}
     notes += [f"only in A: {_name(k)}" for k in ca if k not in matched_a]
     notes += [f"only in B: {_name(k)}" for k in cb if k not in matched_b]
@@ -82,8 +83,9 @@ def text_table(a: str | Path, b: str | Path, rows: Sequence[CellComparison], not
     return "\n".join(lines)
 
 
-def write_html(path: str | Path, a: str | Path, b: str | Path, rows: Sequence[CellComparison],
-               notes: Sequence[str]) -> Path:  # fmt: skip
+def write_html(
+    path: str | Path, a: str | Path, b: str | Path, rows: Sequence[CellComparison], notes: Sequence[str]
+) -> Path:
     """The comparison as a page (with links to both summaries)."""
     e = html.escape
     out = [
@@ -96,9 +98,11 @@ def write_html(path: str | Path, a: str | Path, b: str | Path, rows: Sequence[Ce
     ]
     for c in rows:
         cls = " class='sig'" if c.comparison.significant else ""
-        out.append(f"<tr><td>{e(c.scenario)}</td><td><code>{e(c.a_set or '—')}</code></td>"
-                   f"<td>{e(c.comparison.a.text())}</td><td><code>{e(c.b_set or '—')}</code></td>"
-                   f"<td>{e(c.comparison.b.text())}</td><td{cls}>{e(c.comparison.note())}</td></tr>")  # fmt: skip
+        out.append(
+            f"<tr><td>{e(c.scenario)}</td><td><code>{e(c.a_set or '—')}</code></td>"
+            f"<td>{e(c.comparison.a.text())}</td><td><code>{e(c.b_set or '—')}</code></td>"
+            f"<td>{e(c.comparison.b.text())}</td><td{cls}>{e(c.comparison.note())}</td></tr>"
+        )
     out.append("</table>")
     out += [f"<p>{e(n)}</p>" for n in notes]
     out.append(f"<p>Significant: p &lt; {SIGNIFICANT_P}. Rates with 95 % Wilson intervals.</p></body></html>")

@@ -72,8 +72,7 @@ class SweepOutcome:
 
 
 @contextlib.contextmanager
-def connect(scheduler: str | None = None, workers: int | None = None,
-            dashboard: int | None = None) -> Iterator[Any]:  # fmt: skip
+def connect(scheduler: str | None = None, workers: int | None = None, dashboard: int | None = None) -> Iterator[Any]:
     """A Dask client: on `scheduler` when given, else on a LocalCluster on 127.0.0.1 with `workers`
     processes (default: one per core). `dashboard`: the scheduler's HTTP port on loopback (0: any free)."""
     import dask
@@ -83,8 +82,10 @@ def connect(scheduler: str | None = None, workers: int | None = None,
         try:
             client = Client(scheduler, timeout="15s")
         except (OSError, TimeoutError) as err:
-            raise MissionError(f"--scheduler {scheduler}: cannot connect ({err}); expected the address of a "
-                               "running dask scheduler, e.g. tcp://host:8786") from None  # fmt: skip
+            raise MissionError(
+                f"--scheduler {scheduler}: cannot connect ({err}); expected the address of a "
+                "running dask scheduler, e.g. tcp://host:8786"
+            ) from None
         try:
             yield client
         finally:
@@ -143,8 +144,10 @@ def check_workers(client: Any, scheduler: str | None) -> int:
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_S)
     except TimeoutError:
-        raise MissionError(f"--scheduler {scheduler}: no worker joined within {WORKER_WAIT_S:.0f} s; start "
-                           f"workers with `dask worker {scheduler}`") from None  # fmt: skip
+        raise MissionError(
+            f"--scheduler {scheduler}: no worker joined within {WORKER_WAIT_S:.0f} s; start "
+            f"workers with `dask worker {scheduler}`"
+        ) from None
     here = worker_identity()
     for address, theirs in client.run(worker_identity).items():
         commits = (theirs.get("commit"), here.get("commit"))
@@ -174,10 +177,16 @@ class _Bar:
             from rich.console import Console
 
             self._progress = rp.Progress(
-                rp.TextColumn("sweep"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
-                rp.TimeRemainingColumn(), rp.TextColumn("{task.description}"), console=Console(stderr=True),
-                redirect_stdout=False, redirect_stderr=False,
-            )  # fmt: skip
+                rp.TextColumn("sweep"),
+                rp.BarColumn(),
+                rp.MofNCompleteColumn(),
+                rp.TimeElapsedColumn(),
+                rp.TimeRemainingColumn(),
+                rp.TextColumn("{task.description}"),
+                console=Console(stderr=True),
+                redirect_stdout=False,
+                redirect_stderr=False,
+            )
             self._progress.__enter__()
             note = f"{self.skipped} finished before, skipped" if self.skipped else ""
             self._task = self._progress.add_task(note, total=self.total)
@@ -255,8 +264,16 @@ def run_sweep(
     return result
 
 
-def _drive(client: Any, todo: list[RunSpec], store: SweepStore, result: SweepOutcome, progress: bool,
-           budget_s: float | None, t0: float, on_result: Callable[[RunResult], None] | None) -> None:  # fmt: skip
+def _drive(
+    client: Any,
+    todo: list[RunSpec],
+    store: SweepStore,
+    result: SweepOutcome,
+    progress: bool,
+    budget_s: float | None,
+    t0: float,
+    on_result: Callable[[RunResult], None] | None,
+) -> None:
     from distributed import as_completed
     from distributed.client import FutureCancelledError
     from distributed.scheduler import KilledWorker

@@ -39,8 +39,9 @@ def parse_seeds(text: str) -> tuple[int, ...]:
         except ValueError:
             lo = hi = -1
         if lo < 0 or hi < lo:
-            raise ConfigError(f"expected seeds as A-B, N or a comma-separated list of them (e.g. 0-999), got {part!r}",
-                              key="--seeds")  # fmt: skip
+            raise ConfigError(
+                f"expected seeds as A-B, N or a comma-separated list of them (e.g. 0-999), got {part!r}", key="--seeds"
+            )
         if hi - lo >= MAX_SEEDS:
             raise ConfigError(f"{part}: at most {MAX_SEEDS} seeds in one range", key="--seeds")
         seeds += range(lo, hi + 1)
@@ -154,8 +155,13 @@ class SweepPlan:
         a run of other code would not be the same run)."""
         config = file_record(self.config_file) if self.config_file else None
         tree = file_record(self.tree)["sha256"] if self.tree else None
-        return {"config": config, "tree": self.tree, "tree_sha256": tree, "max_duration_s": self.max_duration,
-                "source": source_fingerprint()}  # fmt: skip
+        return {
+            "config": config,
+            "tree": self.tree,
+            "tree_sha256": tree,
+            "max_duration_s": self.max_duration,
+            "source": source_fingerprint(),
+        }
 
     def check(self) -> None:
         """Every cell's config, scenario and tree checked as its runs' set-up will check them, before anything

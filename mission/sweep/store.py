@@ -51,8 +51,9 @@ class SweepStore:
     def load(self) -> SweepStore:
         """Read what is recorded (for a summary or a comparison); MissionError when `out` holds no sweep."""
         if not self.rows_path.is_file() and not (self.out / SWEEP_FILE).is_file():
-            raise MissionError(f"{self.out}: not a sweep directory (no {ROWS_FILE}); expected the --out of a "
-                               "`mission sweep`")  # fmt: skip
+            raise MissionError(
+                f"{self.out}: not a sweep directory (no {ROWS_FILE}); expected the --out of a `mission sweep`"
+            )
         self.rows = {r["run_id"]: r for r in read_jsonl(self.rows_path)}
         return self
 

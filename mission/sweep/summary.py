@@ -52,12 +52,16 @@ def write_summary(store: SweepStore) -> Path:
     """Write OUT/summary.html and its pictures from the recorded rows; returns the page's path."""
     rows = sorted(store.rows.values(), key=lambda r: (r["scenario"], r.get("set") or "", r["seed"]))
     pictures = store.out / PICTURES_DIR
-    plots = [p for p in (
-        _plot_rates(rows, pictures / "success_by_cell.png"),
-        *(_plot_param(rows, key, pictures / f"success_by_{_slug(key)}.png") for key in param_keys(rows)),
-        _plot_reacquisition(rows, pictures / "reacquisition_cdf.png"),
-        _plot_docks(rows, pictures / "dock_errors.png"),
-    ) if p is not None]  # fmt: skip
+    plots = [
+        p
+        for p in (
+            _plot_rates(rows, pictures / "success_by_cell.png"),
+            *(_plot_param(rows, key, pictures / f"success_by_{_slug(key)}.png") for key in param_keys(rows)),
+            _plot_reacquisition(rows, pictures / "reacquisition_cdf.png"),
+            _plot_docks(rows, pictures / "dock_errors.png"),
+        )
+        if p is not None
+    ]
     page = _page(store, rows, [p.relative_to(store.out) for p in plots])
     path = store.out / SUMMARY_FILE
     atomic_write_text(path, page)
@@ -143,19 +147,25 @@ def _is_number(text: str) -> bool:
 
 
 def _plot_reacquisition(rows: Sequence[dict[str, Any]], path: Path) -> Path | None:
-    series = {f"{s} {label}".strip(): sorted(t for r in g for t in (r.get("reacquisition_times_s") or []))
-              for (s, label), g in cells(rows).items()}  # fmt: skip
+    series = {
+        f"{s} {label}".strip(): sorted(t for r in g for t in (r.get("reacquisition_times_s") or []))
+        for (s, label), g in cells(rows).items()
+    }
     series = {k: v for k, v in series.items() if v}
     if not series:
         return None
     fig, ax = _figure(6.5, 3.8)
     for label, values in series.items():
         v = np.asarray(values, dtype=float)
-        ax.step(np.concatenate([[0.0], v]), np.arange(len(v) + 1) / len(v), where="post",
-                label=f"{label} ({len(v)} losses)")  # fmt: skip
+        ax.step(
+            np.concatenate([[0.0], v]), np.arange(len(v) + 1) / len(v), where="post", label=f"{label} ({len(v)} losses)"
+        )
     ax.axvline(REACQUISITION_LIMIT_S, color="grey", ls="--", lw=0.8, label=f"limit {REACQUISITION_LIMIT_S:g} s")
-    ax.set(xlabel="re-acquisition time (s)", ylabel="fraction of recovered losses",
-           title="Re-acquisition time after a loss (CDF over every run's losses)")  # fmt: skip
+    ax.set(
+        xlabel="re-acquisition time (s)",
+        ylabel="fraction of recovered losses",
+        title="Re-acquisition time after a loss (CDF over every run's losses)",
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return _save(fig, path)
@@ -174,10 +184,19 @@ def _plot_docks(rows: Sequence[dict[str, Any]], path: Path) -> Path | None:
             pts = [(100 * r["dock_lateral_m"], 100 * r["dock_distance_m"]) for r in group if bool(r["success"]) is ok]
             if pts:
                 xs, ys = zip(*pts, strict=True)
-                ax.scatter(xs, ys, marker=marker, color=colours[i % len(colours)], alpha=0.8,
-                           label=f"{name} ({'ok' if ok else 'failed'})")  # fmt: skip
-    ax.set(xlabel="lateral error (cm)", ylabel="stand-off error (cm)",
-           title="Docking errors (box: tolerance 3 cm × 2.5 cm)")  # fmt: skip
+                ax.scatter(
+                    xs,
+                    ys,
+                    marker=marker,
+                    color=colours[i % len(colours)],
+                    alpha=0.8,
+                    label=f"{name} ({'ok' if ok else 'failed'})",
+                )
+    ax.set(
+        xlabel="lateral error (cm)",
+        ylabel="stand-off error (cm)",
+        title="Docking errors (box: tolerance 3 cm × 2.5 cm)",
+    )
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
@@ -226,20 +245,28 @@ def _page(store: SweepStore, rows: Sequence[dict[str, Any]], plots: Sequence[Pat
     body = [*head, "<h2>Success rate per cell</h2>", _cells_table(rows)]
     if plots:
         body += ["<h2>Pictures</h2>", "<div>"]
-        body += [f"<a href='{e(p.as_posix())}'><img class='plot' src='{e(p.as_posix())}' alt='{e(p.stem)}'></a>"
-                 for p in plots]  # fmt: skip
+        body += [
+            f"<a href='{e(p.as_posix())}'><img class='plot' src='{e(p.as_posix())}' alt='{e(p.stem)}'></a>"
+            for p in plots
+        ]
         body += ["</div>"]
     body += [f"<h2>Failing runs ({len(failing)})</h2>", _failures_table(failing) if failing else "<p>None.</p>"]
-    return ("<!doctype html><html><head><meta charset='utf-8'><title>mission sweep</title>"
-            f"<style>{STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n")  # fmt: skip
+    return (
+        "<!doctype html><html><head><meta charset='utf-8'><title>mission sweep</title>"
+        f"<style>{STYLE}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n"
+    )
 
 
 def _plan_text(plan: dict[str, Any]) -> str:
     """``scenarios a, b · seeds 0-19 · --set K=V1,V2 · --max-duration 12``: the plan as it was typed."""
     parts = [f"scenarios {', '.join(plan.get('scenarios') or [])}", f"seeds {plan.get('seeds')}"]
     parts += [f"--set {k}={','.join(format_value(v) for v in vs)}" for k, vs in (plan.get("set") or {}).items()]
-    for key, flag in (("config_file", "--config"), ("tree", "--tree"), ("max_duration_s", "--max-duration"),
-                      ("pictures", "--pictures")):  # fmt: skip
+    for key, flag in (
+        ("config_file", "--config"),
+        ("tree", "--tree"),
+        ("max_duration_s", "--max-duration"),
+        ("pictures", "--pictures"),
+    ):
         if plan.get(key) is not None:
             parts.append(f"{flag} {plan[key]:g}" if isinstance(plan[key], float) else f"{flag} {plan[key]}")
     return " · ".join(parts)
@@ -251,9 +278,11 @@ def _median(values: Sequence[float]) -> str:
 
 def _cells_table(rows: Sequence[dict[str, Any]]) -> str:
     e = html.escape
-    out = ["<table><tr><th>scenario</th><th>settings</th><th>runs</th><th>success rate</th>"
-           "<th>losses recovered</th><th>re-acquisition median / max (s)</th>"
-           "<th>dock lateral / stand-off median (cm)</th><th>collisions</th></tr>"]  # fmt: skip
+    out = [
+        "<table><tr><th>scenario</th><th>settings</th><th>runs</th><th>success rate</th>"
+        "<th>losses recovered</th><th>re-acquisition median / max (s)</th>"
+        "<th>dock lateral / stand-off median (cm)</th><th>collisions</th></tr>"
+    ]
     for (scenario, label), group in cells(rows).items():
         r = rate(group)
         losses = sum(int(g.get("loss_events") or 0) for g in group)
@@ -275,17 +304,24 @@ def _cells_table(rows: Sequence[dict[str, Any]]) -> str:
 
 def _failures_table(failing: Sequence[dict[str, Any]]) -> str:
     e = html.escape
-    out = ["<table><tr><th>scenario</th><th>settings</th><th>seed</th><th>reason</th><th>pictures</th>"
-           "<th>reproduce</th></tr>"]  # fmt: skip
+    out = [
+        "<table><tr><th>scenario</th><th>settings</th><th>seed</th><th>reason</th><th>pictures</th>"
+        "<th>reproduce</th></tr>"
+    ]
     for r in failing:
         folder = r.get("report_dir") or ""
         links = [f"<a href='{e(folder)}/report.json'>report.json</a>"]
         thumb = ""
         if r.get("pictures"):
-            links = [f"<a href='{e(folder)}/report.html'>report</a>", *links,
-                     f"<a href='{e(folder)}/timeline.png'>timeline</a>"]  # fmt: skip
-            thumb = (f"<a href='{e(folder)}/trajectories.png'><img class='thumb' src='{e(folder)}/trajectories.png' "
-                     "alt='trajectories'></a><br>")  # fmt: skip
+            links = [
+                f"<a href='{e(folder)}/report.html'>report</a>",
+                *links,
+                f"<a href='{e(folder)}/timeline.png'>timeline</a>",
+            ]
+            thumb = (
+                f"<a href='{e(folder)}/trajectories.png'><img class='thumb' src='{e(folder)}/trajectories.png' "
+                "alt='trajectories'></a><br>"
+            )
         out.append(
             f"<tr><td>{e(r['scenario'])}</td><td><code>{e(r.get('set') or '—')}</code></td>"
             f"<td class='num'>{r['seed']}</td><td class='fail'>{e(str(r.get('reason', '')))}</td>"

@@ -69,8 +69,9 @@ def _num(value: Any) -> float | None:
     return float(value)
 
 
-def outcome_row(spec: Any, outcome: dict[str, Any], reacquisitions: Sequence[float], *, pictures: bool,
-                worker: str) -> dict[str, Any]:  # fmt: skip
+def outcome_row(
+    spec: Any, outcome: dict[str, Any], reacquisitions: Sequence[float], *, pictures: bool, worker: str
+) -> dict[str, Any]:
     """The row of a run: `spec` (plan.RunSpec), its outcome (RunOutcome.to_json()) and every re-acquisition
     time (s) of the run, for the CDFs."""
     m = outcome.get("metrics") or {}
@@ -167,8 +168,13 @@ def _json_default(o: Any) -> Any:
 def parquet_schema(param_keys: Iterable[str]) -> Any:
     import pyarrow as pa
 
-    types = {"string": pa.string(), "int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
-             "list<float64>": pa.list_(pa.float64())}  # fmt: skip
+    types = {
+        "string": pa.string(),
+        "int64": pa.int64(),
+        "float64": pa.float64(),
+        "bool": pa.bool_(),
+        "list<float64>": pa.list_(pa.float64()),
+    }
     fields = [pa.field(name, types[kind]) for name, kind in COLUMNS]
     fields += [pa.field(f"set:{key}", pa.string()) for key in param_keys]
     fields += [pa.field(f"{name}_json", pa.string()) for name in NESTED]

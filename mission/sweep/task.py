@@ -62,8 +62,13 @@ def run_one(spec: RunSpec) -> RunResult:
             )
         except Exception as err:  # a crash is this run's outcome, recorded like any failure
             last = traceback.format_exception_only(type(err), err)[-1].strip()
-            data = {"success": False, "reason": f"crashed: {last}", "crashed": True,
-                    "wall_time_s": round(time.perf_counter() - wall0, 3), "metrics": {}}  # fmt: skip
+            data = {
+                "success": False,
+                "reason": f"crashed: {last}",
+                "crashed": True,
+                "wall_time_s": round(time.perf_counter() - wall0, 3),
+                "metrics": {},
+            }
             row = outcome_row(spec, data, [], pictures=False, worker=worker_name())
             row["task_s"], row["task_cpu_s"] = data["wall_time_s"], round(time.process_time() - cpu0, 3)
             return RunResult(spec.run_id, row, {})

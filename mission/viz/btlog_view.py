@@ -25,8 +25,13 @@ from mission.groot.btlog import read_btlog
 from mission.viz.model import VizNode, count, from_description, to_dict
 from mission.viz.tick_log import LOG_VERSION, TickLogData
 
-_STATUS_NAMES = {p.IDLE: "INVALID", p.RUNNING: "RUNNING", p.SUCCESS: "SUCCESS", p.FAILURE: "FAILURE",
-                 p.SKIPPED: "INVALID"}  # fmt: skip
+_STATUS_NAMES = {
+    p.IDLE: "INVALID",
+    p.RUNNING: "RUNNING",
+    p.SUCCESS: "SUCCESS",
+    p.FAILURE: "FAILURE",
+    p.SKIPPED: "INVALID",
+}
 _EXPLICIT = ("Action", "Condition", "Control", "Decorator")
 _NOT_PORTS = frozenset({"ID", "name", "_uid", "_fullpath"})
 
@@ -55,12 +60,23 @@ def _tree_from_xml(xml: str, where: Path) -> tuple[VizNode, list[int]]:
             tree_id = el.get("ID", "")
             inner = instances.get(el.get("_fullpath", ""))
             children = [node(inner[0], depth + 1)] if inner is not None and len(inner) else []
-            return {"tag": "SubTree", "name": _subtree_name(el), "kind": "SubTree", "ports": ports,
-                    "children": children, "subtree": tree_id}  # fmt: skip
+            return {
+                "tag": "SubTree",
+                "name": _subtree_name(el),
+                "kind": "SubTree",
+                "ports": ports,
+                "children": children,
+                "subtree": tree_id,
+            }
         tag = el.get("ID", "") if el.tag in _EXPLICIT else el.tag
         kind = el.tag if el.tag in _EXPLICIT else kinds.get(tag)
-        return {"tag": tag, "name": el.get("name") or tag, "kind": kind, "ports": ports,
-                "children": [node(child, depth + 1) for child in el]}  # fmt: skip
+        return {
+            "tag": tag,
+            "name": el.get("name") or tag,
+            "kind": kind,
+            "ports": ports,
+            "children": [node(child, depth + 1) for child in el],
+        }
 
     main = instances.get("") or root.find("BehaviorTree")
     assert main is not None
@@ -84,8 +100,16 @@ def read_btlog_ticks(path: str | Path) -> TickLogData:
     index = {uid: i for i, uid in enumerate(uids)}
     status = [p.IDLE] * len(uids)
     created = time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(log.start_us / 1e6))
-    header = {"kind": "header", "version": LOG_VERSION, "format": "btlog", "created": created,
-              "tree_file": None, "nodes": count(root), "tree": to_dict(root), "map": None}  # fmt: skip
+    header = {
+        "kind": "header",
+        "version": LOG_VERSION,
+        "format": "btlog",
+        "created": created,
+        "tree_file": None,
+        "nodes": count(root),
+        "tree": to_dict(root),
+        "map": None,
+    }
     data = TickLogData(path=log.path, header=header)
     unknown = 0
     for step, (t_us, group) in enumerate(groupby(log.transitions, key=lambda t: t.t_us), start=1):
@@ -102,8 +126,9 @@ def read_btlog_ticks(path: str | Path) -> TickLogData:
                 shown[i] = p.IDLE
             # else: finished, and reset as its parent finished in this step: drawn with its result
         rows = [[_STATUS_NAMES.get(s, "INVALID"), "skipped" if s == p.SKIPPED else "", None] for s in shown]
-        data.ticks.append({"tick": step, "t": round(t_us / 1e6, 6), "status": rows[0][0], "state": "",
-                           "reason": "", "nodes": rows})  # fmt: skip
+        data.ticks.append(
+            {"tick": step, "t": round(t_us / 1e6, 6), "status": rows[0][0], "state": "", "reason": "", "nodes": rows}
+        )
     if unknown:
         raise MissionError(f"{log.path}: {unknown} transition(s) name a UID that is not in the log's tree")
     if log.torn:

@@ -17,13 +17,34 @@ KINDS = ("Action", "Condition", "Control", "Decorator", "SubTree")
 
 # BehaviorTree.CPP tags (and py_trees classes) that are control flow, for descriptions without a kind.
 _CONTROL_TAGS = {
-    "Sequence", "ReactiveSequence", "SequenceWithMemory", "Fallback", "ReactiveFallback", "Selector",
-    "Parallel", "ParallelAll", "IfThenElse", "WhileDoElse", "Switch",
-}  # fmt: skip
+    "Sequence",
+    "ReactiveSequence",
+    "SequenceWithMemory",
+    "Fallback",
+    "ReactiveFallback",
+    "Selector",
+    "Parallel",
+    "ParallelAll",
+    "IfThenElse",
+    "WhileDoElse",
+    "Switch",
+}
 _DECORATOR_TAGS = {
-    "Inverter", "ForceSuccess", "ForceFailure", "RetryUntilSuccessful", "Repeat", "Timeout", "KeepRunningUntilFailure",
-    "Delay", "RunOnce", "SuccessIsFailure", "FailureIsSuccess", "Retry", "OneShot", "EternalGuard",
-}  # fmt: skip
+    "Inverter",
+    "ForceSuccess",
+    "ForceFailure",
+    "RetryUntilSuccessful",
+    "Repeat",
+    "Timeout",
+    "KeepRunningUntilFailure",
+    "Delay",
+    "RunOnce",
+    "SuccessIsFailure",
+    "FailureIsSuccess",
+    "Retry",
+    "OneShot",
+    "EternalGuard",
+}
 
 
 @dataclass

@@ -66,20 +66,29 @@ def render_png(
         radius = 12.0 if n.kind == "Condition" else 5.0
         ax.add_patch(
             FancyBboxPatch(
-                (box.x, top + box.y), box.w, box.h,
+                (box.x, top + box.y),
+                box.w,
+                box.h,
                 boxstyle=f"round,pad=0,rounding_size={radius}",
-                facecolor=fill, edgecolor=frame, linewidth=lw * 0.75,
+                facecolor=fill,
+                edgecolor=frame,
+                linewidth=lw * 0.75,
                 linestyle="--" if n.kind == "SubTree" else "-",
             )
-        )  # fmt: skip
+        )
         ax.add_patch(
             Rectangle((box.x + 1, top + box.y + 1), STRIPE_W, box.h - 2, facecolor=KIND_COLOURS.get(n.kind, MUTED))
         )
         for line in crd.lines:
             ax.text(
-                box.x + PAD_X, top + box.y + line.baseline, line.text,
-                fontsize=line.size, family="DejaVu Sans", va="baseline", **_ROLE_STYLE[line.role],
-            )  # fmt: skip
+                box.x + PAD_X,
+                top + box.y + line.baseline,
+                line.text,
+                fontsize=line.size,
+                family="DejaVu Sans",
+                va="baseline",
+                **_ROLE_STYLE[line.role],
+            )
     path = Path(path)
     try:
         with atomic_path(path) as tmp:

@@ -70,8 +70,9 @@ def compose(
     """Camera (scaled to `height`) | map (scaled to `height`), with `top(width)` above them; BGR, even sizes."""
     if camera is None:
         cam = np.full((height, round(height * 4 / 3), 3), 40, np.uint8)
-        cv2.putText(cam, "no camera image", (20, height // 2), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (200, 200, 200), 1,
-                    cv2.LINE_AA)  # fmt: skip
+        cv2.putText(
+            cam, "no camera image", (20, height // 2), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (200, 200, 200), 1, cv2.LINE_AA
+        )
     else:
         h, w = camera.shape[:2]
         cam = cv2.resize(camera, (max(2, round(w * height / h)), height), interpolation=cv2.INTER_AREA)
@@ -125,9 +126,16 @@ class Recorder(RunObserver):
 
             try:
                 self._writer = iio.get_writer(
-                    str(self.path), format="FFMPEG", mode="I", fps=self.fps, codec="libx264", quality=7,
-                    pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error",
-                )  # fmt: skip
+                    str(self.path),
+                    format="FFMPEG",
+                    mode="I",
+                    fps=self.fps,
+                    codec="libx264",
+                    quality=7,
+                    pixelformat="yuv420p",
+                    macro_block_size=2,
+                    ffmpeg_log_level="error",
+                )
             except Exception as err:  # imageio-ffmpeg missing or broken
                 raise MissionError(f"--record {self.path}: cannot write MP4 ({err}); record a .gif instead") from err
 
@@ -171,8 +179,9 @@ class Recorder(RunObserver):
             if pm is not None:
                 estimates.append((float(pm[0][3]), float(pm[1][3])))
         assert self._view is not None
-        map_img = self._view.draw(robot, target, goal_p, self._robot_trail[-2000:], self._target_trail[-2000:],
-                                  estimates)  # fmt: skip
+        map_img = self._view.draw(
+            robot, target, goal_p, self._robot_trail[-2000:], self._target_trail[-2000:], estimates
+        )
         annotate_scale(map_img, self._view)
         fields = [f"t = {t:.1f} s"]
         if robot is not None and target is not None:
@@ -204,6 +213,14 @@ class Recorder(RunObserver):
         if self.is_gif and self.frames:
             duration_ms = round(1000.0 * self._stride / self.fps)
             with atomic_path(self.path) as tmp:
-                self.frames[0].save(tmp, format="GIF", save_all=True, append_images=self.frames[1:],
-                                    duration=duration_ms, loop=0, optimize=False, disposal=1)  # fmt: skip
+                self.frames[0].save(
+                    tmp,
+                    format="GIF",
+                    save_all=True,
+                    append_images=self.frames[1:],
+                    duration=duration_ms,
+                    loop=0,
+                    optimize=False,
+                    disposal=1,
+                )
             self.frames = []

@@ -70,9 +70,9 @@ class TransitionTrees(RunObserver):
         for k, m in enumerate(self.moments):
             root = apply_tick(from_snapshot(self._tree), m["nodes"])
             state = m["state"] or "no state"
-            what = "final tick" if m.get("final") and m.get("from") == m["state"] else (
-                f"{m['from'] or 'start'} → {state}"
-            )  # fmt: skip
+            what = (
+                "final tick" if m.get("final") and m.get("from") == m["state"] else f"{m['from'] or 'start'} → {state}"
+            )
             title = f"t = {m['t'] or 0:.1f} s · tick {m['tick']} · {what}"
             name = f"{k:02d}_t{(m['t'] or 0):07.1f}_{(m['state'] or 'none').lower()}.svg"
             path = write_output(tree_dir / name, render_svg(root, feedback=True, title=title).encode("utf-8"))
@@ -86,12 +86,15 @@ class TransitionTrees(RunObserver):
         ok = out.get("success")
         verdict = "SUCCESS" if ok else ("FAILURE" if ok is not None else "")
         facts = [
-            ("scenario", out.get("scenario")), ("seed", out.get("seed")), ("reason", out.get("reason")),
-            ("final state", out.get("final_state")), ("tree status", out.get("tree_status")),
+            ("scenario", out.get("scenario")),
+            ("seed", out.get("seed")),
+            ("reason", out.get("reason")),
+            ("final state", out.get("final_state")),
+            ("tree status", out.get("tree_status")),
             ("simulated", f"{out.get('sim_time_s', 0):.1f} s" if "sim_time_s" in out else None),
             ("wall time", f"{out.get('wall_time_s', 0):.1f} s" if "wall_time_s" in out else None),
             ("ticks", out.get("ticks")),
-        ]  # fmt: skip
+        ]
         metrics = out.get("metrics") or {}
         for key in ("loss_events", "loss_events_recovered", "collisions"):
             if key in metrics:

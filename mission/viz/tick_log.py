@@ -198,6 +198,10 @@ def read_log(path: str | Path) -> TickLogData:
         raise MissionError(f"{path}: empty tick log; expected a header line")
     if torn is not None:
         data.torn_line = torn
-        log.warning("%s:%d: last line cut off mid-write (the run was interrupted); skipped it, read %d ticks before it",
-                    path, torn, len(data.ticks))  # fmt: skip
+        log.warning(
+            "%s:%d: last line cut off mid-write (the run was interrupted); skipped it, read %d ticks before it",
+            path,
+            torn,
+            len(data.ticks),
+        )
     return data

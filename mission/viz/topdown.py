@@ -35,9 +35,10 @@ class MapView:
             cells = 100
             res = fallback_extent_m / cells
             grid = OccupancyGrid(
-                data=np.zeros((cells, cells), np.int8), resolution=res,
+                data=np.zeros((cells, cells), np.int8),
+                resolution=res,
                 origin=Pose2D(-fallback_extent_m / 2, -fallback_extent_m / 2, 0.0),
-            )  # fmt: skip
+            )
         self.grid = grid
         h, w = grid.data.shape
         self.scale = size / max(h, w)  # px per cell

@@ -35,9 +35,14 @@ class GeminiClient:
     """A VlmClient on Gemini's generateContent: the image and the prompt in, normalised [y, x] points out."""
 
     def __init__(
-        self, settings: GeminiSettings, remote: RemoteSettings, budget: RequestBudget | None, *, api_key: str,
+        self,
+        settings: GeminiSettings,
+        remote: RemoteSettings,
+        budget: RequestBudget | None,
+        *,
+        api_key: str,
         seed: int = 0,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.settings = settings
         self.remote = remote
         self._key = api_key
@@ -60,12 +65,17 @@ class GeminiClient:
             config["thinkingConfig"] = {"thinkingBudget": s.thinking_budget}
         data = jpeg_base64(image, max_side=self.remote.max_image_side_px, quality=self.remote.jpeg_quality)
         return {
-            "contents": [{"role": "user", "parts": [
-                {"inline_data": {"mime_type": "image/jpeg", "data": data}},
-                {"text": prompt_for(s.prompt, label)},
-            ]}],
+            "contents": [
+                {
+                    "role": "user",
+                    "parts": [
+                        {"inline_data": {"mime_type": "image/jpeg", "data": data}},
+                        {"text": prompt_for(s.prompt, label)},
+                    ],
+                }
+            ],
             "generationConfig": config,
-        }  # fmt: skip
+        }
 
     def locate(self, image: np.ndarray, label: str) -> list[VlmPoint]:
         headers = {"x-goog-api-key": self._key, "content-type": "application/json"}
@@ -73,9 +83,11 @@ class GeminiClient:
         usage = answer.get("usageMetadata")
         if isinstance(usage, dict):
             self.usage.add_tokens(
-                input_tokens=usage.get("promptTokenCount"), output_tokens=usage.get("candidatesTokenCount"),
-                total_tokens=usage.get("totalTokenCount"), thinking_tokens=usage.get("thoughtsTokenCount"),
-            )  # fmt: skip
+                input_tokens=usage.get("promptTokenCount"),
+                output_tokens=usage.get("candidatesTokenCount"),
+                total_tokens=usage.get("totalTokenCount"),
+                thinking_tokens=usage.get("thoughtsTokenCount"),
+            )
         read = self._caller.read_answer(lambda: self._answer_text(answer))
         self.last_note = read.note
         return read.points

@@ -31,9 +31,14 @@ class OpenAiChatClient:
     [y, x] points out."""
 
     def __init__(
-        self, settings: OpenAiSettings, remote: RemoteSettings, budget: RequestBudget | None, *,
-        api_key: str | None = None, seed: int = 0,
-    ) -> None:  # fmt: skip
+        self,
+        settings: OpenAiSettings,
+        remote: RemoteSettings,
+        budget: RequestBudget | None,
+        *,
+        api_key: str | None = None,
+        seed: int = 0,
+    ) -> None:
         if not settings.model:
             raise ConfigError("name the served model (as the server lists it at /v1/models)", key="openai.model")
         self.settings = settings
@@ -55,12 +60,21 @@ class OpenAiChatClient:
         messages: list[dict[str, Any]] = []
         if s.system_prompt:
             messages.append({"role": "system", "content": s.system_prompt})
-        messages.append({"role": "user", "content": [
-            {"type": "text", "text": prompt_for(s.prompt, label)},
-            {"type": "image_url", "image_url": {"url": f"data:image/jpeg;base64,{data}"}},
-        ]})  # fmt: skip
-        body: dict[str, Any] = {"model": s.model, "messages": messages, "max_tokens": s.max_tokens,
-                                "temperature": s.temperature}  # fmt: skip
+        messages.append(
+            {
+                "role": "user",
+                "content": [
+                    {"type": "text", "text": prompt_for(s.prompt, label)},
+                    {"type": "image_url", "image_url": {"url": f"data:image/jpeg;base64,{data}"}},
+                ],
+            }
+        )
+        body: dict[str, Any] = {
+            "model": s.model,
+            "messages": messages,
+            "max_tokens": s.max_tokens,
+            "temperature": s.temperature,
+        }
         if s.json_mode:
             body["response_format"] = {"type": "json_object"}
         return body
@@ -72,8 +86,11 @@ class OpenAiChatClient:
         answer = self._caller.post_json(self.url, self.request_body(image, label), headers)
         usage = answer.get("usage")
         if isinstance(usage, dict):
-            self.usage.add_tokens(input_tokens=usage.get("prompt_tokens"), output_tokens=usage.get("completion_tokens"),
-                                  total_tokens=usage.get("total_tokens"))  # fmt: skip
+            self.usage.add_tokens(
+                input_tokens=usage.get("prompt_tokens"),
+                output_tokens=usage.get("completion_tokens"),
+                total_tokens=usage.get("total_tokens"),
+            )
         read = self._caller.read_answer(lambda: self._answer_text(answer))
         self.last_note = read.note
         return read.points
@@ -103,6 +120,9 @@ def openai_client(params: VlmParams, budget: RequestBudget) -> OpenAiChatClient:
     if s.api_key_env:
         key = os.environ.get(s.api_key_env, "").strip()
         if not key:
-            raise ConfigError(f"the environment variable {s.api_key_env} is not set (or unset openai.api_key_env "
-                              "for a server without a key)", key="openai.api_key_env")  # fmt: skip
+            raise ConfigError(
+                f"the environment variable {s.api_key_env} is not set (or unset openai.api_key_env "
+                "for a server without a key)",
+                key="openai.api_key_env",
+            )
     return OpenAiChatClient(s, params.remote, budget, api_key=key, seed=params.seed)

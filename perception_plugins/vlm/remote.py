@@ -283,8 +283,9 @@ class RemoteCaller:
                 data = None
             if not isinstance(data, dict):
                 snippet = one_line(resp.text, 80)
-                return self._error("bad_response", f"{what}: HTTP {status} but not a JSON object: {snippet!r}",
-                                      status=status), None  # fmt: skip
+                return self._error(
+                    "bad_response", f"{what}: HTTP {status} but not a JSON object: {snippet!r}", status=status
+                ), None
             self.usage.answers += 1
             return data
         details = self._details(resp)
