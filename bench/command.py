@@ -35,8 +35,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small sweep, under 2 minutes on 2 cores")
     p.add_argument("--json", action="store_true", help="print machine-readable results")
     p.add_argument("--only", default=None, help="comma-separated benchmark names")
-    p.add_argument("-o", "--output", default=None, metavar="DIR",
-                   help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)")
+    p.add_argument(
+        "-o",
+        "--output",
+        default=None,
+        metavar="DIR",
+        help="where figures go (default bench/results; with --quick out/bench-quick, never bench/results)",
+    )
     return p
 
 
@@ -106,8 +111,10 @@ def output_dir(args: argparse.Namespace) -> Path:
     writable. A quick run is refused the committed results directory (it would replace full-run figures)."""
     out = Path(args.output) if args.output is not None else default_output(args.quick)
     if args.quick and is_committed_results(out):
-        raise MissionError(f"-o {args.output}: --quick figures never go into the committed full-run results; "
-                           f"expected another directory (the default is {_shown(default_output(True))})")  # fmt: skip
+        raise MissionError(
+            f"-o {args.output}: --quick figures never go into the committed full-run results; "
+            f"expected another directory (the default is {_shown(default_output(True))})"
+        )
     try:
         ensure_dir(out)
     except OSError as err:
@@ -132,8 +139,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     entries = [_run_one(b, args.quick, out, machine, cmd) for b in chosen]
     total = round(time.perf_counter() - t0, 1)
-    summary = {"command": cmd, "machine": machine, "elapsed_s": total,
-               "benchmarks": {e["name"]: e for e in entries}}  # fmt: skip
+    summary = {"command": cmd, "machine": machine, "elapsed_s": total, "benchmarks": {e["name"]: e for e in entries}}
     atomic_write_text(out / "results.json", json.dumps(summary, indent=2, default=str) + "\n")
     if args.json:
         print(json.dumps(summary, indent=2, default=str))

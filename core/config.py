@@ -54,8 +54,12 @@ class StrictModel(BaseModel):
             out[new] = convert(value) if convert is not None else value
             if (cls.__name__, old) not in _warned:
                 _warned.add((cls.__name__, old))
-                log.warning("config key %r is deprecated: use %r (%s; the old key is read until the next release)",
-                            old, new, cls.__name__)  # fmt: skip
+                log.warning(
+                    "config key %r is deprecated: use %r (%s; the old key is read until the next release)",
+                    old,
+                    new,
+                    cls.__name__,
+                )
         return out
 
 
@@ -287,15 +291,19 @@ def check_config(cfg: MissionConfig, file: str | None = None) -> None:
     for i, (target, spec) in enumerate(targets):
         twin = next((name for name, other in targets[:i] if other == spec), None)
         if twin is not None:  # one detection would be both targets: the tree could not tell them apart
-            problems.append((
-                f"perception.targets.{target}",
-                f"looks exactly like target {twin!r}; expected a marker_id, label or source that tells them apart",
-            ))  # fmt: skip
+            problems.append(
+                (
+                    f"perception.targets.{target}",
+                    f"looks exactly like target {twin!r}; expected a marker_id, label or source that tells them apart",
+                )
+            )
         if spec.source is not None and spec.source not in names and spec.source not in plugins:
-            problems.append((
-                f"perception.targets.{target}.source",
-                f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
-            ))  # fmt: skip
+            problems.append(
+                (
+                    f"perception.targets.{target}.source",
+                    f"no perception source named {spec.source!r}; configured sources: {', '.join(names) or 'none'}",
+                )
+            )
     if problems:
         raise ConfigError.several(problems, file=file)
 

@@ -43,15 +43,22 @@ class PluginKind:
 
 
 PERCEPTION_SOURCES = PluginKind(
-    "mission.perception_plugins", "perception plugin", "known plugins",
-    "a PerceptionSource class (mission.core.perception)",
-)  # fmt: skip
+    group="mission.perception_plugins",
+    noun="perception plugin",
+    known="known plugins",
+    interface="a PerceptionSource class (mission.core.perception)",
+)
 BEHAVIOURS = PluginKind(
-    "mission.behaviours", "behaviour plugin", "known behaviour plugins",
-    "a Behaviour class declaring its ports, or register(factory)",
-)  # fmt: skip
+    group="mission.behaviours",
+    noun="behaviour plugin",
+    known="known behaviour plugins",
+    interface="a Behaviour class declaring its ports, or register(factory)",
+)
 VLM_CLIENTS = PluginKind(
-    "mission.vlm_clients", "VLM client", "known clients", "a factory (params, budget) -> VlmClient"
+    group="mission.vlm_clients",
+    noun="VLM client",
+    known="known clients",
+    interface="a factory (params, budget) -> VlmClient",
 )
 KINDS = (PERCEPTION_SOURCES, BEHAVIOURS, VLM_CLIENTS)
 
@@ -62,7 +69,7 @@ def installed(kind: PluginKind) -> dict[str, EntryPoint]:
 
 
 def provider(ep: EntryPoint) -> str:
-    """" from <distribution> <version>" when the entry point knows its distribution, else ""."""
+    """Who provides `ep`, for messages: ``" from <distribution> <version>"``, or "" when unknown."""
     dist = getattr(ep, "dist", None)
     return f" from {dist.name} {dist.version}" if dist is not None else ""
 

@@ -159,9 +159,10 @@ def _params(params: dict) -> AprilTagParams:
             raise
         problems = [  # a model-level check: name the key it is about
             (("camera_mount" if "camera_mount" in msg else None), msg.removeprefix("value error, "))
-            if key == "(top level)" else (key, msg)
+            if key == "(top level)"
+            else (key, msg)
             for key, msg in err.problems
-        ]  # fmt: skip
+        ]
         raise ConfigError.several(problems, file=err.file) from None
 
 
@@ -193,9 +194,12 @@ class AprilTagSource:
         }
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
-                p.family, decimate=p.decimate, threads=p.threads, refine_edges=p.corner_refinement == "edges",
+                p.family,
+                decimate=p.decimate,
+                threads=p.threads,
+                refine_edges=p.corner_refinement == "edges",
                 min_contrast=None if p.min_contrast == "auto" else int(p.min_contrast),
-            )  # fmt: skip
+            )
         else:
             edges = p.corner_refinement == "edges"
             self._backend = OpenCvBackend(p.family, max_hamming=p.max_hamming, refine_edges=edges)

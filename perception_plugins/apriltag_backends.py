@@ -212,9 +212,15 @@ class Apriltag3Backend:
     name = "apriltag3"
 
     def __init__(
-        self, family: str, *, decimate: float, threads: int, refine_edges: bool,
-        min_contrast: int | None = None, min_cluster_pixels: int | None = MIN_CLUSTER_PIXELS,
-    ) -> None:  # fmt: skip
+        self,
+        family: str,
+        *,
+        decimate: float,
+        threads: int,
+        refine_edges: bool,
+        min_contrast: int | None = None,
+        min_cluster_pixels: int | None = MIN_CLUSTER_PIXELS,
+    ) -> None:
         self.family = family
         self.refine_edges = refine_edges
         self._detector = SafeDetector(

@@ -96,8 +96,11 @@ def _dictionary(value: str, source: str) -> MarkerDictionary:
         return found
     log.warning(
         "%s: unsupported dictionary %r (supported: %s, or an OpenCV dictionary file .yml); falling back to %s",
-        source, value, ", ".join(SUPPORTED_DICTIONARIES), DEFAULT_DICTIONARY,
-    )  # fmt: skip
+        source,
+        value,
+        ", ".join(SUPPORTED_DICTIONARIES),
+        DEFAULT_DICTIONARY,
+    )
     return marker_dictionaries.predefined(DEFAULT_DICTIONARY)
 
 
@@ -183,9 +186,14 @@ class ArucoSource:
         return out
 
     def _detection(
-        self, frame: Frame, marker_id: int, corners: np.ndarray, size: float,
-        choice: square_pose.PoseChoice, degraded: bool,
-    ) -> Detection:  # fmt: skip
+        self,
+        frame: Frame,
+        marker_id: int,
+        corners: np.ndarray,
+        size: float,
+        choice: square_pose.PoseChoice,
+        degraded: bool,
+    ) -> Detection:
         best = choice.chosen
         side_px = square_pose.pixel_side(corners)
         extra: dict[str, Any] = {

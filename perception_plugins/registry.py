@@ -54,8 +54,9 @@ def create(cfg: SourceConfig, *, key_prefix: str = "perception.sources", file: s
     except Exception as err:  # a third-party constructor failing its own way: still one line, not a traceback
         where = ": ".join(p for p in (file, f"{key_prefix}.plugin") if p)
         why = " ".join(str(err).split())
-        raise PluginError(f"{where}: perception plugin {cfg.plugin!r} could not be created: "
-                          f"{type(err).__name__}: {why}") from err
+        raise PluginError(
+            f"{where}: perception plugin {cfg.plugin!r} could not be created: {type(err).__name__}: {why}"
+        ) from err
 
 
 def create_all(cfgs: list[SourceConfig], *, file: str | None = None) -> list[PerceptionSource]:
@@ -63,8 +64,9 @@ def create_all(cfgs: list[SourceConfig], *, file: str | None = None) -> list[Per
     names = [c.name or c.plugin for c in cfgs]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
-        raise ConfigError(f"duplicate source name(s) {sorted(dup)}; give each a distinct `name`",
-                          file=file, key="perception.sources")
+        raise ConfigError(
+            f"duplicate source name(s) {sorted(dup)}; give each a distinct `name`", file=file, key="perception.sources"
+        )
     made: list[PerceptionSource] = []
     try:
         for i, c in enumerate(cfgs):

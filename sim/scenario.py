@@ -389,8 +389,12 @@ def _check_dock_on_wall(sc: Scenario, file: str | None) -> None:
     Without this a dock in mid-room or facing the wall loads fine and the mission just never docks."""
     d, (sx, sy) = sc.dock, sc.room.size
     assert d is not None
-    walls = [("x = 0", abs(d.x), 0.0), ("x = " + f"{sx:g}", abs(d.x - sx), 180.0),
-             ("y = 0", abs(d.y), 90.0), ("y = " + f"{sy:g}", abs(d.y - sy), -90.0)]  # fmt: skip
+    walls = [
+        ("x = 0", abs(d.x), 0.0),
+        ("x = " + f"{sx:g}", abs(d.x - sx), 180.0),
+        ("y = 0", abs(d.y), 90.0),
+        ("y = " + f"{sy:g}", abs(d.y - sy), -90.0),
+    ]
     name, off, inward = min(walls, key=lambda w: w[1])
     if off > DOCK_WALL_TOLERANCE_M:
         raise ConfigError(

@@ -105,9 +105,14 @@ class BehaviourFactory:
             if arg in STRUCTURAL_ARGUMENTS:
                 raise ValueError(f"{tag}: {arg} cannot be a registration argument: the loader passes it")
         manifest = NodeManifest(
-            tag, cls.NODE_TYPE, _summary(cls), _builder(cls, cls.NODE_TYPE, args), cls.PORTS, _params_check(cls),
+            tag,
+            cls.NODE_TYPE,
+            _summary(cls),
+            _builder(cls, cls.NODE_TYPE, args),
+            cls.PORTS,
+            _params_check(cls),
             deprecated=bool(getattr(cls, "DEPRECATED", False)),
-        )  # fmt: skip
+        )
         self._manifests[tag] = self._registered[tag] = manifest
         return manifest
 

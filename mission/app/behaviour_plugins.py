@@ -41,8 +41,10 @@ def register_installed(factory: BehaviourFactory) -> list[str]:
         try:
             if isinstance(target, type):
                 if not (issubclass(target, PortsDeclared) and issubclass(target, Behaviour)):
-                    raise TypeError("expected a py_trees Behaviour class declaring its ports (a Params dataclass), "
-                                    f"got the class {target.__name__}")  # fmt: skip
+                    raise TypeError(
+                        "expected a py_trees Behaviour class declaring its ports (a Params dataclass), "
+                        f"got the class {target.__name__}"
+                    )
                 factory.register(target, ep.name)
             elif callable(target):
                 target(factory)

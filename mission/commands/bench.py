@@ -21,8 +21,10 @@ CHECKOUT = Path(__file__).resolve().parents[2]  # mission/commands/bench.py → 
 
 def main(args: argparse.Namespace) -> int:
     if not (CHECKOUT / "bench" / "__main__.py").is_file():
-        raise MissionError("`mission bench` runs the benchmarks of a source checkout (bench/ is not installed); "
-                           "install one editable (`pip install -e .` in a clone) and run it there")  # fmt: skip
+        raise MissionError(
+            "`mission bench` runs the benchmarks of a source checkout (bench/ is not installed); "
+            "install one editable (`pip install -e .` in a clone) and run it there"
+        )
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(CHECKOUT), env.get("PYTHONPATH", "")) if p)
     try:

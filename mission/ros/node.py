@@ -126,8 +126,9 @@ def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
         if name not in PARAMETERS and name not in BUILTIN_PARAMETERS:
             close = difflib.get_close_matches(name, list(PARAMETERS), n=1)
             hint = f" (did you mean {close[0]}?)" if close else ""
-            raise ConfigError(f"unknown parameter{hint}; the node's parameters: {', '.join(PARAMETERS)}",
-                              key=f"-p {name}")  # fmt: skip
+            raise ConfigError(
+                f"unknown parameter{hint}; the node's parameters: {', '.join(PARAMETERS)}", key=f"-p {name}"
+            )
     for name, (default, _doc) in PARAMETERS.items():
         value, key = params[name], f"-p {name}"
         if isinstance(default, list):
@@ -214,14 +215,23 @@ class MissionNode:
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
         topics = RosTopics(
-            image_topic=p["image_topic"], camera_info_topic=p["camera_info_topic"], depth_topic=p["depth_topic"],
-            odom_topic=p["odom_topic"], scan_topic=p["scan_topic"], map_topic=p["map_topic"],
-            amcl_topic=p["amcl_topic"], camera_frame=p["camera_frame"], base_frame=p["base_frame"],
-            map_frame=p["map_frame"], odom_frame=p["odom_frame"],
+            image_topic=p["image_topic"],
+            camera_info_topic=p["camera_info_topic"],
+            depth_topic=p["depth_topic"],
+            odom_topic=p["odom_topic"],
+            scan_topic=p["scan_topic"],
+            map_topic=p["map_topic"],
+            amcl_topic=p["amcl_topic"],
+            camera_frame=p["camera_frame"],
+            base_frame=p["base_frame"],
+            map_frame=p["map_frame"],
+            odom_frame=p["odom_frame"],
             camera_info_tolerance_s=float(p["camera_info_tolerance_s"]),
-            camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]], goal_tolerance_m=float(p["goal_tolerance_m"]),
-            tf_tolerance_s=float(p["tf_tolerance_s"]), image_late_s=float(p["image_late_s"]),
-        )  # fmt: skip
+            camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]],
+            goal_tolerance_m=float(p["goal_tolerance_m"]),
+            tf_tolerance_s=float(p["tf_tolerance_s"]),
+            image_late_s=float(p["image_late_s"]),
+        )
         self.msgs = RclpyMessages()
         tf = load_tf_message()
         tf_message = tf.message
@@ -233,20 +243,29 @@ class MissionNode:
         navigation = None
         if p["navigator"] == "action" and not self.perception_only:
             if not self.nav2.ok:
-                raise ConfigError(f"navigator:=action needs nav2_msgs: {self.nav2.detail}; or -p navigator:=topic",
-                                  key="-p navigator")  # fmt: skip
+                raise ConfigError(
+                    f"navigator:=action needs nav2_msgs: {self.nav2.detail}; or -p navigator:=topic", key="-p navigator"
+                )
             from mission.ros.nav_client import ActionNavigation
 
             def navigation() -> ActionNavigation:
                 return ActionNavigation(
-                    n, self.nav2.get("action", "NavigateToPose"), preempt_hz=float(p["nav_preempt_hz"]),
-                    server_timeout_s=float(p["nav_server_timeout_s"]), warn=self.log.warning, info=self.log.info,
-                )  # fmt: skip
+                    n,
+                    self.nav2.get("action", "NavigateToPose"),
+                    preempt_hz=float(p["nav_preempt_hz"]),
+                    server_timeout_s=float(p["nav_server_timeout_s"]),
+                    warn=self.log.warning,
+                    info=self.log.info,
+                )
         self.adapter = RosAdapter(n, topics, tf_message=tf_message, navigation=navigation)
         self.outputs = PerceptionOutputs(
-            n, self.msgs, camera_frame=topics.camera_frame, has_target="target" in config.perception.targets,
-            emit_dock=self.adapter.emit if self.perception_only else None, tf_message=tf_message,
-        )  # fmt: skip
+            n,
+            self.msgs,
+            camera_frame=topics.camera_frame,
+            has_target="target" in config.perception.targets,
+            emit_dock=self.adapter.emit if self.perception_only else None,
+            tf_message=tf_message,
+        )
         observers: list[Any] = [self.outputs]
         if not self.perception_only:
             observers += [TreePublisher(n, self.msgs), StatusPublisher(n, self.msgs)]
@@ -273,16 +292,22 @@ class MissionNode:
                 observers.append(self.groot)
                 self.log.info(f"Groot2 monitor on {self.groot.host}:{self.groot.port}")
         # a bad param is an error naming the config file and key; an unknown dictionary only warns
-        self.runner = TreeRunner(config, self.adapter, None if self.perception_only else (tree or None),
-                                 config_file=config_file, observers=observers,
-                                 perception_only=self.perception_only)  # fmt: skip
+        self.runner = TreeRunner(
+            config,
+            self.adapter,
+            None if self.perception_only else (tree or None),
+            config_file=config_file,
+            observers=observers,
+            perception_only=self.perception_only,
+        )
         self.runner.setup()
         self.sources = self.runner.sources
         self.config = config
         self.adapter.on_image = self._on_image
         self.adapter.on_time_jump = self._on_time_jump
-        self.sub_redetect = n.create_subscription(self.msgs.cls("std_msgs/msg/Empty"), "/mission/redetect",
-                                                  self._on_redetect, RELIABLE)  # fmt: skip
+        self.sub_redetect = n.create_subscription(
+            self.msgs.cls("std_msgs/msg/Empty"), "/mission/redetect", self._on_redetect, RELIABLE
+        )
         tick_hz = float(p["tick_hz"]) or float(config.run.tick_hz)
         self.tick_timer = n.create_timer(1.0 / tick_hz, self._on_tick)  # ROS time: sim time with use_sim_time
         # wall clock: these keep running when ROS time stops (the simulation died, a bag paused)
@@ -293,8 +318,9 @@ class MissionNode:
         self._last_clock = time.monotonic()
         self._last_step = time.monotonic()
         if self.use_sim_time:
-            self.sub_clock = n.create_subscription(self.msgs.cls("rosgraph_msgs/msg/Clock"), "/clock",
-                                                   self._on_clock, 10)  # fmt: skip
+            self.sub_clock = n.create_subscription(
+                self.msgs.cls("rosgraph_msgs/msg/Clock"), "/clock", self._on_clock, 10
+            )
         self.watchdog_timer = n.create_timer(min(0.5, self.input_timeout_s / 2), self._on_watchdog, clock=steady)
         names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
         what = "perception only" if self.perception_only else f"tree {self.runner.tree_path}"

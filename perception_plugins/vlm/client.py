@@ -94,8 +94,9 @@ def make_client(params: VlmParams, budget: RequestBudget) -> VlmClient:
     try:
         factory: ClientFactory = plugins.load(plugins.VLM_CLIENTS, spec)
     except PluginError as err:
-        raise ConfigError(f"{err} (or register one: entry-point group {plugins.VLM_CLIENTS.group})",
-                          key="client") from None  # fmt: skip
+        raise ConfigError(
+            f"{err} (or register one: entry-point group {plugins.VLM_CLIENTS.group})", key="client"
+        ) from None
     return factory(params, budget)  # its ConfigErrors name its own keys (the stub's: label)
 
 
@@ -104,10 +105,15 @@ def _deprecated_class_client(spec: str, params: VlmParams) -> VlmClient:
     module, _, cls_name = spec.partition(":")
     if not module or not cls_name:
         names = ", ".join(repr(n) for n in plugins.installed(plugins.VLM_CLIENTS))
-        raise ConfigError(f"expected {names} or an installed {plugins.VLM_CLIENTS.group} entry point, got {spec!r}",
-                          key="client")  # fmt: skip
-    warnings.warn(f"client: {spec!r} is deprecated; register the client as an entry point of the group "
-                  f"{plugins.VLM_CLIENTS.group!r} and name it", DeprecationWarning, stacklevel=3)  # fmt: skip
+        raise ConfigError(
+            f"expected {names} or an installed {plugins.VLM_CLIENTS.group} entry point, got {spec!r}", key="client"
+        )
+    warnings.warn(
+        f"client: {spec!r} is deprecated; register the client as an entry point of the group "
+        f"{plugins.VLM_CLIENTS.group!r} and name it",
+        DeprecationWarning,
+        stacklevel=3,
+    )
     try:
         cls: Callable[..., Any] = getattr(importlib.import_module(module), cls_name)
         return cls(**params.client_params)

@@ -174,16 +174,21 @@ class VlmSource:
             path = None  # frame stamps restart with every run: a budget in them is per run, not persisted
         self._last_stamp = 0.0
         self._min_interval = 1.0 / p.publish_rate_limit_hz
-        self.quota = QuotaStore(path, daily_quota=p.daily_quota, min_interval_s=self._min_interval,
-                                requests_per_minute=p.requests_per_minute)  # fmt: skip
+        self.quota = QuotaStore(
+            path,
+            daily_quota=p.daily_quota,
+            min_interval_s=self._min_interval,
+            requests_per_minute=p.requests_per_minute,
+        )
         try:
             self.quota.check_writable()
         except OSError as err:
             why = err.strerror or str(err)
             if err.filename and Path(err.filename) != path and not str(err.filename).endswith(".probe"):
                 why += f": {err.filename}"  # the parent in the way
-            raise ConfigError(f"cannot save the call budget to {path} ({why}); expected a writable file path",
-                              key="state_file") from None  # fmt: skip
+            raise ConfigError(
+                f"cannot save the call budget to {path} ({why}); expected a writable file path", key="state_file"
+            ) from None
         # the client's retries ask the same budget, on the same clock as the calls
         self._client: VlmClient = client if client is not None else make_client(p, QuotaBudget(self.quota, self._now))
         self.latch = OneShotLatch(
@@ -362,8 +367,9 @@ class VlmSource:
         """Count a failed attempt; True when the breaker is (now) open. Logged once per opening."""
         opened = self.latch.attempt_failed(why, permanent=permanent)
         if opened:
-            self._log_once("breaker", "circuit breaker open, no more model calls until redetect: %s",
-                           self.latch.breaker_reason)  # fmt: skip
+            self._log_once(
+                "breaker", "circuit breaker open, no more model calls until redetect: %s", self.latch.breaker_reason
+            )
         return opened
 
     def _ask(self, req: _Request) -> _Answer:
@@ -452,8 +458,10 @@ class VlmSource:
         if getattr(err, "throttled", False):
             return
         permanent = bool(getattr(err, "permanent", False))
-        self._attempt_failed(f"{'the service rejected the request' if permanent else 'model call failed'}: "
-                             f"{self.last_error}", permanent=permanent)  # fmt: skip
+        self._attempt_failed(
+            f"{'the service rejected the request' if permanent else 'model call failed'}: {self.last_error}",
+            permanent=permanent,
+        )
 
     def _detection(self, t_cam: np.ndarray, frame: Frame, confidence: float, latched: bool,
                    extra: dict[str, Any]) -> Detection:
