@@ -25,10 +25,10 @@ import zmq
 from bench.common import Figure, pct, progress
 from bench.tick_recording import Recording, record
 from bench.tree_tick import ReplayWorld
-from mission.app.observers import RunObserver
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import shipped_config
 from mission.core.config import load_config
+from mission.core.observers import RunObserver
 from mission.groot.btlog import BtLogWriter
 from mission.groot.publisher import Groot2Publisher
 

@@ -29,8 +29,8 @@ import numpy as np
 from bench.common import Figure, load_average, pct
 from bench.registry import default_output
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
-from mission.app.observers import RunObserver, Tick
 from mission.core.files import atomic_write_text
+from mission.core.observers import RunObserver, Tick
 
 
 def slope_per_min(xs: list[float], ys: list[float]) -> float | None:

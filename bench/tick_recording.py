@@ -17,10 +17,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from mission.app.observers import RunObserver, Tick
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import DEFAULT_SIM_CONFIG, choose_tree, shipped_config
 from mission.core import blackboard as bbk
+from mission.core.observers import RunObserver, Tick
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import registry
 from mission.sim.scenario import load_scenario

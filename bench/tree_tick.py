@@ -29,11 +29,11 @@ from py_trees.common import Status
 
 from bench.common import Figure, pct, progress
 from bench.tick_recording import Recording, record
-from mission.app.observers import RunObserver, Tick
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.config import load_config
+from mission.core.observers import RunObserver, Tick
 from mission.trees import decorators
 
 TARGET = 1.2

@@ -1,11 +1,13 @@
-"""The perception contract: a source turns a Frame into Detections, and nothing else.
+"""The perception contract: a source turns a Frame into Detections, and nothing else; the perception stage
+(perception_plugins/pipeline.py) makes of each frame one :class:`Perceived`, which observers watch.
 
-Sources are found through the entry-point group ``mission.perception_plugins`` (see
+Sources are found through the entry-point group ``mission.perception_plugins`` (core/plugins.py,
 perception_plugins/registry.py), so a third party adds one by installing a package.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import ClassVar, Protocol, runtime_checkable
 
 from mission.core.plugins import PERCEPTION_SOURCES
@@ -38,3 +40,19 @@ class PerceptionSource(Protocol):
     def process(self, frame: Frame) -> list[Detection]: ...
 
     def close(self) -> None: ...
+
+
+@dataclass
+class Perceived:
+    """What the stage made of one frame: kept for observers (ROS outputs, logs) and the blackboard."""
+
+    frame: Frame | None
+    seq: int
+    detections: list[Detection] = field(default_factory=list)  # kept after the policy, best first per target
+    summary: str = ""  # one readable line: what was seen where, or why the frame was dropped
+    errors: list[str] = field(default_factory=list)  # sources that raised on this frame
+    dropped: str | None = None  # frames_dropped / frames_stale / frames_duplicate when not processed
+
+    @property
+    def processed(self) -> bool:
+        return self.dropped is None

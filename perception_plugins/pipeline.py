@@ -23,7 +23,6 @@ time through the camera extrinsics, and the summary says so.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
 
 import numpy as np
 import py_trees
@@ -31,8 +30,8 @@ import py_trees
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
-from mission.core.perception import PerceptionSource
-from mission.core.types import Detection, Frame, RobotState, TargetTrack
+from mission.core.perception import Perceived, PerceptionSource
+from mission.core.types import Frame, RobotState, TargetTrack
 from mission.perception_plugins.target_matching import SourcedDetection, assign, detection_problem
 
 log = logging.getLogger(__name__)
@@ -82,22 +81,6 @@ def source_statuses(sources: list[PerceptionSource]) -> dict[str, dict]:
         except Exception as err:
             out[source_name(src)] = {"status_error": f"{type(err).__name__}: {err}"}
     return out
-
-
-@dataclass
-class Perceived:
-    """What the stage made of one frame: kept for observers (ROS outputs, logs) and the blackboard."""
-
-    frame: Frame | None
-    seq: int
-    detections: list[Detection] = field(default_factory=list)  # kept after the policy, best first per target
-    summary: str = ""  # one readable line: what was seen where, or why the frame was dropped
-    errors: list[str] = field(default_factory=list)  # sources that raised on this frame
-    dropped: str | None = None  # frames_dropped / frames_stale / frames_duplicate when not processed
-
-    @property
-    def processed(self) -> bool:
-        return self.dropped is None
 
 
 class PerceptionStage:

@@ -25,9 +25,10 @@ from test_ros_world_io import MSGS, RecordingWorld
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.errors import ConfigError
+from mission.core.perception import Perceived
 from mission.core.types import CameraIntrinsics, LaserScan, Pose2D, RobotState, Twist
 from mission.perception_plugins.aruco import ArucoSource
-from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from mission.perception_plugins.pipeline import PerceptionStage
 from mission.ros.conversions import (
     BadMessage,
     array_to_image,

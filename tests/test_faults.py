@@ -15,10 +15,10 @@ import pytest
 import yaml
 from behaviour_world import IMAGE, ScriptedSource, board, read
 
-from mission.app.observers import RunObserver, Tick
 from mission.app.sim_run import RunOutcome, run_scenario, shipped_config
 from mission.core import blackboard as bbk
 from mission.core.errors import ConfigError
+from mission.core.observers import RunObserver, Tick
 from mission.core.types import Frame
 from mission.perception_plugins.pipeline import PerceptionStage
 from mission.sim.scenario import load_scenario

@@ -12,8 +12,9 @@ from behaviour_world import EXTRINSICS, Scene, ScriptedSource, board, detection_
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
+from mission.core.perception import Perceived
 from mission.core.types import Frame, Pose2D
-from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from mission.perception_plugins.pipeline import PerceptionStage
 
 TARGETS = {"target": TargetSpec(marker_id=7), "dock": TargetSpec(marker_id=0)}
 

@@ -21,10 +21,10 @@ import pytest
 import yaml
 from vlm_servers import FakeModelServer, Oracle, model_text
 
-from mission.app.observers import RunObserver
 from mission.app.sim_run import run_scenario, shipped_config
 from mission.core import blackboard as bbk
 from mission.core import se3
+from mission.core.observers import RunObserver
 
 DISCOVERY = "vlm_discovery"
 

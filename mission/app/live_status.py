@@ -14,12 +14,12 @@ from rich.console import Console
 from rich.live import Live
 from rich.text import Text
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
+from mission.core.observers import RunObserver, Tick
 
 
 class LiveStatus(RunObserver):
-    """A run observer (mission.app.observers) that shows progress on the terminal."""
+    """A run observer (mission.core.observers) that shows progress on the terminal."""
 
     def __init__(
         self, label: str, stream: TextIO | None = None, every_s: float = 10.0, total_s: float | None = None

@@ -13,11 +13,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
 from mission.core.docking import dock_offsets
+from mission.core.observers import RunObserver, Tick
 from mission.core.types import NavGoal, Pose2D, TargetTrack
 
 RANGE_BUCKETS = ((0.0, 1.0), (1.0, 2.0), (2.0, 3.0), (3.0, 5.0), (5.0, 100.0))

@@ -35,17 +35,17 @@ from typing import Any, Protocol
 import py_trees
 
 from mission.app.behaviour_plugins import mission_factory
-from mission.app.observers import RunObserver, Tick
-from mission.app.snapshot import active_branch, snapshot
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import TreeError
 from mission.core.movers import MoverTracker
-from mission.core.perception import PerceptionSource
+from mission.core.observers import RunObserver, Tick
+from mission.core.perception import Perceived, PerceptionSource
+from mission.core.snapshot import active_branch, snapshot
 from mission.core.types import LaserScan, NavStatus, RobotState
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
-from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from mission.perception_plugins.pipeline import PerceptionStage
 from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 

@@ -19,7 +19,6 @@ from typing import Any
 import py_trees
 
 from mission.app.metrics import DockErrors, MetricsRecorder
-from mission.app.observers import RunObserver
 from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner, checked_tree
@@ -27,6 +26,7 @@ from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, load_config
 from mission.core.errors import ConfigError
+from mission.core.observers import RunObserver
 from mission.perception_plugins.pipeline import source_statuses
 from mission.sim.faults import fault_summary, wrap_sources
 from mission.sim.scenario import Scenario, Success, load_scenario

@@ -7,12 +7,12 @@ import signal
 import sys
 from pathlib import Path
 
-from mission.app.observers import RunObserver
 from mission.app.overrides import RunOverrides, run_overrides
 from mission.app.runner import WallClockPacer
 from mission.app.sim_run import RunOutcome, check_prepared, prepare_run, run_scenario, unused_ports
 from mission.core.errors import ConfigError, MissionError
 from mission.core.files import ensure_dir, unwritable
+from mission.core.observers import RunObserver
 from mission.viz.run_report import report_observers, verdict, write_report
 
 DEFAULT_SCENARIO = "mission_full"

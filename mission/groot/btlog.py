@@ -30,14 +30,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
-from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.core.files import ensure_parent, unwritable
+from mission.core.observers import RunObserver, Tick
 from mission.groot import protocol as p
 from mission.groot.transitions import TransitionRecorder, watch_run
 
 if TYPE_CHECKING:
-    from mission.app.runner import TreeRunner
+    from mission.core.observers import Run
 
 log = logging.getLogger(__name__)
 
@@ -84,14 +84,14 @@ class BtLogWriter(RunObserver):
         self._last_us = 0
         self.transitions = 0
 
-    def on_start(self, run: TreeRunner) -> None:
+    def on_start(self, run: Run) -> None:
         watched = watch_run(run, "--btlog")
         if watched is None:
             return
         tree, self._recorder = watched
         self._write(header_bytes(tree.xml(run.factory), time.time_ns() // 1000))
 
-    def on_tick(self, run: TreeRunner, tick: Tick) -> None:
+    def on_tick(self, run: Run, tick: Tick) -> None:
         if self._recorder is None:
             return
         if self._t0 is None:
@@ -104,7 +104,7 @@ class BtLogWriter(RunObserver):
             self._write(b"".join(p.pack_transition(stamp, t.uid, t.status) for t in changes))
             self.transitions += len(changes)
 
-    def on_end(self, run: TreeRunner, outcome: Any) -> None:
+    def on_end(self, run: Run, outcome: Any) -> None:
         if self._recorder is not None and run.tree is not None and self._recorder in run.tree.visitors:
             run.tree.visitors.remove(self._recorder)
         self.close()

@@ -32,15 +32,15 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 import zmq
 
-from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
+from mission.core.observers import RunObserver, Tick
 from mission.groot import protocol as p
 from mission.groot.blackboard_export import blackboard_entries
 from mission.groot.transitions import TransitionRecorder, watch_run
 from mission.groot.uids import UidTree
 
 if TYPE_CHECKING:
-    from mission.app.runner import TreeRunner
+    from mission.core.observers import Run
 
 
 DEFAULT_PORT = 1667  # Groot2's and BT.CPP's default
@@ -86,7 +86,7 @@ class Groot2Publisher(RunObserver):
         self._status_at: dict[int, int] = {}  # uid → offset of its status byte in _status
         self._instances: dict[str, str] = {}  # blackboard name Groot2 asks for → instance path
         self._recorder: TransitionRecorder | None = None
-        self._run: TreeRunner | None = None
+        self._run: Run | None = None
         self._recording = False
         self._recording_t0 = 0
         self._recorded: collections.deque[bytes] = collections.deque(maxlen=MAX_RECORDED)
@@ -114,7 +114,7 @@ class Groot2Publisher(RunObserver):
         raise zmq.ZMQError(zmq.EADDRINUSE, "no free pair of ports found")
 
     # -- RunObserver ------------------------------------------------------------------------------
-    def on_start(self, run: TreeRunner) -> None:
+    def on_start(self, run: Run) -> None:
         watched = watch_run(run, "Groot2 monitor")
         if watched is None:
             return
@@ -131,7 +131,7 @@ class Groot2Publisher(RunObserver):
                 flush=True,
             )
 
-    def on_tick(self, run: TreeRunner, tick: Tick) -> None:
+    def on_tick(self, run: Run, tick: Tick) -> None:
         if self._recorder is None:
             return
         changes = self._recorder.drain()
@@ -145,7 +145,7 @@ class Groot2Publisher(RunObserver):
                 if self._recording:
                     self._recorded.append(p.pack_transition(now - self._recording_t0, t.uid, t.status))
 
-    def on_end(self, run: TreeRunner, outcome: Any) -> None:
+    def on_end(self, run: Run, outcome: Any) -> None:
         if self._recorder is not None and run.tree is not None and self._recorder in run.tree.visitors:
             run.tree.visitors.remove(self._recorder)
         self.close()

@@ -38,7 +38,7 @@ from mission.groot.protocol import FAILURE, IDLE, RUNNING, SUCCESS
 from mission.groot.uids import BindError, UidTree, bind, uid_tree
 
 if TYPE_CHECKING:
-    from mission.app.runner import TreeRunner
+    from mission.core.observers import Run
 
 log = logging.getLogger(__name__)
 
@@ -173,7 +173,7 @@ class TransitionRecorder(py_trees.visitors.VisitorBase):
         return out
 
 
-def watch_run(run: TreeRunner, who: str) -> tuple[UidTree, TransitionRecorder] | None:
+def watch_run(run: Run, who: str) -> tuple[UidTree, TransitionRecorder] | None:
     """The numbered tree file of `run` and a recorder of its transitions, attached to the tree: what the
     Groot2 monitor and the .btlog writer (`who`, for their warnings) both start from. None for a run without
     a tree. A built tree that differs from its file gets a recorder with no bound nodes: watching must never

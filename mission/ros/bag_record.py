@@ -24,9 +24,9 @@ from typing import Any
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from mission.app.observers import RunObserver, Tick
 from mission.core.errors import MissionError
 from mission.core.files import ensure_dir, unwritable
+from mission.core.observers import RunObserver, Tick
 from mission.core.types import Frame, LaserScan, RobotState
 from mission.ros.conversions import (
     array_to_compressed_image,
@@ -192,7 +192,7 @@ class BagRecorder:
 
 
 class BagObserver(RunObserver):
-    """A run observer (mission.app.observers.RunObserver) that records the sensors the tree saw each tick.
+    """A run observer (mission.core.observers.RunObserver) that records the sensors the tree saw each tick.
 
     ``mission run --record-bag PATH``: ``observers.append(BagObserver(PATH))``. It reads the newest
     frame, robot state and scan from the runner's blackboard after every tick (the values the adapter

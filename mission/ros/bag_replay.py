@@ -20,12 +20,12 @@ from typing import Any
 
 from rosbags.typesys import Stores, get_typestore
 
-from mission.app.observers import RunObserver
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
+from mission.core.observers import RunObserver
+from mission.core.perception import Perceived
 from mission.core.types import CameraIntrinsics, Detection
-from mission.perception_plugins.pipeline import Perceived
 from mission.ros.bag_source import BagSource, open_bag
 from mission.ros.messages import BagMessages
 from mission.ros.world_io import CachedWorld, RosTopics

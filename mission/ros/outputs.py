@@ -1,4 +1,4 @@
-"""What the ROS node publishes about a run, as run observers (mission/app/observers.py).
+"""What the ROS node publishes about a run, as run observers (core/observers.py).
 
 * :class:`PerceptionOutputs` — after every perceived frame: ``/marker_detected`` (on transitions),
   ``/aruco/debug`` (observations), ``/aruco_poses``, ``/detected_aruco_pose`` (the ``target`` track's
@@ -25,9 +25,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
-from mission.perception_plugins.pipeline import Perceived
+from mission.core.observers import RunObserver, Tick
+from mission.core.perception import Perceived
 from mission.ros.conversions import matrix_to_pose, pose_stamped, transform_stamped
 from mission.ros.marker_outputs import (
     VisibilityEdge,

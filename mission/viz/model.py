@@ -1,6 +1,6 @@
 """The one data shape every tree drawing starts from: a node with its kind, ports, status and feedback.
 
-Three sources feed it — a live tree's snapshot dict (:func:`mission.app.snapshot.snapshot`), a tree file's
+Three sources feed it — a live tree's snapshot dict (:func:`mission.core.snapshot.snapshot`), a tree file's
 static description (``mission.trees.loader.describe_tree``) and a recorded tick of a JSON-lines log — so the
 text, DOT, SVG, PNG and HTML renderers never care where a tree came from. Nodes are numbered in
 pre-order (``id``); that number is how a tick log and the live page refer to a node.
@@ -100,7 +100,7 @@ def _renumber(root: VizNode) -> VizNode:
 
 
 def from_snapshot(snap: dict[str, Any]) -> VizNode:
-    """A tree from :func:`mission.app.snapshot.snapshot` (a live tree, the ROS topic, a log header)."""
+    """A tree from :func:`mission.core.snapshot.snapshot` (a live tree, the ROS topic, a log header)."""
 
     def build(d: dict[str, Any]) -> VizNode:
         return VizNode(

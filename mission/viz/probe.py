@@ -21,8 +21,8 @@ from typing import Any
 
 import py_trees
 
-from mission.app.snapshot import active_branch, snapshot
 from mission.core import blackboard as bbk
+from mission.core.snapshot import active_branch, snapshot
 from mission.viz.model import VizNode, flatten_subtrees, from_description, from_snapshot, merge_static
 
 _READS = {"READ", "ACCESSED"}

@@ -18,10 +18,10 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.files import atomic_path, ensure_parent, unwritable
+from mission.core.observers import RunObserver, Tick
 from mission.viz.overlay import draw_detections
 from mission.viz.style import STATE_COLOURS
 from mission.viz.topdown import MapView, annotate_scale

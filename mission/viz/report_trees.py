@@ -12,7 +12,7 @@ import html
 from pathlib import Path
 from typing import Any
 
-from mission.app.observers import RunObserver, Tick
+from mission.core.observers import RunObserver, Tick
 from mission.viz.model import apply_tick, from_snapshot
 from mission.viz.output import write_output
 from mission.viz.probe import probe_for, release

@@ -22,8 +22,8 @@ import numpy as np
 from matplotlib.collections import LineCollection
 
 from mission.app.metrics import MetricsRecorder
-from mission.app.observers import RunObserver
 from mission.core.files import atomic_path, atomic_write_text
+from mission.core.observers import RunObserver
 from mission.core.types import OccupancyGrid
 from mission.viz.style import STATE_COLOURS
 

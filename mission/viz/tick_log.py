@@ -23,10 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.files import ensure_parent, unwritable
+from mission.core.observers import RunObserver, Tick
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
 from mission.viz.probe import probe_for, release
 

@@ -25,9 +25,9 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 from urllib.parse import parse_qs, urlparse
 
-from mission.app.observers import RunObserver, Tick
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
+from mission.core.observers import RunObserver, Tick
 from mission.viz.html import render_page, tree_svg_for_page
 from mission.viz.model import VizNode, apply_tick, from_snapshot
 from mission.viz.overlay import draw_detections, encode_jpeg
