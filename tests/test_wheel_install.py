@@ -277,7 +277,19 @@ def test_mission_plugins_lists_the_entry_points(installed):
     proc = checked(installed.mission("plugins"), "mission plugins")
     listed = {line.split()[0] for line in proc.stdout.splitlines() if line.strip()}
     assert set(PYPROJECT["project"]["entry-points"]["mission.perception_plugins"]) <= listed, proc.stdout
+    assert set(PYPROJECT["project"]["entry-points"]["mission.vlm_clients"]) <= listed, proc.stdout
     assert "BROKEN" not in proc.stdout
+
+
+@pytest.mark.wheel
+def test_mission_bench_without_a_checkout_says_it_needs_one(installed):
+    """bench/ is a development tool of the checkout: the installed package neither ships nor reaches for it."""
+    proc = installed.mission("bench", "--quick")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        "mission: error: `mission bench` runs the benchmarks of a source checkout (bench/ is not installed); "
+        "install one editable (`pip install -e .` in a clone) and run it there"
+    ]
 
 
 @pytest.mark.wheel
