@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import io
 
-from viz_world import step, watch_runner
-
 from mission.app.live_status import LiveStatus
+from tests.helpers.viz_world import step, watch_runner
 
 
 def test_a_log_gets_a_line_per_state_change_with_progress_distance_and_branch(tmp_path):

@@ -224,9 +224,8 @@ def test_a_search_for_a_target_that_left_the_map_must_end_with_its_reason_within
 def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_grazing_line_breaks():
     # ground truth's line to the marker's centre grazes the door frame at 1.0 s; the camera reads the marker
     # until 1.2 s; LOST at 1.6 s is 0.4 s after the target was last seen — within the bound, not 0.6 s
-    from behaviour_world import detection_of, marker_facing
-
     from mission.core.types import TargetTrack
+    from tests.helpers.behaviour_world import detection_of, marker_facing
 
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)

@@ -20,7 +20,7 @@ from mission.app import provenance
 from mission.app.provenance import run_provenance
 from mission.core.config import MissionConfig, load_config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TREES = ROOT / "trees"
 
 CONFIG = """\

@@ -16,7 +16,7 @@ import pytest
 import mission.commands.run as run_command
 from mission.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LONG_RUN = ["run", "--scenario", "mission_full", "--max-duration", "600", "--quiet"]
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 
 import py_trees
-from behaviour_world import Scene, grid_with_boxes, marker_facing, read
 
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
@@ -20,6 +19,7 @@ from mission.behaviours.visibility import IsTargetVisible
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D
+from tests.helpers.behaviour_world import Scene, grid_with_boxes, marker_facing, read
 
 S = py_trees.common.Status
 PILLAR = (1.5, -0.3, 1.9, 0.3)

@@ -7,13 +7,13 @@ import math
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import Scene, camera_in_map, marker_facing, read
 
 from mission.behaviours.dock import FloorTagFilter, VisualServoDock
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.docking import dock_offsets
 from mission.core.types import DockSetpoint, Pose2D, Twist
+from tests.helpers.behaviour_world import Scene, camera_in_map, marker_facing, read
 
 S = py_trees.common.Status
 TAG = marker_facing(2.0, 0.0, math.pi)  # dock tag on a wall at x = 2, facing −x

@@ -6,12 +6,12 @@ import math
 
 import py_trees
 import pytest
-from behaviour_world import Scene, ScriptedNavigator, marker_facing, read
 
 from mission.behaviours.explore import Explore, parse_waypoints
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D, Twist
+from tests.helpers.behaviour_world import Scene, ScriptedNavigator, marker_facing, read
 
 S = py_trees.common.Status
 

@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 import py_trees
-from behaviour_world import Scene, board, marker_facing, read, tick
 
 from mission.behaviours.follow import FollowTarget
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import NavGoal, Pose2D, Twist
+from tests.helpers.behaviour_world import Scene, board, marker_facing, read, tick
 
 S = py_trees.common.Status
 

@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import py_trees
-from behaviour_world import EXTRINSICS, board, grid_with_boxes, marker_facing, scan_with_wall, tick
 
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked, first_occupied_cell, predicted_position
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
+from tests.helpers.behaviour_world import EXTRINSICS, board, grid_with_boxes, marker_facing, scan_with_wall, tick
 
 S = py_trees.common.Status
 ROBOT = Pose2D(0.0, 0.0, 0.0)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 
 import py_trees
-from behaviour_world import board, marker_facing, read, tick
 
 from mission.behaviours.lost import HoldLastGoal
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
+from tests.helpers.behaviour_world import board, marker_facing, read, tick
 
 S = py_trees.common.Status
 SEEN_FROM = Pose2D(0.0, 0.0, 0.0)

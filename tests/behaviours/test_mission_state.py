@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import py_trees
 import pytest
-from behaviour_world import read, tick
 
 from mission.behaviours.mission_state import SetMissionState
 from mission.core import blackboard as bbk
+from tests.helpers.behaviour_world import read, tick
 
 S = py_trees.common.Status
 

@@ -11,13 +11,13 @@ import math
 
 import numpy as np
 import pytest
-from behaviour_world import Scene, board, grid_with_boxes, marker_facing, read
 
 from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search_grid import search_grid
 from mission.core import blackboard as bbk
 from mission.core.movers import MoverTracker
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack
+from tests.helpers.behaviour_world import Scene, board, grid_with_boxes, marker_facing, read
 
 BEAMS = 720
 HZ = 15.0

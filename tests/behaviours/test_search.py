@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 
 import py_trees
-from behaviour_world import Scene, board, marker_facing, read
 
 from mission.behaviours.search import SearchSweep
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, TargetTrack, Twist
+from tests.helpers.behaviour_world import Scene, board, marker_facing, read
 
 S = py_trees.common.Status
 

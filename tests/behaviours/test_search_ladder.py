@@ -10,17 +10,6 @@ import math
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import (
-    EXTRINSICS,
-    Scene,
-    ScriptedNavigator,
-    board,
-    grid_with_boxes,
-    marker_facing,
-    read,
-    scan_with_wall,
-    tick,
-)
 
 from mission.behaviours.belief import TargetBelief
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
@@ -32,6 +21,17 @@ from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
 from mission.core.scan import scan_points, segment_width
 from mission.core.types import LaserScan, Pose2D, RobotState, TargetTrack, Twist
+from tests.helpers.behaviour_world import (
+    EXTRINSICS,
+    Scene,
+    ScriptedNavigator,
+    board,
+    grid_with_boxes,
+    marker_facing,
+    read,
+    scan_with_wall,
+    tick,
+)
 
 S = py_trees.common.Status
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import math
 
 import py_trees
-from behaviour_world import Scene, ScriptedNavigator, board, marker_facing, read, tick
 
 from mission.behaviours.staging import GoToStaging
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
 from mission.core.types import NavStatus, Pose2D, TargetTrack
+from tests.helpers.behaviour_world import Scene, ScriptedNavigator, board, marker_facing, read, tick
 
 S = py_trees.common.Status
 DOCK = marker_facing(4.0, 2.0, math.radians(180))  # on a wall at x = 4, facing −x

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import py_trees
-from behaviour_world import board, tick
 
 from mission.behaviours.visibility import IsTargetVisible
 from mission.core import blackboard as bbk
 from mission.core.types import TargetTrack
+from tests.helpers.behaviour_world import board, tick
 
 S = py_trees.common.Status
 

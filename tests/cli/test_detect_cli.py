@@ -15,7 +15,7 @@ from mission.cli import main
 from tools import synthetic_views as sv
 
 MARKER = 0.2
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -140,7 +140,7 @@ def test_a_calibration_for_another_image_size_is_an_error_for_that_image(images,
 
 
 def test_the_vlm_says_it_needs_depth_instead_of_finding_nothing(tmp_path):
-    from vlm_scene import Box, Scene, camera_pose, render
+    from tests.helpers.vlm_scene import Box, Scene, camera_pose, render
 
     frame = render(Scene(boxes=[Box((3.0, 0.2, 0.3), (0.4, 0.4, 0.6), (20, 20, 200))]), camera_pose(0, 0, 0))
     image = tmp_path / "red_box.png"

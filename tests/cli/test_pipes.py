@@ -22,7 +22,7 @@ import pytest
 
 from tools import synthetic_views as sv
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SIGPIPE_STATUS = 141
 BUFFERING = {"buffered": {}, "unbuffered": {"PYTHONUNBUFFERED": "1"}}
 

@@ -21,7 +21,7 @@ from mission.perception_plugins.vlm.quota import QuotaStore
 from mission.viz.run_report import write_json
 from mission.viz.tick_log import read_log
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 T0 = 1_700_000_000.0
 
 

@@ -3,8 +3,8 @@
 Each stops start-up with one line naming the file, the line or dotted key, and what was expected; through
 `mission run` that line is all stderr says and the exit code is 2, before any world is started.
 
-Already covered in test_core_config.py: an empty file, a missing file, an unknown key, a wrong type, an
-out-of-range value, unbalanced brackets and a top-level list; in test_plugins_registry.py a bad plugin
+Already covered in test_config.py: an empty file, a missing file, an unknown key, a wrong type, an
+out-of-range value, unbalanced brackets and a top-level list; in tests/perception/test_plugins_registry.py a bad plugin
 param through `mission run`.
 """
 

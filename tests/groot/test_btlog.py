@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import py_trees
 import pytest
-from viz_world import SUBTREE_WATCH, MarkerWorld
 
 from mission.app.runner import TreeRunner
 from mission.behaviours.leaf import MissionLeaf
@@ -27,6 +26,7 @@ from mission.core.errors import MissionError
 from mission.groot.btlog import MAGIC, BtLogWriter, is_btlog, read_btlog
 from mission.groot.uids import uid_tree
 from mission.viz.btlog_view import read_btlog_ticks
+from tests.helpers.viz_world import SUBTREE_WATCH, MarkerWorld
 
 # Built-ins only, so BT.CPP runs it with no node of ours: a subtree used twice, one of them named.
 BTCPP_TREE = """<root BTCPP_format="4" main_tree_to_execute="Main">

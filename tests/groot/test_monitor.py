@@ -1,7 +1,7 @@
 """Groot2 live monitoring (`mission run --groot`): a real run watched through the Groot2 side of the protocol.
 
-The client (tests/groot2_client.py) packs and checks every header itself over real ZeroMQ sockets on
-127.0.0.1; the run is the real runner on a real tree with real ArUco perception (tests/viz_world.py):
+The client (tests/helpers/groot2_client.py) packs and checks every header itself over real ZeroMQ sockets on
+127.0.0.1; the run is the real runner on a real tree with real ArUco perception (tests/helpers/viz_world.py):
 FOLLOW while the marker is seen, then SEARCH, then the tree fails when the short sweep times out.
 """
 
@@ -15,13 +15,13 @@ import xml.etree.ElementTree as ET
 
 import pytest
 import zmq
-from groot2_client import Groot2Client, ProtocolError
-from viz_world import SUBTREE_WATCH, MarkerWorld, step
 
 from mission.app.runner import TreeRunner
 from mission.core.config import MissionConfig
 from mission.core.errors import MissionError
 from mission.groot.publisher import Groot2Publisher
+from tests.helpers.groot2_client import Groot2Client, ProtocolError
+from tests.helpers.viz_world import SUBTREE_WATCH, MarkerWorld, step
 
 # BT.CPP's numbering of SUBTREE_WATCH: depth first from 1, the SubTree before the tree it opens
 COORDINATOR, SUBTREE, FOLLOW, VISIBLE, FOLLOW_TARGET, SWEEP = range(1, 7)

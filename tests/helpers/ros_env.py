@@ -28,7 +28,7 @@ from typing import Any
 from bench.ros_feed import Subprocess as NodeProcess
 from mission.ros import dds
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 INSTALL = ROOT / "install"
 TREE_EXE = INSTALL / "mission" / "lib" / "mission" / "tree"
 PROFILE = dds.shm_profile_path()  # the repo's mission/ros/fastdds_shm.xml

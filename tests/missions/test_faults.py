@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from behaviour_world import IMAGE, ScriptedSource, board, read
 
 from mission.app.observers import RunObserver, Tick
 from mission.app.sim_run import RunOutcome, run_scenario, shipped_config
@@ -23,6 +22,7 @@ from mission.core.types import Frame
 from mission.perception_plugins.pipeline import PerceptionStage
 from mission.sim.scenario import load_scenario
 from mission.sim.scenario_overrides import apply_overrides
+from tests.helpers.behaviour_world import IMAGE, ScriptedSource, board, read
 
 TICK_HZ = 15.0
 

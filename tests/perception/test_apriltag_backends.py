@@ -11,12 +11,12 @@ import textwrap
 import cv2
 import numpy as np
 import pytest
-from apriltag_images import flip_data_cells, place_tag, tag_cells
 
 from mission.core import se3
 from mission.core.types import Frame
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.apriltag_backends import pupil_corner_order
+from tests.helpers.apriltag_images import flip_data_cells, place_tag, tag_cells
 from tools import synthetic_views as sv
 
 OPENCV_DICT = {

@@ -9,7 +9,6 @@ import math
 import cv2
 import numpy as np
 import pytest
-from apriltag_images import flip_data_cells, place_tag, tag_cells
 
 from mission.core import se3
 from mission.core.config import SourceConfig
@@ -17,6 +16,7 @@ from mission.core.errors import ConfigError
 from mission.core.types import Frame
 from mission.perception_plugins import registry
 from mission.perception_plugins.apriltag import AprilTagSource
+from tests.helpers.apriltag_images import flip_data_cells, place_tag, tag_cells
 from tools import synthetic_views as sv
 
 K = sv.default_intrinsics()

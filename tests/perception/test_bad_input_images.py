@@ -6,8 +6,8 @@ could use, counts it, says why in its feedback, and the next good frame is proce
 
 Already covered elsewhere: a float32 / 4-channel / non-array image into aruco and a float32 image into
 apriltag (test_aruco_source.py, test_apriltag_source.py); a str / None / empty / 7-channel image into
-PerceiveTargets (test_behaviour_perceive.py); an unsupported ArUco dictionary and AprilTag family
-(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm (test_vlm_source.py).
+PerceiveTargets (test_perception_stage.py); an unsupported ArUco dictionary and AprilTag family
+(test_aruco_source.py, test_apriltag_source.py); frames without depth into vlm (vlm/test_vlm_source.py).
 """
 
 from __future__ import annotations
@@ -20,9 +20,6 @@ import cv2
 import numpy as np
 import py_trees
 import pytest
-from behaviour_world import Scene, marker_facing, read
-from vlm_scene import Box, camera_pose, render, yaw_towards
-from vlm_scene import Scene as VlmScene
 
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
@@ -32,6 +29,9 @@ from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.pipeline import PerceptionStage
 from mission.perception_plugins.vlm.source import VlmSource
 from mission.trees.loader import load_tree
+from tests.helpers.behaviour_world import Scene, marker_facing, read
+from tests.helpers.vlm_scene import Box, camera_pose, render, yaw_towards
+from tests.helpers.vlm_scene import Scene as VlmScene
 from tools import synthetic_views as sv
 
 S = py_trees.common.Status

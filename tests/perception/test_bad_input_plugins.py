@@ -3,9 +3,9 @@
 An unknown name or a plugin that cannot be imported or constructed stops start-up with one line naming
 the config file and key; `mission plugins` still lists every other plugin.
 
-Already covered: an unknown --source to `mission detect` (test_detect_cli.py), an unknown plugin without
+Already covered: an unknown --source to `mission detect` (tests/cli/test_detect_cli.py), an unknown plugin without
 a file (test_plugins_registry.py), a bad plugin param (every source's own tests), and a source that raises
-or returns junk while the tree runs (test_behaviour_perceive.py).
+or returns junk while the tree runs (test_perception_stage.py).
 """
 
 from __future__ import annotations

@@ -7,13 +7,13 @@ import logging
 import math
 
 import numpy as np
-from behaviour_world import EXTRINSICS, Scene, ScriptedSource, board, detection_of, marker_facing, read
 
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
 from mission.core.types import Frame, Pose2D
 from mission.perception_plugins.pipeline import Perceived, PerceptionStage
+from tests.helpers.behaviour_world import EXTRINSICS, Scene, ScriptedSource, board, detection_of, marker_facing, read
 
 TARGETS = {"target": TargetSpec(marker_id=7), "dock": TargetSpec(marker_id=0)}
 

@@ -6,7 +6,7 @@ import re
 import subprocess
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: a ``*.md`` path in prose (a quoted one is a file the code writes, such as a report's name)
 CITED = re.compile(r"(?<![\w/.\"'-])((?:[\w.-]+/)*[\w-]+\.md)\b")
 

@@ -33,7 +33,7 @@ def test_every_cli_verb_and_every_published_topic_is_documented():
     text = README.read_text()
     for verb in VERBS:
         assert f"`mission {verb}`" in text
-    ros = Path(__file__).resolve().parents[1] / "mission" / "ros"
+    ros = Path(__file__).resolve().parents[2] / "mission" / "ros"
     node_source = "".join((ros / name).read_text() for name in ("node.py", "outputs.py"))
     for topic in ("/marker_detected", "/aruco/debug", "/detected_aruco_pose", "/aruco_poses", "/mission/tree",
                   "/mission/redetect", "/tf"):  # fmt: skip

@@ -13,7 +13,7 @@ venv outside the checkout, and run from yet another directory.
   beyond loopback, and stops cleanly on SIGINT.
 
 Nothing here sends beyond loopback except pip fetching packages; the node runs on a private
-ROS_DOMAIN_ID (tests/ros_env.py) and only after the profile it will pick is known to be in the venv.
+ROS_DOMAIN_ID (tests/helpers/ros_env.py) and only after the profile it will pick is known to be in the venv.
 The venv (~1 GB, in /dev/shm when there is room) is removed at the end; pip's cache keeps downloads.
 """
 
@@ -35,8 +35,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from ros_env import DOMAIN_ID, NodeProcess, inet_sockets, wait_for
 
+from tests.helpers.ros_env import DOMAIN_ID, NodeProcess, inet_sockets, wait_for
 from tools.import_contracts import declared_packages, package_dir, package_folders
 
 try:
@@ -44,7 +44,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
 NOT_INSTALLED = ("sim", "trees", "behaviours", "perception_plugins", "bench", "tools")
 # What a run reads at run time, by where it lives in the sources → where it must be in the wheel.

@@ -20,7 +20,7 @@ from mission.ros.bag_replay import replay
 
 pytestmark = pytest.mark.ros
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 RECORDER = textwrap.dedent(
@@ -57,7 +57,7 @@ def test_a_recording_killed_mid_run_leaves_no_broken_bag_at_its_path_and_says_wh
         f"{tmp_path / 'run.partial'}: an interrupted recording to {bag} is in the way "
         f"(`ros2 bag reindex {partial}` may recover it); move or delete it to record again"
     )
-    # replay reads a bag without metadata.yaml as far as its data goes (tests/test_replay_real_bags.py); killed
+    # replay reads a bag without metadata.yaml as far as its data goes (tests/ros/test_replay_real_bags.py); killed
     # before its first write, this one has none
     with pytest.raises(MissionError) as err:
         replay(partial, MissionConfig())

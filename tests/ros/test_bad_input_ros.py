@@ -6,8 +6,8 @@ dropped or replaced by the fallback, counted under its reason, warned about once
 the next good image is still detected.
 
 Already covered: unsupported encoding, step < width×bytes, too little data and empty images
-(test_ros_conversions.py); fx/fy zero, NaN or negative and a camera info for another resolution
-(test_ros_conversions.py, test_ros_world_io.py); the live node dropping bad images (test_ros_node.py).
+(test_conversions.py); fx/fy zero, NaN or negative and a camera info for another resolution
+(test_conversions.py, test_world_io.py); the live node dropping bad images (test_node.py).
 """
 
 from __future__ import annotations
@@ -18,9 +18,6 @@ import sys
 import numpy as np
 import py_trees
 import pytest
-import ros_env
-from behaviour_world import read
-from test_ros_world_io import MSGS, RecordingWorld
 
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
@@ -43,6 +40,9 @@ from mission.ros.conversions import (
 )
 from mission.ros.messages import header_msg, time_msg
 from mission.ros.node import PARAMETERS, check_params, given_params
+from tests.helpers import ros_env
+from tests.helpers.behaviour_world import read
+from tests.ros.test_world_io import MSGS, RecordingWorld
 from tools import synthetic_views as sv
 
 pytestmark = pytest.mark.ros

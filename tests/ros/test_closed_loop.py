@@ -23,10 +23,20 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from ros_env import ROOT, ROS_ENV, TREE_EXE, NodeProcess, RosClient, build_ros, clean_shm, installed_env, wait_for
 from std_msgs.msg import String
 
 from mission.ros.ros_adapter import LATCHED
+from tests.helpers.ros_env import (
+    ROOT,
+    ROS_ENV,
+    TREE_EXE,
+    NodeProcess,
+    RosClient,
+    build_ros,
+    clean_shm,
+    installed_env,
+    wait_for,
+)
 
 pytestmark = pytest.mark.ros
 

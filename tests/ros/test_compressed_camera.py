@@ -7,13 +7,13 @@ import json
 
 import numpy as np
 import pytest
-from ros_env import TREE_EXE, RosClient, build_ros, clean_shm, installed_env, node_process, wait_for
 from sensor_msgs.msg import CameraInfo, CompressedImage
 from std_msgs.msg import String
 
 from mission.core import se3
 from mission.ros.conversions import array_to_compressed_image, intrinsics_to_camera_info
 from mission.ros.messages import RclpyMessages
+from tests.helpers.ros_env import TREE_EXE, RosClient, build_ros, clean_shm, installed_env, node_process, wait_for
 from tools.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
 pytestmark = pytest.mark.ros

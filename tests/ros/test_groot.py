@@ -6,8 +6,9 @@ import socket
 import xml.etree.ElementTree as ET
 
 import pytest
-from groot2_client import Groot2Client, ProtocolError
-from ros_env import ROOT, clean_shm, inet_sockets, installed_env, node_process, wait_for
+
+from tests.helpers.groot2_client import Groot2Client, ProtocolError
+from tests.helpers.ros_env import ROOT, clean_shm, inet_sockets, installed_env, node_process, wait_for
 
 pytestmark = pytest.mark.ros
 

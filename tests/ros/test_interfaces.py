@@ -4,7 +4,7 @@ A ROS 2 publisher and subscriber (or action client and server) only match when t
 so the node can talk to a real Nav2 only if our nav2_msgs hashes equal a real install's. Three witnesses:
 
 * the hash rosidl wrote into the colcon build (``install/<pkg>/share/<pkg>/…/<Name>.json``);
-* our own computation from the definition text (tests/type_hash.py), checked first against messages of the
+* our own computation from the definition text (tests/helpers/type_hash.py), checked first against messages of the
   ros-jazzy-* wheels, whose hashes the ROS build farm computed;
 * the hashes of a colcon build of nav2_msgs 1.4.0 published in a public workspace: 1.4.0's definitions of
   these types have the same fields as the Jazzy branch (it only adds error-code constants, which a type
@@ -17,8 +17,9 @@ import json
 from pathlib import Path
 
 import pytest
-from ros_env import INSTALL, ROOT, build_ros
-from type_hash import Field, parse_fields, type_hash
+
+from tests.helpers.ros_env import INSTALL, ROOT, build_ros
+from tests.helpers.type_hash import Field, parse_fields, type_hash
 
 pytestmark = pytest.mark.ros
 

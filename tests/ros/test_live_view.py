@@ -7,7 +7,8 @@ import socket
 import urllib.request
 
 import pytest
-from ros_env import ROOT, clean_shm, inet_sockets, installed_env, node_process, wait_for
+
+from tests.helpers.ros_env import ROOT, clean_shm, inet_sockets, installed_env, node_process, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -11,7 +11,13 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseArray, PoseStamped
-from ros_env import (
+from std_msgs.msg import Bool, String
+
+from mission.core import se3
+from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
+from mission.ros.messages import RclpyMessages
+from mission.ros.tf_support import load_tf_message
+from tests.helpers.ros_env import (
     PROFILE,
     TREE_EXE,
     FakeCamera,
@@ -23,12 +29,6 @@ from ros_env import (
     node_process,
     wait_for,
 )
-from std_msgs.msg import Bool, String
-
-from mission.core import se3
-from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
-from mission.ros.messages import RclpyMessages
-from mission.ros.tf_support import load_tf_message
 from tools.synthetic_views import R_FRONTAL, default_intrinsics, render_marker_view
 
 pytestmark = pytest.mark.ros

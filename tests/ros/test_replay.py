@@ -9,7 +9,6 @@ import sys
 
 import numpy as np
 import pytest
-from ros_env import ROOT, FakeCamera, RosClient, clean_shm, installed_env, node_process, wait_for
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import Empty, String
@@ -22,6 +21,7 @@ from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
 from mission.ros.messages import BagMessages, RclpyMessages
 from mission.sim.scenario import load_scenario
 from mission.sim.sim_adapter import SimAdapter
+from tests.helpers.ros_env import ROOT, FakeCamera, RosClient, clean_shm, installed_env, node_process, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -23,7 +23,7 @@ from mission.ros.bag_record import BagRecorder
 from mission.ros.bag_replay import BagWorld, replay
 from tools import synthetic_views as sv
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 N_FRAMES = 12
 
 

@@ -3,7 +3,7 @@
 Each is one ConfigError line naming the file, the dotted key and what is wrong, before pybullet starts;
 `mission run --scenario` exits 2 with that line.
 
-Already covered in test_sim_scenario.py: a robot inside an obstacle, a waypoint outside the room, a target
+Already covered in test_scenario.py: a robot inside an obstacle, a waypoint outside the room, a target
 inside an unknown obstacle, a marker id outside its dictionary, a marker too big for its face, and bad
 keys in a config's sim: section.
 """

@@ -25,7 +25,7 @@ from mission.sweep.engine import connect, run_sweep
 from mission.sweep.plan import SweepPlan
 from mission.sweep.table import read_jsonl, read_parquet
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHORT_S = 2.0  # simulated seconds per run: enough for follow_open to follow and explore_dock not to dock
 DETERMINISTIC = ("success", "reason", "tree_status", "final_state", "sim_time_s", "ticks", "metrics",
                  "perception_stats", "faults", "interrupted")  # fmt: skip

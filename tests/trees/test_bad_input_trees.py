@@ -3,7 +3,7 @@
 Each is one TreeError line naming the file, the line and the element, and what was expected, raised
 before anything is built.
 
-Already covered in test_tree_loader.py (with test-only leaves): malformed XML, an empty file, unknown
+Already covered in test_loader.py (with test-only leaves): malformed XML, an empty file, unknown
 tags and ports, wrong port types, unknown and recursive subtrees, missing and cyclic includes, and the
 BT.CPP structure rules.
 """

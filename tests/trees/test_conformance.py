@@ -1,6 +1,6 @@
 """The loader's trees tick as BehaviorTree.CPP's do: golden traces recorded from the real BT.CPP, replayed.
 
-tests/golden/btcpp/conformance.json holds trees of scripted leaves and what BT.CPP 4.10 did with them tick by
+tests/trees/golden/btcpp/conformance.json holds trees of scripted leaves and what BT.CPP 4.10 did with them tick by
 tick (how it was recorded is in the file: Tree::tickOnce(), every node's executeTick result, every leaf tick
 and halt in order, every node's status and every blackboard after each tick). Here the same XML is loaded by
 our loader with leaves that follow the same scripts, and each tick must produce the same events in the same

@@ -2,7 +2,7 @@
 
 These tests use small test-only leaves (real py_trees behaviours declaring their ports) registered in a
 local factory, so they specify the loader independently of the shipped behaviours
-(tests/test_tree_files.py loads the shipped trees with the shipped factory).
+(tests/trees/test_tree_files.py loads the shipped trees with the shipped factory).
 """
 
 from __future__ import annotations
@@ -843,7 +843,7 @@ def test_a_constructor_that_refuses_its_registration_arguments_is_reported_at_th
 # ------------------------------------------------------------------------------ finding trees
 def test_a_tree_is_found_by_path_or_by_shipped_name():
     assert resolve_tree_path("follow") == resolve_tree_path("follow.xml")
-    assert resolve_tree_path("follow.xml").parent == Path(__file__).resolve().parents[1] / "trees"
+    assert resolve_tree_path("follow.xml").parent == Path(__file__).resolve().parents[2] / "trees"
     assert resolve_tree_path("trees/dock.xml") == Path("trees/dock.xml")  # a path as given (cwd = repo)
     assert {"mission.xml", "explore.xml", "dock.xml", "follow.xml", "explore_dock.xml"} <= set(shipped_trees())
 

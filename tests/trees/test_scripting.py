@@ -1,6 +1,6 @@
 """BehaviorTree.CPP's script language and blackboard ports in our trees: what a tree author writes and sees.
 
-How the nodes tick is specified against real BT.CPP by tests/test_tree_conformance.py; these tests are about
+How the nodes tick is specified against real BT.CPP by tests/trees/test_conformance.py; these tests are about
 the language itself, where the entries live (one store with the mission keys), and the errors at load time.
 """
 

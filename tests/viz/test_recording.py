@@ -6,12 +6,12 @@ from __future__ import annotations
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from viz_world import HEIGHT, WIDTH, step, watch_runner
 
 from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Detection
 from mission.viz.overlay import OUTLINE_BGR, draw_detections
 from mission.viz.recording import BANNER_H, Recorder
+from tests.helpers.viz_world import HEIGHT, WIDTH, step, watch_runner
 
 
 def record(tmp_path, name: str, ticks: int, **kw) -> Recorder:

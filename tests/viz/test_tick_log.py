@@ -1,5 +1,5 @@
 """Recording every tick (`mission run --log`), reading it back (`mission viz --log --tick N`), and the report's
-trees at each state transition — on a real tree run with real perception (tests/viz_world.py)."""
+trees at each state transition — on a real tree run with real perception (tests/helpers/viz_world.py)."""
 
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import json
 import xml.etree.ElementTree as ET
 
 import pytest
-from viz_world import WATCH_NODES, step, watch_runner
 
 from mission.cli import main
 from mission.core.errors import MissionError
 from mission.viz.report_trees import TransitionTrees
 from mission.viz.tick_log import TickLog, read_log
+from tests.helpers.viz_world import WATCH_NODES, step, watch_runner
 
 SVG = "{http://www.w3.org/2000/svg}"
 TICKS = 8  # 3 ticks seeing the marker (FOLLOW), then SEARCH until the 0.35 s sweep fails at tick 8

@@ -1,6 +1,6 @@
 """The live web view (`mission run --serve`) and the recorded-log page, in a real headless Chromium.
 
-A real tree runs with real perception (tests/viz_world.py) while the test ticks it; the browser must show
+A real tree runs with real perception (tests/helpers/viz_world.py) while the test ticks it; the browser must show
 every node, follow the statuses as the tree ticks, show the camera with overlays and the map, and let a
 person scrub back through ticks — live and from a recorded log opened as a file.
 """
@@ -12,12 +12,12 @@ import urllib.error
 import urllib.request
 
 import pytest
-from viz_world import WATCH_NODES, step, watch_runner
 
 from mission.cli import main
 from mission.core.errors import MissionError
 from mission.viz.tick_log import TickLog
 from mission.viz.web import LiveView
+from tests.helpers.viz_world import WATCH_NODES, step, watch_runner
 from tools.browser import HeadlessChromium
 
 STATUSES_JS = """Object.fromEntries(Array.from(document.querySelectorAll('#tree .node')).map(

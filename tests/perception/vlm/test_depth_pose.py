@@ -6,7 +6,6 @@ import math
 
 import cv2
 import numpy as np
-from vlm_scene import Box, Scene, box_front_face, camera_pose, render
 
 from mission.core import se3
 from mission.core.types import CameraIntrinsics
@@ -16,6 +15,7 @@ from mission.perception_plugins.vlm.depth_pose import (
     fit_plane_svd,
     mad_inliers,
 )
+from tests.helpers.vlm_scene import Box, Scene, box_front_face, camera_pose, render
 
 RED = (30, 30, 200)
 

@@ -5,7 +5,7 @@ answers from the simulation's ground truth with noise — the same config with o
 
 The harness records, for every frame the run perceives, where the target truly is in it (the sim's
 ground truth projected into the frame, hidden when the depth image shows something in front); the fake
-model looks the image it was sent up there (tests/vlm_servers.py Oracle), adds noise and answers in the
+model looks the image it was sent up there (tests/helpers/vlm_servers.py Oracle), adds noise and answers in the
 chat-completions format. Neither side knows the other: the model sees JPEGs, the simulation sees HTTP.
 """
 
@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from vlm_servers import FakeModelServer, Oracle, model_text
 
 from mission.app.observers import RunObserver
 from mission.app.sim_run import run_scenario, shipped_config
 from mission.core import blackboard as bbk
 from mission.core import se3
+from tests.helpers.vlm_servers import FakeModelServer, Oracle, model_text
 
 DISCOVERY = "vlm_discovery"
 

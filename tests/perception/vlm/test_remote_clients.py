@@ -1,5 +1,5 @@
 """The two remote clients — `gemini` (generateContent) and `openai` (chat completions with an image) —
-against a real HTTP server on 127.0.0.1 that speaks each API's documented format (tests/vlm_servers.py).
+against a real HTTP server on 127.0.0.1 that speaks each API's documented format (tests/helpers/vlm_servers.py).
 
 For each thing a remote service does — answer, answer badly, say 429 with Retry-After, fail with 5xx,
 answer too slowly, drop the connection, reject the key — what the client returned, what it cost, what
@@ -16,8 +16,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vlm_scene import Box, Scene, camera_pose, render, yaw_towards
-from vlm_servers import FakeModelServer, Received, Reply
 
 from mission.core.config import validate_model
 from mission.core.errors import ConfigError
@@ -26,6 +24,8 @@ from mission.perception_plugins.vlm.openai_chat import openai_client
 from mission.perception_plugins.vlm.quota import QuotaBudget, QuotaStore
 from mission.perception_plugins.vlm.remote import ModelCallError
 from mission.perception_plugins.vlm.source import VlmParams
+from tests.helpers.vlm_scene import Box, Scene, camera_pose, render, yaw_towards
+from tests.helpers.vlm_servers import FakeModelServer, Received, Reply
 
 KEY = "test-key-5f1c9e0a7b3d"  # made up; every test that sends it checks it stays in the request header
 APIS = ("gemini", "openai")

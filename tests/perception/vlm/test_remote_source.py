@@ -2,7 +2,7 @@
 thing the service does, what the source returned, what its persisted budget and circuit breaker did, and
 what the tree saw (the perception stage's track of the target, which the tree reads).
 
-Frames are the ray-cast RGB-D scenes of tests/vlm_scene.py; the fake model answers with the box's true
+Frames are the ray-cast RGB-D scenes of tests/helpers/vlm_scene.py; the fake model answers with the box's true
 pixel. The budget's clock is a fake one moved by the test (time.time for the HTTP layer's own waits).
 """
 
@@ -13,13 +13,13 @@ import json
 
 import numpy as np
 import pytest
-from vlm_scene import Box, Scene, box_front_face, camera_pose, render, yaw_towards
-from vlm_servers import FakeModelServer, Reply
 
 from mission.core import se3
 from mission.core.config import TargetSpec
 from mission.perception_plugins.pipeline import PerceptionStage, source_statuses
 from mission.perception_plugins.vlm.source import VlmSource
+from tests.helpers.vlm_scene import Box, Scene, box_front_face, camera_pose, render, yaw_towards
+from tests.helpers.vlm_servers import FakeModelServer, Reply
 
 KEY = "test-key-0c4d8e2f6a1b"
 APIS = ("gemini", "openai")

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from vlm_scene import Ball, Box, Scene, box_front_face, camera_pose, render
 
 from mission.core import se3
 from mission.perception_plugins.vlm.client import VlmPoint
 from mission.perception_plugins.vlm.stub import ColourShapeClient, ObjectQuery, parse_label
+from tests.helpers.vlm_scene import Ball, Box, Scene, box_front_face, camera_pose, render
 
 RED = (30, 30, 200)  # BGR
 BLUE = (200, 60, 30)

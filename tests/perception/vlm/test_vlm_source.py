@@ -2,7 +2,7 @@
 map frame, republishing as the robot moves, the circuit breaker, a rate limit and quota that survive
 restarts, and how the client is chosen.
 
-Scenes are ray-cast RGB-D frames (tests/vlm_scene.py) with exact ground truth; the rate-limit clock is
+Scenes are ray-cast RGB-D frames (tests/helpers/vlm_scene.py) with exact ground truth; the rate-limit clock is
 a fake one advanced by the test, so nothing sleeps.
 """
 
@@ -15,7 +15,6 @@ import math
 
 import numpy as np
 import pytest
-from vlm_scene import Box, Scene, box_front_face, camera_pose, render, yaw_towards
 
 from mission.core import se3
 from mission.core.config import SourceConfig
@@ -24,6 +23,7 @@ from mission.core.types import Frame
 from mission.perception_plugins import registry
 from mission.perception_plugins.vlm.client import BUILTIN_CLIENTS
 from mission.perception_plugins.vlm.source import VlmSource
+from tests.helpers.vlm_scene import Box, Scene, box_front_face, camera_pose, render, yaw_towards
 
 RED = (30, 30, 200)
 BOX = Box((3.0, 0.3, 0.25), (0.3, 0.3, 0.5), RED, yaw=0.2)
