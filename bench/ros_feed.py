@@ -98,7 +98,7 @@ def rss_mb(pid: int | None = None) -> float:
 class Subprocess:
     """A ROS process under test; stdout and stderr go to `log_path` (quoted when it dies).
 
-    The tests' node processes are these too (tests/ros_env.py), so a node is started and stopped one way.
+    The tests' node processes are these too (tests/helpers/ros_env.py), so a node is started and stopped one way.
     """
 
     def __init__(self, cmd: list[str], env: dict[str, str], log_path: Path, cwd: Path = ROOT) -> None:

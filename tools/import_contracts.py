@@ -8,11 +8,11 @@ of the package, and the editable install resolves the rest with a meta-path find
 :func:`import_tree` copies every listed package's ``*.py`` files to where the wheel puts them
 (``DEST/mission/trees/loader.py`` …); :func:`lint_imports` runs ``lint-imports`` with the
 ``[tool.importlinter]`` contracts of pyproject.toml on that copy. ``python -m tools.import_contracts``
-does both (tests/test_import_contracts.py runs it). The copy is also where a test may plant a bad
+does both (tests/project/test_import_contracts.py runs it). The copy is also where a test may plant a bad
 import without touching the sources.
 
 :func:`declared_packages` and :func:`package_folders` are the two sides of "every package folder is
-listed in pyproject.toml" (tests/test_wheel_install.py).
+listed in pyproject.toml" (tests/project/test_wheel_install.py).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Each is a py_trees composite (the matching py_trees class where there is one, so viewers draw a sequence
 as a sequence) whose tick is BT.CPP's, written on trees/execution.py's protocol: children are ticked with
 ``self.run(child)``, a finished child is reset to IDLE the way BT.CPP resets it, halts go to
-RUNNING children only, in child order. The golden traces (tests/golden/btcpp/) replay every one of them
+RUNNING children only, in child order. The golden traces (tests/trees/golden/btcpp/) replay every one of them
 against the real BT.CPP.
 
 Where BT.CPP differs from py_trees' namesakes: ``Parallel`` returns as soon as ``success_count`` or

@@ -18,7 +18,7 @@ reports what BT.CPP would have reported for the same tick:
 
 For trees of Sequence, Fallback, their reactive forms, Parallel, SubTrees, decorators and scripted leaves,
 the transitions equal those BT.CPP 4.10's FileLogger2 writes for the same file, in the same order
-(tests/test_groot2_btlog.py). Statuses are BT.CPP's
+(tests/groot/test_btlog.py). Statuses are BT.CPP's
 numbers (mission.groot.protocol). It observes and never changes the tree.
 """
 

@@ -47,7 +47,7 @@ def skipped_tests() -> dict[str, str]:
 
     out: dict[str, str] = {}
     for path in sorted(Path(__file__).parent.glob("test_btcpp_*.py")):
-        module = importlib.import_module(path.stem)
+        module = importlib.import_module(f"{__package__}.{path.stem}")
         out.update(getattr(module, "SKIPPED", {}))
     return out
 

@@ -16,10 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
-from btcpp_harness import TEST, Harness
 from py_trees.behaviour import Behaviour
 
 from mission.groot.uids import bind, uid_tree
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 _TO_STR = "tests BT::toStr() of C++ values ({}), no XML"
 _CONVERT = "tests BT::convertFromString<{}>() (C++ template string conversion), no XML"

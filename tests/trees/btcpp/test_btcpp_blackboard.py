@@ -6,10 +6,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import pytest
-from btcpp_harness import TEST, Harness, SimpleAction, Tree, port
 
 from mission.behaviours.ports import Port
 from mission.core.errors import TreeError
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, SimpleAction, Tree, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {

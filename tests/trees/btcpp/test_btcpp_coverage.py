@@ -5,8 +5,8 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
-from btcpp_tests import BTCPP_TESTS, SOURCE
-from conftest import skipped_tests
+from tests.trees.btcpp.btcpp_tests import BTCPP_TESTS, SOURCE
+from tests.trees.btcpp.conftest import skipped_tests
 
 HERE = Path(__file__).parent
 
@@ -15,7 +15,7 @@ def translated() -> dict[str, set[str]]:
     """module stem → the "Suite.Name" of its tests marked btcpp."""
     out: dict[str, set[str]] = {}
     for path in sorted(HERE.glob("test_btcpp_*.py")):
-        module = importlib.import_module(path.stem)
+        module = importlib.import_module(f"{__package__}.{path.stem}")
         names = set()
         for value in vars(module).values():
             for mark in getattr(value, "pytestmark", []):

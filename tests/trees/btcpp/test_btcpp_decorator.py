@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from btcpp_harness import TEST, Harness
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 _DIRECT = "constructs the nodes directly with the C++ API (no XML): "
 

@@ -7,7 +7,8 @@ C++ enums registered with ``factory.registerScriptingEnums<E>()`` are our script
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness, SimpleAction, port
+
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, SimpleAction, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {

@@ -10,7 +10,8 @@ could check; they are skipped with that reason.
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness
+
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 _NODE_EXECUTION_ERROR = (
     "checks BT::NodeExecutionError (failedNode().node_name / registration_name / node_path, originalMessage()), "

@@ -11,11 +11,11 @@ import contextlib
 from pathlib import Path
 
 import pytest
-from btcpp_harness import TEST, Harness, Tree, port
 
 from mission.trees import scopes
 from mission.trees.execution import TreeRuntime
 from mission.trees.loader import load_tree, read_document
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, Tree, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {

@@ -3,7 +3,7 @@
 Each attaches a Groot2Publisher (a ZeroMQ server with its own threads) to a tree whose only action throws, and
 checks that the publisher neither loops for ever nor hangs in its destructor. The tree's part (the tick throws
 BT::RuntimeError) is only the trigger; our Groot2 publisher (mission/groot/publisher.py) is tested in
-tests/test_groot2_*.py.
+tests/groot/test_*.py.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 They talk to a BT::Groot2Publisher over ZeroMQ (groot2_test_utils.hpp's client): hooks (HOOK_INSERT / HOOKS_DUMP /
 HOOK_REMOVE replacing a node's status), malformed requests, and the BLACKBOARD dump of C++ blackboards (an external
 root blackboard given to createTree, a subtree's blackboard replaced by hand). Our publisher (mission/groot/) has
-no hooks and one blackboard store; it is tested in tests/test_groot2_*.py.
+no hooks and one blackboard store; it is tested in tests/groot/test_*.py.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 They are ThreadSanitizer reproducers for BT::Groot2Publisher's threads and locks (heartbeat delay, recording
 transitions, destruction during status callbacks, hook lock order, a blocked breakpoint); the tree is a lone
 AlwaysSuccess. Our publisher (mission/groot/publisher.py) has no hooks or breakpoints; it is tested in
-tests/test_groot2_*.py.
+tests/groot/test_*.py.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness
+
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {}

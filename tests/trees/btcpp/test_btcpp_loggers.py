@@ -3,7 +3,7 @@
 StdCoutLogger, FileLogger2, MinitraceLogger and SqliteLogger: their settings, the files they write (extension
 checks, header, content) and their destructors. The trees ticked (a Sequence of two AlwaysSuccess, a Sleep) are
 never asserted on. Our .btlog writer (FileLogger2's format, mission/groot/btlog.py) is tested in
-tests/test_groot2_btlog.py.
+tests/groot/test_btlog.py.
 """
 
 from __future__ import annotations

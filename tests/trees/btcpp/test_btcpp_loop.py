@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from btcpp_harness import TEST, Harness, port
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, port
 
 _CONVERT = "tests the C++ template BT::convertFromString<SharedQueue<{}>>() directly (no XML, no tree)"
 

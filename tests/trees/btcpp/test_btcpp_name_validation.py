@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness
+
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 _FORBIDDEN_CHAR = "calls the C++ function BT::findForbiddenChar() on strings; no XML"
 _PORT_NAME = "calls the C++ function BT::IsAllowedPortName() on strings; no XML"

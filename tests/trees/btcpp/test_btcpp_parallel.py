@@ -5,7 +5,8 @@ from __future__ import annotations
 import time
 
 import pytest
-from btcpp_harness import TEST, Harness, TestNode, TreeObserver
+
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, TestNode, TreeObserver
 
 _NO_XML = (
     "builds the tree with the C++ API (ParallelNode, AsyncActionTest, ConditionTestNode added with addChild, "

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import pytest
-from btcpp_harness import TEST, Harness, SimpleAction, Tree, port
 
 from mission.behaviours.ports import Port
 from mission.core.errors import TreeError
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, SimpleAction, Tree, port
 
 _GENERIC = (
     "NodeWithGenericPorts declares untyped ports (InputPort<>() / OutputPort<>(), AnyTypeAllowed); a port here "

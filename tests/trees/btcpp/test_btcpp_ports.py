@@ -8,10 +8,10 @@ at each node): ``MyType`` (a struct with a string) → str, ``Point2D{1, 2}`` as
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness, SimpleAction, port
 
 from mission.core.errors import TreeError
 from mission.core.types import Pose2D
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, SimpleAction, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {

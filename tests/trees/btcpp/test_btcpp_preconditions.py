@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import pytest
-from btcpp_harness import TEST, Harness, port
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
 from mission.behaviours.ports import PortsDeclared
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {}

@@ -5,11 +5,11 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from btcpp_harness import TEST, Harness, TreeObserver
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
 from mission.behaviours.ports import PortsDeclared
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, TreeObserver
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {

@@ -28,13 +28,13 @@ from typing import Any
 
 import py_trees
 import pytest
-from btcpp_harness import SCRIPT, TEST, Harness, port
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
 from mission.behaviours.ports import PortsDeclared
 from mission.trees import scopes
 from mission.trees.script import Script, ScriptError, ScriptSyntaxError, parse
+from tests.trees.btcpp.btcpp_harness import SCRIPT, TEST, Harness, port
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {}

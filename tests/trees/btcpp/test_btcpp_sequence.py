@@ -7,7 +7,7 @@ root.executeTick()), without XML; only SequenceWithMemoryTest.Issue_636 loads XM
 
 from __future__ import annotations
 
-from btcpp_harness import TEST, Harness
+from tests.trees.btcpp.btcpp_harness import TEST, Harness
 
 _SIMPLE = "the fixture builds Sequence(ConditionTestNode, AsyncActionTest) with the C++ API (addChild), no XML"
 _COMPLEX = (

@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import pytest
-from btcpp_harness import TEST, Harness, SimpleAction, Tree
 from py_trees.behaviour import Behaviour
 from py_trees.common import Status
 
@@ -21,6 +20,7 @@ from mission.behaviours.ports import BlackboardRef, PortsDeclared, port
 from mission.core.types import Pose2D
 from mission.trees import scopes
 from mission.trees.loader import describe_tree
+from tests.trees.btcpp.btcpp_harness import TEST, Harness, SimpleAction, Tree
 
 #: TESTs of this file that only use the C++ API, and why they are not translated
 SKIPPED: dict[str, str] = {}

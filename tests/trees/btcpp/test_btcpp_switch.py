@@ -9,9 +9,8 @@ The SwitchTest fixture builds ``BT::SwitchNode<2>`` with a hand-made ``NodeConfi
 
 from __future__ import annotations
 
-from btcpp_harness import TEST
-
 from mission.trees.controls import same_case
+from tests.trees.btcpp.btcpp_harness import TEST
 
 _FIXTURE = (
     "constructs the nodes directly with the C++ API (no XML): BT::SwitchNode<2> built from a NodeConfig, "

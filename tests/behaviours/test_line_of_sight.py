@@ -1,0 +1,146 @@
+"""IsLineOfSightBlocked: occlusion (map or lidar between camera and target) versus leaving the view."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import py_trees
+
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked, first_occupied_cell, predicted_position
+from mission.core import blackboard as bbk
+from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
+from tests.helpers.behaviour_world import EXTRINSICS, board, grid_with_boxes, marker_facing, scan_with_wall, tick
+
+S = py_trees.common.Status
+ROBOT = Pose2D(0.0, 0.0, 0.0)
+PILLAR = (1.4, -0.2, 1.8, 0.2)  # 40 cm pillar between the robot and a target 3 m ahead
+
+
+def seed(track: TargetTrack, *, grid=None, scan=None, clock: float = 10.0) -> None:
+    w = board()
+    bbk.set_(w, bbk.CLOCK, clock)
+    bbk.set_(w, bbk.ROBOT_STATE, RobotState(ROBOT, Twist(), clock))
+    bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
+    bbk.set_(w, bbk.TRACKS, {track.name: track})
+    bbk.set_(w, bbk.MAP, grid)
+    bbk.set_(w, bbk.SCAN, scan)
+
+
+def lost_target(misses: int, x: float = 3.0, y: float = 0.0) -> TargetTrack:
+    return TargetTrack(
+        "target", last_seen=9.6, misses=misses, pose_map=marker_facing(x, y, math.pi), robot_at_last_seen=ROBOT
+    )
+
+
+def test_a_pillar_in_the_map_between_camera_and_target_blocks_the_line_of_sight():
+    seed(lost_target(misses=5), grid=grid_with_boxes([PILLAR]))
+    node = IsLineOfSightBlocked(min_misses=5)
+    assert tick(node) == S.SUCCESS
+    assert "blocked by map cell" in node.feedback_message and "5 misses" in node.feedback_message
+
+
+def test_a_clear_path_means_the_target_left_the_view():
+    seed(lost_target(misses=8), grid=grid_with_boxes([(1.4, 1.0, 1.8, 1.4)]))  # pillar off to the side
+    node = IsLineOfSightBlocked(min_misses=5)
+    assert tick(node) == S.FAILURE
+    assert "line of sight clear" in node.feedback_message and "left the view" in node.feedback_message
+
+
+def test_fewer_than_min_misses_is_not_an_occlusion_yet():
+    seed(lost_target(misses=4), grid=grid_with_boxes([PILLAR]))
+    node = IsLineOfSightBlocked(min_misses=5)
+    assert tick(node) == S.FAILURE
+    assert node.feedback_message == "target: 4 miss(es) < 5, not an occlusion yet"
+
+
+def test_a_lidar_return_closer_than_the_target_blocks_even_if_the_map_is_clear():
+    seed(lost_target(misses=6), grid=grid_with_boxes([]), scan=scan_with_wall(ROBOT, bearing=0.0, distance=1.2))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    assert "scan return 1.20 m away" in node.feedback_message
+
+
+def test_the_lidar_seeing_the_target_itself_is_not_a_blockage():
+    seed(lost_target(misses=6), grid=grid_with_boxes([]), scan=scan_with_wall(ROBOT, bearing=0.0, distance=2.85))
+    assert tick(IsLineOfSightBlocked()) == S.FAILURE
+
+
+def test_a_target_that_walked_on_behind_a_wall_is_blocked_at_its_predicted_position():
+    # walking +y at 1 m/s, last seen at (3, 0.9) just before the wall edge (3, 1.0)–(3, 3)… seen from the origin
+    history = [(9.0 + 0.1 * i, 3.0, 0.0 + 0.1 * i) for i in range(10)]
+    track = lost_target(misses=6, x=3.0, y=0.9)
+    track.history = history
+    track.last_seen = history[-1][0]
+    wall = (2.3, 1.1, 2.5, 3.0)  # hides everything beyond y ≈ 1 at x = 3 from the robot
+    seed(track, grid=grid_with_boxes([wall]), clock=track.last_seen + 0.4)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    assert "predicted target position (3.00, 1.30)" in node.feedback_message
+
+
+def test_prediction_extrapolates_at_most_one_second():
+    track = lost_target(misses=6)
+    track.history = [(9.0 + 0.1 * i, 0.5 * i * 0.1, 0.0) for i in range(6)]
+    track.last_seen = track.history[-1][0]
+    x, y = predicted_position(track, now=track.last_seen + 5.0)
+    assert math.isclose(x, 0.25 + 0.5 * 1.0, abs_tol=1e-9) and abs(y) < 1e-12
+
+
+def test_the_raytrace_finds_a_one_cell_pillar_from_every_direction():
+    grid = grid_with_boxes([(0.0, 0.0, 0.01, 0.01)], resolution=0.05)
+    hits = []
+    for a in np.linspace(0, 2 * math.pi, 73):
+        start = (2.0 * math.cos(a) + 0.025, 2.0 * math.sin(a) + 0.025)
+        end = (-2.0 * math.cos(a) + 0.025, -2.0 * math.sin(a) + 0.025)
+        hits.append(first_occupied_cell(grid, start, end))
+    assert all(h == grid.world_to_cell(0.0, 0.0) for h in hits)
+
+
+def test_the_raytrace_does_not_slip_diagonally_between_two_corner_touching_cells():
+    # two cells touching at a corner: a 45° ray through that corner must hit one of them
+    grid = grid_with_boxes([])
+    r, c = grid.world_to_cell(0.01, 0.01)
+    grid.data[r, c] = 100  # up-right of the shared corner
+    grid.data[r - 1, c - 1] = 100  # down-left of it; the ray crosses from down-right to up-left
+    corner = grid.cell_to_world(r, c)
+    x0, y0 = corner[0] - 0.025, corner[1] - 0.025
+    assert first_occupied_cell(grid, (x0 + 1.0, y0 - 1.0), (x0 - 1.0, y0 + 1.0)) is not None
+
+
+# A partition like search_corner's: a wall from y = -3 up to its end at y = 0.8, at x = 1.5–1.7. The robot
+# (origin, facing +y… here +x) saw the target just round the wall's end, in plain view, then lost it.
+PARTITION = (1.5, -3.0, 1.7, 0.8)
+
+
+def test_a_target_lost_just_round_the_end_of_a_wall_may_be_hiding_behind_it():
+    # last seen at (2.2, 1.3): clear sight to it, but 1 m away down the far side of the wall it is hidden
+    seed(lost_target(misses=5, x=2.2, y=1.3), grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    assert node.feedback_message.startswith("target may be hidden at (")
+    assert "from its last position (2.20, 1.30): line of sight blocked by map cell" in node.feedback_message
+
+
+def test_places_beyond_a_wall_the_target_cannot_walk_through_do_not_count():
+    # last seen in the open at (0.9, 0.0), west of the same wall; behind the wall (x > 1.7) is out of reach
+    seed(lost_target(misses=5, x=0.9, y=0.0), grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.FAILURE
+    assert "left the view" in node.feedback_message
+
+
+def test_the_verdict_is_held_for_the_whole_loss_and_taken_afresh_after_a_sighting():
+    track = lost_target(misses=5, x=2.2, y=1.3)
+    seed(track, grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    # the robot drives round the wall's end: from here every place is in clear sight, but this loss stays LOST
+    bbk.set_(board(), bbk.ROBOT_STATE, RobotState(Pose2D(2.2, 0.9, 0.0), Twist(), 10.5))
+    track.misses = 12
+    assert tick(node) == S.SUCCESS and "12 misses" in node.feedback_message
+    # seen again, then lost again from the new place: decided afresh
+    track.misses, track.last_seen = 0, 10.6
+    assert tick(node) == S.FAILURE
+    track.misses = 5
+    assert tick(node) == S.FAILURE and "left the view" in node.feedback_message

@@ -1,0 +1,505 @@
+"""The search ladder, rung by rung: LOST that looks (PursueLastSeen), SEARCH a (TurnToBearing), the belief of
+where a lost target can be, SEARCH b (SearchBelief: viewpoints by belief per second of travel), SEARCH d
+(GiveUpSearch), the opennav_following-style baseline (RotateSearch), and the own-footprint scan filter."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import py_trees
+import pytest
+
+from mission.behaviours.belief import TargetBelief
+from mission.behaviours.line_of_sight import IsLineOfSightBlocked
+from mission.behaviours.pursue import PursueLastSeen
+from mission.behaviours.search_give_up import GiveUpSearch
+from mission.behaviours.search_grid import line_clear, search_grid
+from mission.behaviours.search_turn import RotateSearch, TurnToBearing
+from mission.behaviours.search_views import SearchBelief, Visit
+from mission.core import blackboard as bbk
+from mission.core.scan import scan_points, segment_width
+from mission.core.types import LaserScan, Pose2D, RobotState, TargetTrack, Twist
+from tests.helpers.behaviour_world import (
+    EXTRINSICS,
+    Scene,
+    ScriptedNavigator,
+    board,
+    grid_with_boxes,
+    marker_facing,
+    read,
+    scan_with_wall,
+    tick,
+)
+
+S = py_trees.common.Status
+
+
+def lost_at(x: float, y: float, *, last_seen: float = 0.0, walking: tuple[float, float] | None = None) -> TargetTrack:
+    """A target last seen at (x, y) at `last_seen`, walking at `walking` (m/s) for the second before."""
+    track = TargetTrack("target", last_seen=last_seen, misses=9, pose_map=marker_facing(x, y, math.pi))
+    if walking is not None:
+        vx, vy = walking
+        track.history = [(last_seen - 1.0 + 0.1 * i, x - vx * (1.0 - 0.1 * i), y - vy * (1.0 - 0.1 * i))
+                         for i in range(11)]  # fmt: skip
+    bbk.set_(board(), bbk.TRACKS, {"target": track})
+    return track
+
+
+def turns(scene: Scene, node: py_trees.behaviour.Behaviour, ticks: int) -> tuple[list[float], list[S]]:
+    """Cycle the node; the yaw rate it commanded and its status, tick by tick."""
+    rates, statuses = [], []
+    for _ in range(ticks):
+        statuses.append(scene.cycle(node))
+        twist = read(bbk.TWIST)
+        rates.append(twist.w if isinstance(twist, Twist) else 0.0)
+        if statuses[-1] != S.RUNNING:
+            break
+    return rates, statuses
+
+
+def legs(rates: list[float]) -> list[int]:
+    """The directions turned, in order: +1 left, −1 right (consecutive ticks the same way are one leg)."""
+    out: list[int] = []
+    for w in rates:
+        if abs(w) > 1e-9 and (not out or out[-1] != math.copysign(1, w)):
+            out.append(int(math.copysign(1, w)))
+    return out
+
+
+# ------------------------------------------------------------------------------------ SEARCH a
+def test_turn_to_bearing_turns_toward_the_target_the_nearer_way_first_then_back_the_other_way():
+    for (x, y), first in [((1.0, -2.0), -1), ((1.0, 2.0), +1)]:
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.1)
+        lost_at(x, y)
+        node = TurnToBearing(angular_speed=1.0)
+        rates, statuses = turns(scene, node, 200)
+        assert legs(rates) == [first, -first]
+        assert statuses[-1] == S.FAILURE and S.FAILURE not in statuses[:-1]
+        assert read(bbk.REASON).startswith(
+            f"SEARCH a: turned toward target's predicted bearing {math.degrees(math.atan2(y, x)):+.0f}° and back "
+            "the other way"
+        )
+
+
+def test_turn_to_bearing_goes_past_the_bearing_by_the_overshoot_before_turning_back():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.05)
+    lost_at(1.0, -1.0)  # 45° right
+    node = TurnToBearing(angular_speed=1.0, overshoot_deg=30.0)
+    yaws = []
+    for _ in range(400):
+        if scene.cycle(node) != S.RUNNING:
+            break
+        yaws.append(scene.robot.yaw)
+    assert math.degrees(min(yaws)) == pytest.approx(-75.0, abs=3.0)  # 45° + 30° to the right, then back left
+    assert scene.robot.yaw > math.radians(100)  # … to 180° − 45° = 135° past the start on the other side
+
+
+def test_straight_ahead_the_turn_follows_the_way_the_target_was_walking_across_the_view():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.1)
+    lost_at(2.0, 0.05, walking=(0.0, -0.6))  # 1° left of ahead, but it was walking off to the right
+    node = TurnToBearing()
+    scene.cycle(node)
+    assert read(bbk.TWIST).w < 0
+    assert node.feedback_message.startswith("SEARCH a: turning right (toward the predicted bearing")
+
+
+def test_the_first_turn_goes_on_past_the_overshoot_while_what_is_beside_the_view_is_where_the_target_can_be():
+    # lost 18° to the right: the first leg is planned to 18° + 30°. Where the target can be is fixed (a belief that
+    # does not grow): a patch ahead on the left, and — or not — a strip far round to the right (a corridor it
+    # walked down after turning a corner).
+    def lowest_yaw(strip: bool) -> float:
+        grid = grid_with_boxes([])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(1.5, -0.5, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (1.5, -0.5), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        front = (np.hypot(xs - 1.5, ys - 2.5) < 0.8)  # ahead on the left
+        if strip:
+            front |= (np.abs(xs - 0.2) < 0.3) & (ys < -1.0) & (ys > -3.5)  # round to the right, -85° or so
+        belief.front = front
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = TurnToBearing(angular_speed=1.0, overshoot_deg=30.0)
+        lowest = 0.0
+        for _ in range(60):  # 3 s: the first leg and the start of the second
+            scene.cycle(node)
+            lowest = min(lowest, scene.robot.yaw)
+        return math.degrees(lowest)
+
+    assert lowest_yaw(strip=True) < -48.0 - 15.0  # it turned on until the strip came into view
+    assert lowest_yaw(strip=False) > -48.0 - 4.0  # nothing there: no further than planned (here: not at all)
+
+
+def test_turning_in_place_hands_over_at_once_when_a_whole_turn_would_show_little_of_where_it_can_be():
+    # lost just ahead on the right, so the first turn is short; where the target can be is mostly behind the
+    # wall, which no heading from here sees through — or, the other way round, mostly in the open
+    def first_tick(behind_the_wall: bool) -> S:
+        grid = grid_with_boxes([WALL])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(0.8, -1.2, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.8, -1.2), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        patch = np.hypot(xs - 0.6, ys - 0.0) < 0.3  # in sight, ahead on the left
+        far = (xs > 1.4) & (xs < 3.0) & (ys > -3.5) & (ys < 0.5) if behind_the_wall else (xs < -0.3) & (ys > 0.0)
+        belief.front = patch | far
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        return scene.cycle(TurnToBearing())
+
+    assert first_tick(behind_the_wall=True) == S.FAILURE
+    assert "moving instead" in read(bbk.REASON)
+    assert first_tick(behind_the_wall=False) == S.RUNNING
+
+
+# ------------------------------------------------------------------------------------ the belief
+WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
+
+
+def test_the_belief_grows_with_the_targets_top_speed_and_does_not_go_through_walls():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+
+    def possible(x: float, y: float) -> bool:
+        return bool(belief.possible[sg.cell(x, y)])
+
+    assert possible(0.0, -1.0) and not possible(0.0, 0.5)  # at first: where it was last seen
+    belief.grow(2.0)  # two seconds at 1 m/s: 2.3 m round the last position
+    assert possible(0.0, 0.5) and possible(-1.5, -1.0) and not possible(-2.8, -1.0)
+    assert not possible(2.0, -1.0)  # 2 m away in a straight line, but through the wall: a long way round
+    belief.grow(9.0)
+    assert possible(2.0, -1.0)  # by now it could have walked round the north end
+
+
+def test_what_the_camera_sees_is_no_longer_where_the_target_can_be():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    unlooked = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    unlooked.grow(3.0)
+    belief.look(3.0, camera=(-2.0, -1.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    assert not belief.possible[sg.cell(0.0, -1.0)] and not belief.possible[sg.cell(0.5, -1.2)]  # in view
+    assert belief.possible[sg.cell(-2.0, 0.5)] and belief.possible[sg.cell(0.0, 1.8)]  # beside and beyond the view
+    assert belief.mass() < 0.9 * unlooked.mass()  # as much grew, less is left: the camera's view is cleared
+    assert 0 < belief.seen_fraction() < 1
+
+
+def test_a_place_the_target_reaches_by_a_short_walk_outweighs_one_it_reaches_by_a_long_way_round():
+    # two places 2 m from where it was lost: one in the open, one behind the wall (a long walk round its end)
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    assert belief.density is not None
+    total = float(belief.density.sum())
+    belief.grow(8.0)  # long enough to have walked to either
+    near, round_the_end = sg.cell(-2.0, -1.0), sg.cell(2.0, -1.0)
+    assert belief.possible[near] and belief.possible[round_the_end]
+    w = belief.weights()
+    assert w[near] > 1.5 * w[round_the_end] > 0  # the prior alone weighs them alike: as far, no heading
+    assert float(belief.density.sum()) == pytest.approx(total, rel=1e-3)  # spread, none lost
+    assert not belief.density[~sg.target_free()].any()  # and none of it where the target cannot stand
+
+
+CORRIDOR = [(-7.0, 0.5, 7.0, 0.7), (-7.0, -0.7, 7.0, -0.5)]  # a corridor 1 m wide along x
+
+
+def test_the_target_cannot_get_past_the_camera_unseen():
+    # the robot looks down a corridor toward where the target was lost, beyond what its camera can read
+    sg = search_grid(grid_with_boxes(CORRIDOR, size_m=16.0))
+    belief = TargetBelief.start("target", 0.0, (5.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for k in range(1, 81):  # 8 s of looking, 10 looks a second
+        belief.look(0.1 * k, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    assert belief.radius_m > 6.5  # near enough by walking: the reach alone would allow it behind the robot
+    assert not belief.possible[sg.cell(-1.5, 0.0)]  # but only through the camera's view
+    assert not belief.possible[sg.cell(2.0, 0.0)]  # in view
+    assert belief.possible[sg.cell(6.5, 0.0)]  # beyond the view's range it can be
+
+
+def test_a_target_missed_in_plain_view_is_looked_for_where_the_camera_has_not_looked():
+    sg = search_grid(grid_with_boxes([]))
+    belief = TargetBelief.start("target", 0.0, (2.0, 0.0), None, sg, now=0.0, speed_mps=1.0)
+    for t in (0.1, 0.2, 0.3):  # everywhere it could have walked is in view, and it is not seen
+        belief.look(t, camera=(0.0, 0.0), yaw=0.0, hfov=math.radians(70), blocked=sg.occupied)
+    belief.grow(2.0)
+    assert (belief.possible & ~belief.seen).any()  # not nowhere: somewhere it has not looked
+
+
+def test_a_place_looked_at_fills_again_once_the_target_could_have_walked_back_into_it():
+    sg = search_grid(grid_with_boxes([WALL]))
+    belief = TargetBelief.start("target", 0.0, (-1.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
+    belief.grow(1.0)
+    belief.look(1.0, camera=(-3.0, -1.0), yaw=0.0, hfov=math.radians(30), blocked=sg.occupied)
+    looked, aside = sg.cell(-0.2, -1.0), sg.cell(-1.0, -1.8)  # as far from where it was lost; one in the view
+    assert not belief.possible[looked]
+    belief.grow(4.0)  # no more looks: from either side of the narrow view it can have walked back
+    assert belief.possible[looked] and belief.possible[aside]
+    w = belief.weights()
+    assert 0 < w[looked] < w[aside]  # looked at 3 s ago: worth less than a place as near, never looked at
+
+
+# ------------------------------------------------------------------------------------ SEARCH b
+def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belief_per_second():
+    # the target went behind the wall at (2, −1); round the north end is 2 m of driving, round the south end 6 m
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, clock=2.0)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = SearchBelief(target_speed_mps=0.6)
+    assert scene.cycle(node) == S.RUNNING
+    goal = read(bbk.NAV_GOAL)
+    assert goal is not None and read(bbk.STATE) == "SEARCH"
+    assert goal.pose.y > 0.6  # the north end: the south end sees the same place but costs three times the drive
+    sg = search_grid(grid)
+    assert line_clear(sg.occupied, sg, (goal.pose.x, goal.pose.y), (2.0, -1.0))  # it sees where the target went
+    assert node.feedback_message.startswith(f"SEARCH b: to ({goal.pose.x:.2f}, {goal.pose.y:.2f}) to look at where "
+                                            "it can be")  # fmt: skip
+
+
+def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_likely_is():
+    # two places it can be, 2 m away at 30° and at 120°, out of the camera's view (it faces south): one large, one
+    # small. The sweep starts at the large one's end of the window, whichever that is.
+    grid = grid_with_boxes([])
+    sg = search_grid(grid)
+    xs, ys = sg.centres()
+
+    def patch(deg: float, radius: float) -> np.ndarray:
+        a = math.radians(deg)
+        return np.hypot(xs - 2.0 * math.cos(a), ys - 2.0 * math.sin(a)) < radius
+
+    for heavy_at, light_at, turns_cw in [(120.0, 30.0, True), (30.0, 120.0, False)]:
+        scene = Scene(robot=Pose2D(0.0, 0.0, -math.pi / 2), grid=grid, clock=3.0, navigator=ScriptedNavigator())
+        track = lost_at(0.0, 0.0, last_seen=0.0)  # 3 s ago: both are within its reach
+        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=3.0)
+        belief.front = patch(heavy_at, 0.6) | patch(light_at, 0.25)
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = SearchBelief()
+        scene.cycle(node)
+        visit = node.hunt.visit
+        assert (visit.sweep_rad < 0) == turns_cw
+        facing_first = math.degrees(visit.pose.yaw)
+        assert abs(facing_first - heavy_at) < abs(facing_first - light_at)
+
+
+def test_a_sweep_turns_through_its_angle_whichever_way_it_goes():
+    for sweep_rad in (-1.2, 1.2):
+        grid = grid_with_boxes([])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, clock=3.0, dt=0.05)
+        track = lost_at(0.0, 0.0, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.0, 0.0), None, sg, now=3.0)
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = SearchBelief()
+        scene.cycle(node)
+        hunt = node.hunt
+        hunt.visit = Visit(Pose2D(0.0, 0.0, scene.robot.yaw), sweep_rad, 10.0, 1.0)
+        hunt.phase, hunt.sweep_turned, hunt.yaw_prev = "sweep", 0.0, scene.robot.yaw
+        swept = 0.0
+        while hunt.phase == "sweep" and abs(swept) < 7.0:
+            yaw = scene.robot.yaw
+            scene.cycle(node)
+            swept += math.remainder(scene.robot.yaw - yaw, 2 * math.pi)
+        assert swept == pytest.approx(sweep_rad, abs=0.1)
+
+
+def test_where_it_can_be_weighs_less_behind_it_than_beside_it():
+    sg = search_grid(grid_with_boxes([]))
+    belief = TargetBelief.start("target", 0.0, (0.0, 0.0), (1.0, 0.0), sg, now=0.5)  # it was walking east
+    row, col = sg.cell(-3.0, 0.0)
+    behind = belief.prior[row, col]
+    row, col = sg.cell(0.0, 3.0)
+    beside = belief.prior[row, col]
+    assert behind < 0.5 * beside  # the way it came, which the robot followed it along
+
+
+def test_search_belief_gives_up_with_a_reason_when_its_time_is_up():
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL]), clock=2.0, dt=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = SearchBelief(timeout_s=3.0)
+    statuses = [scene.cycle(node) for _ in range(8)]
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON).startswith("SEARCH b: target not found in 3 s (searched where it could be for")
+
+
+# ------------------------------------------------------------------------------------ SEARCH d
+def test_give_up_search_fails_with_where_it_was_lost_what_was_tried_and_how_much_was_seen():
+    sg = search_grid(grid_with_boxes([WALL]))
+    track = lost_at(2.0, -1.0, last_seen=5.0)
+    belief = TargetBelief.start("target", track.last_seen, (2.0, -1.0), None, sg, now=5.0)
+    belief.log += ["LOST went 2.4 m to look (6 s)", "searched where it could be for 25 s, 4 viewpoint(s)"]
+    belief.seen[:, : sg.shape[1] // 2] = True  # the camera has seen half of the map
+    bbk.set_(board(), bbk.BELIEFS, {"target": belief})
+    w = board()
+    bbk.set_(w, bbk.CLOCK, 65.0)
+    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 65.0))
+    node = GiveUpSearch()
+    assert tick(node) == S.FAILURE
+    reason = read(bbk.REASON)
+    assert reason.startswith("SEARCH gave up: target not found 60 s after it was last seen at (2.00, -1.00): "
+                             "LOST went 2.4 m to look (6 s); searched where it could be for 25 s, 4 viewpoint(s); "
+                             "the camera saw ")  # fmt: skip
+    assert reason.endswith("% of where it could have walked — it has left, or hides where this robot cannot look")
+    assert read(bbk.STATE) == "FAILED" and read(bbk.TWIST) == Twist(0.0, 0.0)
+
+
+def test_give_up_search_says_so_when_the_target_was_never_seen():
+    bbk.set_(board(), bbk.TRACKS, {})
+    bbk.set_(board(), bbk.CLOCK, 1.0)
+    node = GiveUpSearch()
+    assert tick(node) == S.FAILURE and read(bbk.REASON) == "SEARCH gave up: target was never seen"
+
+
+# ------------------------------------------------------------------------------------ LOST that looks
+def test_lost_drives_to_where_the_camera_sees_where_the_target_went_facing_it_with_a_timer_for_the_detour():
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, clock=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0, walking=(0.0, -0.5))  # behind the wall, walking south
+    node = PursueLastSeen(speed_mps=0.35)
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    goal = read(bbk.NAV_GOAL)
+    plan = node.pursuit
+    sg = search_grid(grid)
+    assert line_clear(sg.occupied, sg, (goal.pose.x, goal.pose.y), plan.aim)  # from there it sees the target's way
+    aim_bearing = math.atan2(plan.aim[1] - goal.pose.y, plan.aim[0] - goal.pose.x)
+    assert abs(math.remainder(goal.pose.yaw - aim_bearing, 2 * math.pi)) < 1e-6  # and arrives facing it
+    assert plan.aim[1] < -1.0  # where it went: on along its last velocity, not where it was last seen
+    timer = plan.deadline - plan.started
+    assert timer >= plan.path_m / 0.35 and plan.path_m > 2.0  # a timer long enough for the detour
+    assert f"{plan.path_m:.1f} m detour" in node.feedback_message
+
+
+def test_with_no_heading_lost_peeks_round_the_edge_the_target_went_behind_sweeping_across_it():
+    # last seen at the wall's north end, standing still: it can have gone on round the end, out of sight
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(-0.5, -1.5, math.radians(60)), grid=grid, clock=0.5)
+    lost_at(0.9, 1.3, last_seen=0.0)
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    plan = node.pursuit
+    sg = search_grid(grid)
+    behind = (1.5, 0.6)  # round the end, on the far side of the wall: hidden from where the robot stands
+    assert not line_clear(sg.occupied, sg, (-0.5, -1.5), behind)
+    assert line_clear(sg.occupied, sg, (plan.view.x, plan.view.y), behind)  # from where it goes, in sight
+    assert plan.sweep_to is not None or abs(math.remainder(
+        math.atan2(behind[1] - plan.view.y, behind[0] - plan.view.x) - plan.view.yaw, 2 * math.pi)) < math.radians(35)
+
+
+DOORWAY = [(1.0, -4.0, 1.2, -0.5), (1.0, 0.5, 1.2, 4.0)]  # a wall at x ≈ 1.1 with a 1 m doorway at y = 0
+
+
+def test_lost_goes_into_the_doorway_the_target_went_through_and_looks_round_both_edges():
+    # the target walked east through the doorway; from the nearest place that sees where it was going the robot
+    # would look through the gap, and a target that turned along the wall on the far side is not there
+    grid = grid_with_boxes(DOORWAY)
+    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
+    lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    plan = node.pursuit
+    sg = search_grid(grid)
+    view = (plan.view.x, plan.view.y)
+    for along_the_wall in [(1.5, 1.8), (1.5, -1.8)]:  # round the north edge, round the south edge
+        assert not line_clear(sg.occupied, sg, (-1.5, 0.0), along_the_wall)
+        assert line_clear(sg.occupied, sg, view, along_the_wall)
+    assert plan.sweep_to is not None  # wider than one look: it sweeps across them
+    assert plan.deadline - plan.started >= plan.path_m / 0.35
+
+
+def test_a_longer_detour_gets_a_longer_loss_timer():
+    timers = []
+    for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
+        bbk.set_(board(), bbk.BELIEFS, {})
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([wall]), clock=0.5)
+        lost_at(2.0, -1.0, last_seen=0.0)
+        node = PursueLastSeen()
+        scene.cycle(node)
+        timers.append(node.pursuit.deadline - node.pursuit.started)
+    assert timers[1] > timers[0] + 3.0
+
+
+def test_lost_hands_over_to_search_when_the_detour_takes_longer_than_its_timer():
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL]), clock=0.5, dt=0.5)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = PursueLastSeen(max_timeout_s=3.0)  # the navigator never moves the robot here
+    statuses = [scene.cycle(node) for _ in range(8)]
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON).startswith("LOST: target not seen again within the loss timer 3.0 s")
+    assert scene.cycle(node) == S.FAILURE  # one pursuit per loss: re-entered, it fails at once
+
+
+# ------------------------------------------------------------------------------------ the baseline
+def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_fails():
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.05)
+    lost_at(2.0, 0.0)
+    node = RotateSearch()
+    yaws = []
+    statuses = []
+    for _ in range(2000):
+        statuses.append(scene.cycle(node))
+        yaws.append(scene.robot.yaw)
+        if statuses[-1] != S.RUNNING:
+            break
+    assert statuses[-1] == S.FAILURE
+    assert read(bbk.REASON) == "SEARCH (rotate ±90°): target not found after 3 round(s)"
+    assert 80 < math.degrees(max(yaws)) < 95 and -95 < math.degrees(min(yaws)) < -80  # ±90° within 0.15 rad
+    rates = [b - a for a, b in itertools.pairwise(yaws)]
+    assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds about the start heading
+
+
+# ------------------------------------------------------------------------------------ no false occlusion
+def walked_away_with_a_scan_return_at(distance: float, width_m: float = 0.4) -> None:
+    """The target walked straight away from the robot at 1 m/s to (3, 0), last seen a second ago; the lidar
+    sees something `width_m` wide `distance` ahead."""
+    track = TargetTrack("target", last_seen=9.0, misses=6, pose_map=marker_facing(3.0, 0.0, math.pi))
+    track.history = [(8.0 + 0.1 * i, 2.0 + 0.1 * i, 0.0) for i in range(11)]
+    w = board()
+    bbk.set_(w, bbk.CLOCK, 10.0)
+    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 10.0))
+    bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
+    bbk.set_(w, bbk.TRACKS, {"target": track})
+    bbk.set_(w, bbk.MAP, grid_with_boxes([]))
+    half_angle = math.atan2(width_m / 2, distance)
+    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=distance, half_width=half_angle))
+
+
+def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
+    # walking away at 1 m/s; it turned its marker away and stopped at (3.1, 0). A second later the prediction
+    # says (4, 0): the lidar sees its body at 3.1 m, nearer than the prediction — but that is the target
+    walked_away_with_a_scan_return_at(3.1)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.FAILURE and "left the view" in node.feedback_message
+    unfiltered = IsLineOfSightBlocked(target_radius_m=0.0)  # the check before the filter: a false occlusion
+    assert tick(unfiltered) == S.SUCCESS and "scan return 3.10 m away" in unfiltered.feedback_message
+
+
+def test_a_cart_passing_beside_the_target_hides_it_even_where_its_body_could_be():
+    # the lidar's return at 2.95 m lies 5 cm before where the target was last seen, within its radius, but on
+    # a face 1.2 m wide: a cart, not the 0.4 m target, and the target is behind it
+    walked_away_with_a_scan_return_at(2.95, width_m=1.2)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS and "scan return 2.95 m away" in node.feedback_message
+    walked_away_with_a_scan_return_at(2.95, width_m=0.4)  # the target's own body at the same place
+    assert tick(IsLineOfSightBlocked()) == S.FAILURE
+
+
+def test_a_wall_the_map_holds_does_not_widen_the_target_standing_flush_with_it():
+    # the scan sees one straight face at x = 3: the 0.4 m body (|y| ≤ 0.2) and, flush with it, a wall from
+    # y = 0.2 to 2 that the map holds. The thing the return ahead lies on is the body alone.
+    angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+    ranges = np.full(360, np.inf)
+    face = (angles > math.atan2(-0.2, 3.0)) & (angles < math.atan2(2.0, 3.0))
+    ranges[face] = 3.0 / np.cos(angles[face])
+    scan = LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / 360, ranges=ranges.astype(np.float32),
+                     range_min=0.1, range_max=10.0, stamp=0.0)  # fmt: skip
+    ahead = int(np.argmin(np.abs(angles)))
+    robot = Pose2D(0.0, 0.0, 0.0)
+
+    def width(grid) -> float:
+        xs, ys, valid = scan_points(scan, robot, grid)
+        return segment_width(xs, ys, valid, np.asarray(scan.ranges, dtype=np.float64), scan.angle_increment, ahead)
+
+    assert width(None) > 2.0  # body and wall as one thing
+    assert 0.2 < width(grid_with_boxes([(3.0, 0.2, 3.2, 2.0)])) <= 0.45  # the body, less a cell by the wall
+
+
+def test_a_box_between_robot_and_target_is_still_an_occluder():
+    walked_away_with_a_scan_return_at(1.5)
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS and "scan return 1.50 m away" in node.feedback_message

@@ -1,0 +1,142 @@
+"""Hybrid discovery in the closed loop (scenario vlm_discovery, config sim_vlm.yaml): the VLM finds the red
+box across the room, where its tags are too small to read, the robot drives to it, and up close the tag
+source takes over. With the stub, and with the `openai` client against a loopback model server that
+answers from the simulation's ground truth with noise — the same config with only its client changed.
+
+The harness records, for every frame the run perceives, where the target truly is in it (the sim's
+ground truth projected into the frame, hidden when the depth image shows something in front); the fake
+model looks the image it was sent up there (tests/helpers/vlm_servers.py Oracle), adds noise and answers in the
+chat-completions format. Neither side knows the other: the model sees JPEGs, the simulation sees HTTP.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from mission.app.sim_run import run_scenario, shipped_config
+from mission.core import blackboard as bbk
+from mission.core import se3
+from mission.core.observers import RunObserver
+from tests.helpers.vlm_servers import FakeModelServer, Oracle, model_text
+
+DISCOVERY = "vlm_discovery"
+
+
+class GroundTruthPixels(RunObserver):
+    """For every perceived frame: the target's true pixel to the oracle; and, by the robot's distance to the
+    target, which source the tree's target detection came from (the hybrid policy keeps the tag's when
+    both see it), and how far away the robot began to follow."""
+
+    def __init__(self, oracle: Oracle | None = None) -> None:
+        self.oracle = oracle
+        self.first_follow_range: float | None = None
+        self.seen_by: list[tuple[float, str]] = []  # (distance, "vlm" | "apriltag") per frame the target was seen
+
+    def on_perception(self, run: Any, perceived: Any) -> None:
+        frame = perceived.frame
+        if frame is None:
+            return
+        gt = run.world.ground_truth()
+        if self.oracle is not None:
+            self.oracle.record(frame.image, target_pixel(frame, gt, run.world.scenario.target.size))
+        distance = math.hypot(gt.target.x - gt.robot.x, gt.target.y - gt.robot.y)
+        labels = {d.source for d in perceived.detections if d.label == "red box"}
+        if labels:
+            self.seen_by.append((distance, "apriltag" if "apriltag" in labels else "vlm"))
+
+    def on_tick(self, run: Any, tick: Any) -> None:
+        if self.first_follow_range is None and run.get(bbk.STATE) == "FOLLOW":
+            gt = tick.ground_truth
+            self.first_follow_range = math.hypot(gt.target.x - gt.robot.x, gt.target.y - gt.robot.y)
+
+    def share(self, source: str, lo: float, hi: float) -> float:
+        """The fraction of frames with the robot `lo`–`hi` m from the target in which the tree's detection
+        of it came from `source` (0 when it was seen in none)."""
+        seen = [s for d, s in self.seen_by if lo <= d < hi]
+        return seen.count(source) / len(seen) if seen else 0.0
+
+
+def target_pixel(frame: Any, gt: Any, size: tuple[float, float, float]) -> tuple[float, float] | None:
+    """Where the centre of the target box appears in `frame` (u, v px), None when it is not in view or
+    something nearer covers that pixel — what a model looking at the image would point to."""
+    centre = np.array([gt.target.x, gt.target.y, size[2] / 2])
+    p = se3.apply(se3.invert(np.asarray(frame.T_anchor_camera)), centre)
+    if p[2] <= 0.1:
+        return None
+    k = frame.intrinsics
+    u, v = k.project(p[None, :])[0]
+    if not (0 <= u < k.width and 0 <= v < k.height):
+        return None
+    seen = float(frame.depth[int(v), int(u)])
+    if math.isfinite(seen) and seen < p[2] - 0.5:  # the box's face is at most ~0.3 m nearer than its centre
+        return None
+    return float(u), float(v)
+
+
+def noisy_answerer(oracle: Oracle, sigma: float, seed: int = 0):
+    """The fake model: the true point with Gaussian noise (σ in 0–1000 units), in a format that varies as
+    real models' do (plain JSON, fenced with prose)."""
+    rng = np.random.default_rng(seed)
+    calls = [0]
+
+    def answer(image: np.ndarray, prompt: str) -> str:
+        calls[0] += 1
+        yx = oracle.lookup(image)
+        if yx is None:
+            return "[]"
+        y, x = (float(c + rng.normal(0.0, sigma)) for c in yx)
+        text = model_text([(y, x)])
+        return text if calls[0] % 3 else f"Here is the red box:\n```json\n{text}\n```"
+
+    return answer
+
+
+def vlm_config(tmp_path: Path, **vlm_params: Any) -> Path:
+    """sim_vlm.yaml with the VLM source's params changed — what a user edits to use a real model."""
+    data = yaml.safe_load(shipped_config("sim_vlm.yaml").read_text())
+    vlm = next(s for s in data["perception"]["sources"] if s["plugin"] == "vlm")
+    vlm["params"].update(vlm_params)
+    path = tmp_path / "sim_vlm_changed.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def assert_discovered_far_and_handed_over(outcome: Any, watch: GroundTruthPixels) -> None:
+    assert outcome.success, outcome.reason
+    vlm = outcome.sources["vlm"]
+    assert vlm["latches"] >= 1 and not vlm["breaker_open"], vlm
+    assert watch.first_follow_range is not None and watch.first_follow_range > 5.0  # found across the room…
+    assert watch.share("vlm", 5.0, 99.0) >= 0.8  # …by the VLM: beyond 5 m the tree saw it through the VLM
+    assert watch.share("apriltag", 0.0, 3.0) >= 0.9  # up close, the tag's detection (the VLM's was dropped)
+    assert outcome.perception_stats.get("coarse_dropped", 0) > 0
+
+
+def test_the_openai_client_against_a_loopback_model_finds_the_target_and_the_mission_succeeds(tmp_path):
+    oracle = Oracle()
+    model = "qwen2.5-vl-7b-instruct"
+    with FakeModelServer("openai", model=model, answerer=noisy_answerer(oracle, sigma=4.0)) as server:
+        config = vlm_config(tmp_path, client="openai", openai={"base_url": server.url, "model": model})
+        watch = GroundTruthPixels(oracle)
+        outcome, _, _ = run_scenario(DISCOVERY, config_file=config, seed=0, max_duration=25.0, observers=[watch])
+        assert server.problems == []
+    assert_discovered_far_and_handed_over(outcome, watch)
+    vlm = outcome.sources["vlm"]
+    assert vlm["client"] == "openai" and vlm["model_calls"] == len(server.received) == vlm["cost"]["requests"]
+    assert vlm["cost"]["input_tokens"] == server.totals.input_tokens  # the run report's cost is what was charged
+    assert json.dumps(outcome.to_json())  # report.json carries it
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_with_the_stub_the_discovery_scenario_runs_end_to_end(seed):
+    watch = GroundTruthPixels()
+    outcome, _, _ = run_scenario(DISCOVERY, config_file=shipped_config("sim_vlm.yaml"), seed=seed, observers=[watch])
+    assert_discovered_far_and_handed_over(outcome, watch)
+    assert outcome.sources["vlm"]["client"] == "stub"
