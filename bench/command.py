@@ -23,8 +23,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from bench.catalogue import Benchmark, default_output, is_committed_results, select
 from bench.common import machine_info, progress
-from bench.registry import Benchmark, default_output, is_committed_results, select
 from mission.core.errors import MissionError
 from mission.core.files import atomic_write_text, ensure_dir, unwritable
 

@@ -25,7 +25,7 @@ import numpy as np
 import pupil_apriltags
 
 from bench.common import Figure, pct, progress, save_figure
-from bench.perception import raw_aruco_poses
+from bench.perception_bench import raw_aruco_poses
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT
 from mission.core import se3
 from mission.core.types import Frame
@@ -42,7 +42,7 @@ ROT_TARGET_DEG = 5.0
 
 
 def _raw_opencv(dictionary: int) -> Any:
-    """The raw OpenCV call of the perception benchmark (bench.perception.raw_aruco_poses): the naive pose."""
+    """The raw OpenCV call of the perception benchmark (bench.perception_bench.raw_aruco_poses): the naive pose."""
     poses = raw_aruco_poses(dictionary, SIZE)
 
     def pose(image: np.ndarray, k: Any) -> np.ndarray | None:

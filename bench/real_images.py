@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from bench.common import Figure, progress
-from bench.perception import raw_aruco_poses
+from bench.perception_bench import raw_aruco_poses
 from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Frame
 from mission.perception_plugins import marker_dictionaries

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bench.registry import BENCHMARKS, RESULTS, is_committed_results
+from bench.catalogue import BENCHMARKS, RESULTS, is_committed_results
 from mission.core.errors import MissionError
 
 ROOT = Path(__file__).resolve().parents[1]

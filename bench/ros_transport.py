@@ -96,7 +96,7 @@ def serve(mode: str, image_topic: str, info_topic: str, answer_topic: str) -> in
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import CameraInfo, Image
 
-    from bench.perception import raw_aruco_poses
+    from bench.perception_bench import raw_aruco_poses
     from mission.ros.conversions import camera_info_to_intrinsics, image_to_array, matrix_to_pose
     from mission.ros.messages import RclpyMessages
     from mission.ros.ros_adapter import RELIABLE

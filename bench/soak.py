@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from bench.catalogue import default_output
 from bench.common import Figure, load_average, pct
-from bench.registry import default_output
 from bench.ros_feed import Feeder, Subject, Subprocess, build_ros, node_command, ros_env, rss_mb
 from mission.core.files import atomic_write_text
 from mission.core.observers import RunObserver, Tick

@@ -108,8 +108,8 @@ def _digests(directory: Path) -> dict[str, str]:
 def test_quick_figures_go_to_out_bench_quick_and_full_ones_to_the_committed_results():
     import argparse
 
+    from bench.catalogue import QUICK_RESULTS, RESULTS
     from bench.command import command_line, output_dir
-    from bench.registry import QUICK_RESULTS, RESULTS
 
     def args(quick: bool) -> argparse.Namespace:
         return argparse.Namespace(quick=quick, only=None, output=None)

@@ -30,7 +30,7 @@ FILES = {
     "fake/high/__init__.py": "",
     "fake/high/b.py": "from fake.low import a, c\n",
     "fake/high/d.py": (
-        "import sys\nfrom typing import TYPE_CHECKING\n\nimport bench.registry\n\n"
+        "import sys\nfrom typing import TYPE_CHECKING\n\nimport bench.catalogue\n\n"
         "if TYPE_CHECKING:\n    from fake.low import c\n\nsys.path.append('x')\n\n\n"
         "def f():\n    from . import b\n\n    return b\n"
     ),
@@ -80,7 +80,7 @@ def test_floor_counts_cycles_and_findings(project):
     }
 
     assert [(r["module"], r["target"], r["kind"]) for r in data["outside_imports"]] == [
-        ("fake.high.d", "bench.registry", "top")
+        ("fake.high.d", "bench.catalogue", "top")
     ]
     assert [(r["module"], r["line"]) for r in data["sys_path"]] == [("fake.high.d", 9)]
     assert data["unresolved"] == []

@@ -13,7 +13,7 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from bench.search import VARIANTS_DIR, variant_trees
+from bench.search_bench import VARIANTS_DIR, variant_trees
 from mission.core.errors import ConfigError
 from mission.trees.factory import shipped_factory
 from mission.trees.loader import load_tree
@@ -77,7 +77,7 @@ def test_a_moving_obstacle_may_not_drive_through_a_static_one():
 
 
 def test_the_acceptance_run_keeps_the_finished_runs_of_the_same_code_and_drops_any_other(tmp_path):
-    from bench.search import _resumable
+    from bench.search_bench import _resumable
     from mission.sweep.engine import run_sweep
     from mission.sweep.plan import SweepPlan
 

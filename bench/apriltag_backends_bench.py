@@ -10,7 +10,7 @@ call (detect + pose), single-threaded.
 The baseline of each figure is the other backend on the same views (the choice of default is a
 comparison between the two); the times are single-threaded ``process`` calls in the same run.
 
-Run: ``mission bench --only apriltag_backends`` (or ``python -m bench.apriltag_backends [--quick] [--json]``).
+Run: ``mission bench --only apriltag_backends`` (or ``python -m bench.apriltag_backends_bench [--quick] [--json]``).
 """
 
 from __future__ import annotations

@@ -55,16 +55,20 @@ class Benchmark:
 
 
 BENCHMARKS: tuple[Benchmark, ...] = (
-    Benchmark("perception", "perception", "frames/s of the aruco/apriltag sources vs the raw library calls they wrap"),
+    Benchmark(
+        "perception", "perception_bench", "frames/s of the aruco/apriltag sources vs the raw library calls they wrap"
+    ),
     Benchmark("pose", "pose_accuracy", "pose error by range × angle vs the raw library's naive IPPE pose"),
     Benchmark("real_images", "real_images", "recall and corners on photographs vs the raw libraries at their settings"),
-    Benchmark("apriltag_backends", "apriltag_backends", "AprilTag 3 (pupil) vs OpenCV backend: accuracy and speed"),
+    Benchmark(
+        "apriltag_backends", "apriltag_backends_bench", "AprilTag 3 (pupil) vs OpenCV backend: accuracy and speed"
+    ),
     Benchmark("tree", "tree_tick", "µs per tick of mission.xml on scripted inputs vs a bare py_trees tree"),
     Benchmark("groot", "groot_monitor", "µs per step with --btlog / --groot (a client polling STATUS) vs none"),
     Benchmark("latency", "latency", "frame → command on the blackboard, p50/p99, vs the detector alone"),
     Benchmark("sim", "sim_bench", "render ms/frame per resolution/renderer; closed-loop sim-s per wall-s"),
     Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),
-    Benchmark("search", "search", "finding the target again: the search ladder vs the in-place sweep vs a ±90° "
+    Benchmark("search", "search_bench", "finding the target again: the search ladder vs the in-place sweep vs a ±90° "
               "rotation, same scenarios and seeds (only with --only search)", in_quick=False, in_full=False),
     Benchmark("sweep", "sweep_scaling", "mission sweep: 1 vs 2 workers, per-run overhead vs mission run, 1,000 seeds",
               in_quick=False),  # quick figures would be start-up costs only; `--quick --only sweep` smoke-tests it
