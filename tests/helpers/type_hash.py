@@ -79,7 +79,8 @@ def parse_fields(text: str, package: str) -> list[Field]:
             else:
                 type_id, capacity = type_id + ARRAY, int(inner)
         fields.append(Field(name, type_id, capacity, string_capacity, nested))
-    return fields
+    # rosidl gives a structure with no field (UndockRobot's feedback) one placeholder member, and hashes it
+    return fields or [Field("structure_needs_at_least_one_member", _PRIMITIVES["uint8"])]
 
 
 def type_hash(type_name: str, definitions: Callable[[str], list[Field]]) -> str:
