@@ -124,7 +124,7 @@ OUTPUTS = {
 
 
 def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_defaults():
-    behaviours = {node.tag: node for node in shipped_factory().behaviours()}
+    behaviours = {node.tag: node for node in shipped_factory().behaviours(deprecated=True)}
     assert set(behaviours) == set(CATALOGUE)
     for tag, (node_type, ports) in CATALOGUE.items():
         node = behaviours[tag]
