@@ -190,8 +190,13 @@ def test_an_occlusion_the_tree_saw_coming_counts_with_latency_zero():
 def test_the_tracking_fraction_is_time_in_follow_with_the_target_in_view_over_the_follow_phase():
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
-    script = [(0.0, True, True, "FOLLOW"), (4.0, True, False, "FOLLOW"),  # following, but it is out of view
-              (5.0, False, False, "SEARCH"), (9.0, True, True, "FOLLOW"), (10.0, True, True, "FOLLOW")]  # fmt: skip
+    script = [
+        (0.0, True, True, "FOLLOW"),
+        (4.0, True, False, "FOLLOW"),  # following, but it is out of view
+        (5.0, False, False, "SEARCH"),
+        (9.0, True, True, "FOLLOW"),
+        (10.0, True, True, "FOLLOW"),
+    ]
     for t, los, fov, state in script:
         rec.record(GT(t, robot, target, target_in_los=los, target_in_fov=fov), state, None, None)
     s = rec.summary(10.0)
@@ -230,9 +235,15 @@ def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
     marker = marker_facing(2.0, 0.0, math.pi)
-    script = [(0.0, True, True, "FOLLOW"), (1.0, False, True, "FOLLOW"), (1.1, False, True, "FOLLOW"),
-              (1.2, False, True, "FOLLOW"), (1.4, False, False, "FOLLOW"), (1.6, False, False, "LOST"),
-              (3.0, True, False, "LOST")]  # fmt: skip
+    script = [
+        (0.0, True, True, "FOLLOW"),
+        (1.0, False, True, "FOLLOW"),
+        (1.1, False, True, "FOLLOW"),
+        (1.2, False, True, "FOLLOW"),
+        (1.4, False, False, "FOLLOW"),
+        (1.6, False, False, "LOST"),
+        (3.0, True, False, "LOST"),
+    ]
     for t, los, seen, state in script:
         track = TargetTrack("target", last_seen=t if seen else 1.2)
         track.detection = detection_of(marker, robot, stamp=t if seen else 1.2)

@@ -46,8 +46,9 @@ def config_file(tmp_path) -> Path:
 
 def test_a_run_records_the_resolved_config_the_files_the_seed_and_the_scenario(config_file):
     config = load_config(config_file)
-    record = run_provenance(config, tree_file=TREES / "mission.xml", seed=7, config_file=config_file,
-                            scenario="explore_dock")  # fmt: skip
+    record = run_provenance(
+        config, tree_file=TREES / "mission.xml", seed=7, config_file=config_file, scenario="explore_dock"
+    )
     assert json.loads(json.dumps(record)) == record  # plain JSON data, as report.json holds it
     assert MissionConfig.model_validate(record["config"]) == config  # every default filled in, and it reads back
     assert record["config"]["run"]["tick_hz"] == 20 and record["config"]["perception"]["policy"] == "hybrid"
@@ -73,11 +74,21 @@ def test_the_tree_is_recorded_with_every_file_it_includes():
 def test_each_plugin_names_the_distribution_and_version_that_provide_it(config_file):
     record = run_provenance(load_config(config_file), tree_file="mission.xml", seed=0)
     assert record["perception_plugins"] == [
-        {"name": "front", "plugin": "aruco", "entry_point": "mission.perception_plugins.aruco:ArucoSource",
-         "distribution": "mission", "version": metadata.version("mission")},
-        {"name": "apriltag", "plugin": "apriltag", "entry_point": "mission.perception_plugins.apriltag:AprilTagSource",
-         "distribution": "mission", "version": metadata.version("mission")},
-    ]  # fmt: skip
+        {
+            "name": "front",
+            "plugin": "aruco",
+            "entry_point": "mission.perception_plugins.aruco:ArucoSource",
+            "distribution": "mission",
+            "version": metadata.version("mission"),
+        },
+        {
+            "name": "apriltag",
+            "plugin": "apriltag",
+            "entry_point": "mission.perception_plugins.apriltag:AprilTagSource",
+            "distribution": "mission",
+            "version": metadata.version("mission"),
+        },
+    ]
 
 
 def test_a_third_party_plugin_names_its_own_distribution(tmp_path, monkeypatch):
@@ -88,16 +99,26 @@ def test_a_third_party_plugin_names_its_own_distribution(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))  # installed, as pip would put it in site-packages
     config = MissionConfig.model_validate({"perception": {"sources": [{"plugin": "acme"}, {"plugin": "aruco"}]}})
     acme, aruco = run_provenance(config, tree_file="mission.xml", seed=0)["perception_plugins"]
-    assert acme == {"name": "acme", "plugin": "acme", "entry_point": "acme_vision.source:AcmeSource",
-                    "distribution": "acme-vision", "version": "2.3.1"}  # fmt: skip
+    assert acme == {
+        "name": "acme",
+        "plugin": "acme",
+        "entry_point": "acme_vision.source:AcmeSource",
+        "distribution": "acme-vision",
+        "version": "2.3.1",
+    }
     assert aruco["distribution"] == "mission"
 
 
 def test_a_plugin_that_is_not_installed_is_recorded_without_a_distribution():
     config = MissionConfig.model_validate({"perception": {"sources": [{"plugin": "uninstalled_thing"}]}})
     [plugin] = run_provenance(config, tree_file="mission.xml", seed=0)["perception_plugins"]
-    assert plugin == {"name": "uninstalled_thing", "plugin": "uninstalled_thing", "entry_point": None,
-                      "distribution": None, "version": None}  # fmt: skip
+    assert plugin == {
+        "name": "uninstalled_thing",
+        "plugin": "uninstalled_thing",
+        "entry_point": None,
+        "distribution": None,
+        "version": None,
+    }
 
 
 def test_the_key_packages_are_the_installed_versions():
@@ -125,11 +146,15 @@ def test_a_package_that_is_absent_or_installed_without_pip_metadata_never_fails(
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.syspath_prepend(str(site))
     __import__("built_cv")
-    monkeypatch.setattr(provenance, "KEY_PACKAGES", {
-        "opencv": (("no-such-opencv-wheel",), "built_cv"),
-        "rclpy": (("no-such-rclpy-wheel",), "ros_client"),
-        "absent": (("no-such-distribution",), "no_such_module"),
-    })  # fmt: skip
+    monkeypatch.setattr(
+        provenance,
+        "KEY_PACKAGES",
+        {
+            "opencv": (("no-such-opencv-wheel",), "built_cv"),
+            "rclpy": (("no-such-rclpy-wheel",), "ros_client"),
+            "absent": (("no-such-distribution",), "no_such_module"),
+        },
+    )
     packages = run_provenance(MissionConfig(), tree_file="mission.xml", seed=0)["packages"]
     assert packages == {
         "opencv": {"distribution": None, "version": "4.10.0-dev"},

@@ -28,8 +28,15 @@ class Run:
     """A `mission …` process whose output lines are collected as they come (stdout and stderr merged)."""
 
     def __init__(self, args: list[str], cwd: Path) -> None:
-        self.proc = subprocess.Popen([*MISSION, *args], cwd=cwd, env=PYTHON_ENV, stdin=subprocess.DEVNULL,
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)  # fmt: skip
+        self.proc = subprocess.Popen(
+            [*MISSION, *args],
+            cwd=cwd,
+            env=PYTHON_ENV,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -57,8 +64,22 @@ def test_a_signal_mid_mission_writes_the_report_marked_interrupted_and_finalizes
     tmp_path, sig, code, name
 ):
     report, gif = tmp_path / "report", tmp_path / "run.gif"
-    run = Run(["run", "--scenario", "follow_open", "--seed", "2", "--max-duration", "600",
-               "--report", str(report), "--record", str(gif)], tmp_path)  # fmt: skip
+    run = Run(
+        [
+            "run",
+            "--scenario",
+            "follow_open",
+            "--seed",
+            "2",
+            "--max-duration",
+            "600",
+            "--report",
+            str(report),
+            "--record",
+            str(gif),
+        ],
+        tmp_path,
+    )
     run.wait_for("FOLLOW")  # the live status line: the mission is ticking
     time.sleep(1.0)  # a few simulated seconds more
     run.proc.send_signal(sig)

@@ -38,8 +38,14 @@ def a_file(tmp_path) -> Path:
 
 
 def test_a_report_dir_that_is_a_file_is_a_usage_error_before_the_simulation(a_file):
-    proc = subprocess.run([sys.executable, "-m", "mission", *LONG_RUN, "--report", str(a_file)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=60, check=False)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", *LONG_RUN, "--report", str(a_file)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert proc.returncode == 2
     assert proc.stdout == ""  # no result line: nothing ran
     assert proc.stderr.splitlines() == [f"mission: error: --report {a_file}: expected a directory, but it is a file"]

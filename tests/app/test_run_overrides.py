@@ -31,8 +31,15 @@ def test_commas_inside_brackets_braces_or_quotes_belong_to_the_value():
 
 
 def test_the_run_is_prepared_with_every_kind_of_setting():
-    overrides = run_overrides(["run.tick_hz=10", "camera.width=320", "sim.camera.height=240",
-                               "perception.policy=all", "PursueLastSeen.look_s=2"])  # fmt: skip
+    overrides = run_overrides(
+        [
+            "run.tick_hz=10",
+            "camera.width=320",
+            "sim.camera.height=240",
+            "perception.policy=all",
+            "PursueLastSeen.look_s=2",
+        ]
+    )
     run = prepare_run("follow_open", overrides=overrides)
     assert run.config.run.tick_hz == 10 and run.config.perception.policy == "all"
     assert (run.scenario.camera.width, run.scenario.camera.height) == (320, 240)

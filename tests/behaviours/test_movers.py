@@ -36,8 +36,14 @@ def scan_of_boxes(robot: Pose2D, boxes: list[tuple[float, float, float, float]],
             far = np.minimum(np.maximum(tx0, tx1), np.maximum(ty0, ty1))
             hit = (near <= far) & (far > 0) & (near > 0)
             ranges = np.where(hit, np.minimum(ranges, near), ranges)
-    return LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / BEAMS, ranges=ranges.astype(np.float32),
-                     range_min=0.1, range_max=10.0, stamp=stamp)  # fmt: skip
+    return LaserScan(
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / BEAMS,
+        ranges=ranges.astype(np.float32),
+        range_min=0.1,
+        range_max=10.0,
+        stamp=stamp,
+    )
 
 
 def cart_at(t: float, x0: float = -1.6, y: float = 0.0, speed: float = 0.35) -> tuple[float, float, float, float]:

@@ -187,10 +187,16 @@ def test_a_port_read_from_the_blackboard_waits_for_its_value_before_the_checks_r
 @pytest.mark.parametrize(
     ("kind", "value", "expected"),
     [
-        (int, 3.0, 3), (int, "4", 4), (float, 2, 2.0), (bool, 1, True), (bool, "false", False),
-        (str, 2.5, "2.500000"), (str, 7, "7"), (Pose2D, "1;2;0.5", Pose2D(1.0, 2.0, 0.5)),
+        (int, 3.0, 3),
+        (int, "4", 4),
+        (float, 2, 2.0),
+        (bool, 1, True),
+        (bool, "false", False),
+        (str, 2.5, "2.500000"),
+        (str, 7, "7"),
+        (Pose2D, "1;2;0.5", Pose2D(1.0, 2.0, 0.5)),
     ],
-)  # fmt: skip
+)
 def test_a_blackboard_value_is_converted_to_the_port_type_as_bt_cpp_converts_it(kind, value, expected):
     assert Port(kind).coerce(value) == expected
 

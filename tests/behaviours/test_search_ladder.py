@@ -41,8 +41,9 @@ def lost_at(x: float, y: float, *, last_seen: float = 0.0, walking: tuple[float,
     track = TargetTrack("target", last_seen=last_seen, misses=9, pose_map=marker_facing(x, y, math.pi))
     if walking is not None:
         vx, vy = walking
-        track.history = [(last_seen - 1.0 + 0.1 * i, x - vx * (1.0 - 0.1 * i), y - vy * (1.0 - 0.1 * i))
-                         for i in range(11)]  # fmt: skip
+        track.history = [
+            (last_seen - 1.0 + 0.1 * i, x - vx * (1.0 - 0.1 * i), y - vy * (1.0 - 0.1 * i)) for i in range(11)
+        ]
     bbk.set_(board(), bbk.TRACKS, {"target": track})
     return track
 
@@ -249,8 +250,9 @@ def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belie
     assert goal.pose.y > 0.6  # the north end: the south end sees the same place but costs three times the drive
     sg = search_grid(grid)
     assert line_clear(sg.occupied, sg, (goal.pose.x, goal.pose.y), (2.0, -1.0))  # it sees where the target went
-    assert node.feedback_message.startswith(f"SEARCH b: to ({goal.pose.x:.2f}, {goal.pose.y:.2f}) to look at where "
-                                            "it can be")  # fmt: skip
+    assert node.feedback_message.startswith(
+        f"SEARCH b: to ({goal.pose.x:.2f}, {goal.pose.y:.2f}) to look at where it can be"
+    )
 
 
 def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_likely_is():
@@ -332,9 +334,11 @@ def test_give_up_search_fails_with_where_it_was_lost_what_was_tried_and_how_much
     node = GiveUpSearch()
     assert tick(node) == S.FAILURE
     reason = read(bbk.REASON)
-    assert reason.startswith("SEARCH gave up: target not found 60 s after it was last seen at (2.00, -1.00): "
-                             "LOST went 2.4 m to look (6 s); searched where it could be for 25 s, 4 viewpoint(s); "
-                             "the camera saw ")  # fmt: skip
+    assert reason.startswith(
+        "SEARCH gave up: target not found 60 s after it was last seen at (2.00, -1.00): "
+        "LOST went 2.4 m to look (6 s); searched where it could be for 25 s, 4 viewpoint(s); "
+        "the camera saw "
+    )
     assert reason.endswith("% of where it could have walked — it has left, or hides where this robot cannot look")
     assert read(bbk.STATE) == "FAILED" and read(bbk.TWIST) == Twist(0.0, 0.0)
 
@@ -486,8 +490,14 @@ def test_a_wall_the_map_holds_does_not_widen_the_target_standing_flush_with_it()
     ranges = np.full(360, np.inf)
     face = (angles > math.atan2(-0.2, 3.0)) & (angles < math.atan2(2.0, 3.0))
     ranges[face] = 3.0 / np.cos(angles[face])
-    scan = LaserScan(angle_min=-math.pi, angle_increment=2 * math.pi / 360, ranges=ranges.astype(np.float32),
-                     range_min=0.1, range_max=10.0, stamp=0.0)  # fmt: skip
+    scan = LaserScan(
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / 360,
+        ranges=ranges.astype(np.float32),
+        range_min=0.1,
+        range_max=10.0,
+        stamp=0.0,
+    )
     ahead = int(np.argmin(np.abs(angles)))
     robot = Pose2D(0.0, 0.0, 0.0)
 

@@ -73,8 +73,9 @@ def _bad_files(directory: Path, good: Path) -> dict[str, tuple[Path, str]]:
     return out
 
 
-@pytest.mark.parametrize("case", ["empty", "truncated png", "truncated jpeg", "text file", "decompression bomb",
-                                  "a directory"])  # fmt: skip
+@pytest.mark.parametrize(
+    "case", ["empty", "truncated png", "truncated jpeg", "text file", "decompression bomb", "a directory"]
+)
 def test_a_bad_file_is_one_stderr_line_naming_it_and_the_good_file_after_it_is_still_detected(
     case, good, tmp_path, capfd
 ):
@@ -99,8 +100,9 @@ def test_a_bad_file_is_one_stderr_line_naming_it_and_the_good_file_after_it_is_s
         ("single-channel", lambda img: cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)),
     ],
 )
-def test_16_bit_4_channel_and_mono_files_are_read_like_the_8_bit_colour_one(kind, convert, view, good, tmp_path,
-                                                                             capsys):  # fmt: skip
+def test_16_bit_4_channel_and_mono_files_are_read_like_the_8_bit_colour_one(
+    kind, convert, view, good, tmp_path, capsys
+):
     path = tmp_path / "other.png"
     assert cv2.imwrite(str(path), convert(view.image))
     k = view.intrinsics

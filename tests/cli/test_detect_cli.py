@@ -82,15 +82,18 @@ def test_unreadable_files_are_reported_one_line_each_and_the_others_still_proces
     assert f"mission: error: {corrupt}: cannot read image (not a decodable image)" in err
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--intrinsics", "600,600,320"], "--intrinsics: expected four numbers fx,fy,cx,cy"),
-    (["--intrinsics", "0,600,320,240"], "--intrinsics: expected four numbers"),
-    (["--set", "marker_size_m=-0.1"], "--set marker_size_m: input should be greater than 0"),
-    (["--set", "colour=red"], "--set colour: unknown key"),
-    (["--set", "marker_sise_m=0.1"], "--set marker_sise_m: unknown key (did you mean marker_size_m?)"),
-    (["--set", "oops"], "--set: expected KEY=VALUE"),
-    (["--source", "nope"], "unknown perception plugin 'nope'; known plugins: "),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--intrinsics", "600,600,320"], "--intrinsics: expected four numbers fx,fy,cx,cy"),
+        (["--intrinsics", "0,600,320,240"], "--intrinsics: expected four numbers"),
+        (["--set", "marker_size_m=-0.1"], "--set marker_size_m: input should be greater than 0"),
+        (["--set", "colour=red"], "--set colour: unknown key"),
+        (["--set", "marker_sise_m=0.1"], "--set marker_sise_m: unknown key (did you mean marker_size_m?)"),
+        (["--set", "oops"], "--set: expected KEY=VALUE"),
+        (["--source", "nope"], "unknown perception plugin 'nope'; known plugins: "),
+    ],
+)
 def test_usage_errors_are_one_line_and_exit_2(images, capsys, argv, message):
     paths, _ = images
     assert main(["detect", str(paths[0]), *argv]) == 2
@@ -102,9 +105,22 @@ def test_usage_errors_are_one_line_and_exit_2(images, capsys, argv, message):
 def test_installed_console_script(images):
     paths, views = images
     exe = Path(sys.executable).parent / "mission"
-    proc = subprocess.run([str(exe), "detect", str(paths[0]), "--json", "--set", f"marker_size_m={MARKER}",
-                           "--intrinsics", _intrinsics_arg(views[0])],
-                          capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
+    proc = subprocess.run(
+        [
+            str(exe),
+            "detect",
+            str(paths[0]),
+            "--json",
+            "--set",
+            f"marker_size_m={MARKER}",
+            "--intrinsics",
+            _intrinsics_arg(views[0]),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
     assert proc.returncode == 0, proc.stderr
     [det] = json.loads(proc.stdout)["detections"]
     assert det["marker_id"] == 7
@@ -123,8 +139,20 @@ def test_a_calibration_file_gives_the_pose_the_intrinsics_would(images, tmp_path
     fs.write("camera_matrix", k.matrix)
     fs.write("distortion_coefficients", np.zeros((1, 5)))
     fs.release()
-    assert main(["detect", str(paths[0]), "--calibration", str(tmp_path / "cam.yml"),
-                 "--set", f"marker_size_m={MARKER}", "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "detect",
+                str(paths[0]),
+                "--calibration",
+                str(tmp_path / "cam.yml"),
+                "--set",
+                f"marker_size_m={MARKER}",
+                "--json",
+            ]
+        )
+        == 0
+    )
     (det,) = json.loads(capsys.readouterr().out)["detections"]
     assert det["extra"]["intrinsics"] == "calibrated"
     assert np.linalg.norm(np.asarray(det["position"]) - views[0].position) < 0.02
@@ -132,8 +160,10 @@ def test_a_calibration_file_gives_the_pose_the_intrinsics_would(images, tmp_path
 
 def test_a_calibration_for_another_image_size_is_an_error_for_that_image(images, tmp_path, capsys):
     paths, _ = images
-    (tmp_path / "cam.yaml").write_text("image_width: 1280\nimage_height: 720\ncamera_matrix: {rows: 3, cols: 3, "
-                                       "data: [900, 0, 640, 0, 900, 360, 0, 0, 1]}\n")  # fmt: skip
+    (tmp_path / "cam.yaml").write_text(
+        "image_width: 1280\nimage_height: 720\ncamera_matrix: {rows: 3, cols: 3, "
+        "data: [900, 0, 640, 0, 900, 360, 0, 0, 1]}\n"
+    )
     assert main(["detect", str(paths[0]), "--calibration", str(tmp_path / "cam.yaml")]) == 1
     err = capsys.readouterr().err
     assert "calibrated for 1280×720, the image is 640×480" in err and str(paths[0]) in err
@@ -146,17 +176,37 @@ def test_the_vlm_says_it_needs_depth_instead_of_finding_nothing(tmp_path):
     image = tmp_path / "red_box.png"
     cv2.imwrite(str(image), frame.image)
     for source in ("vlm", "vlm_stub"):
-        proc = subprocess.run([sys.executable, "-m", "mission", "detect", str(image), "--source", source],
-                              capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
+        proc = subprocess.run(
+            [sys.executable, "-m", "mission", "detect", str(image), "--source", source],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            cwd=ROOT,
+        )
         assert proc.returncode == 2 and proc.stdout == ""
         assert f"--source {source} needs a depth image" in proc.stderr and "--depth FILE" in proc.stderr
 
     depth = tmp_path / "red_box_depth.png"
     cv2.imwrite(str(depth), np.nan_to_num(frame.depth * 1000.0).astype(np.uint16))  # 16-bit millimetres
     k = frame.intrinsics
-    cmd = [sys.executable, "-m", "mission", "detect", str(image), "--source", "vlm_stub", "--depth", str(depth),
-           "--intrinsics", f"{k.fx},{k.fy},{k.cx},{k.cy}", "--set", f"state_file={tmp_path / 'quota.json'}",
-           "--set", "latency_s=0.05", "--json"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "mission",
+        "detect",
+        str(image),
+        "--source",
+        "vlm_stub",
+        "--depth",
+        str(depth),
+        "--intrinsics",
+        f"{k.fx},{k.fy},{k.cx},{k.cy}",
+        "--set",
+        f"state_file={tmp_path / 'quota.json'}",
+        "--set",
+        "latency_s=0.05",
+        "--json",
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     (det,) = json.loads(proc.stdout)["detections"]

@@ -86,8 +86,9 @@ def mission(args, site=None, cwd=None):
     env = dict(os.environ)
     if site is not None:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(site), env.get("PYTHONPATH", "")) if p)
-    return subprocess.run([sys.executable, "-m", "mission", *args], capture_output=True, text=True, env=env,
-                          cwd=cwd, timeout=120)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "mission", *args], capture_output=True, text=True, env=env, cwd=cwd, timeout=120
+    )
 
 
 def _models(text):
@@ -145,8 +146,9 @@ def test_into_gives_a_users_tree_its_palette_and_the_tree_still_loads(tmp_path):
     assert again.returncode == 0 and tree.read_text() == text  # replaced, not added twice
     probe = ("import sys; sys.path.insert(0, sys.argv[1]); from mission.app.behaviour_plugins import mission_factory;"
              " from mission.trees.loader import load_tree; print(load_tree(sys.argv[2], mission_factory()).name)")
-    loaded = subprocess.run([sys.executable, "-c", probe, str(site), str(tree)], capture_output=True, text=True,
-                            timeout=60)  # fmt: skip
+    loaded = subprocess.run(
+        [sys.executable, "-c", probe, str(site), str(tree)], capture_output=True, text=True, timeout=60
+    )
     assert loaded.returncode == 0 and loaded.stdout.strip() == "Patrol", loaded.stderr
     with pytest.raises(TreeError, match=r"patrol.xml:4: <Beacon>: unknown node 'Beacon'"):
         load_tree(tree, shipped_factory())  # without the package, the same file names what is missing

@@ -49,10 +49,15 @@ def test_detect_json_into_head_1_prints_one_line_and_ends_as_cat_does(marker_ima
     # 150 JSON lines (~0.8 kB each) are more than the pipe holds: mission is still writing when head exits.
     detect = subprocess.Popen(
         [sys.executable, "-m", "mission", "detect", *[str(marker_image)] * 150, "--json"],
-        cwd=ROOT, env=_env(buffering), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    head = subprocess.Popen([shutil.which("head") or "head", "-1"], stdin=detect.stdout, stdout=subprocess.PIPE,
-                            text=True)  # fmt: skip
+        cwd=ROOT,
+        env=_env(buffering),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    head = subprocess.Popen(
+        [shutil.which("head") or "head", "-1"], stdin=detect.stdout, stdout=subprocess.PIPE, text=True
+    )
     assert detect.stdout is not None
     detect.stdout.close()  # only head reads the pipe now, as in a shell pipeline
     first, _ = head.communicate(timeout=120)
@@ -74,9 +79,14 @@ def test_every_verb_writing_to_a_pipe_nobody_reads_ends_quietly(marker_image, ar
     try:
         proc = subprocess.run(
             [sys.executable, "-m", "mission", *(a.format(image=marker_image) for a in argv)],
-            cwd=ROOT, env=_env(buffering), stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=120,
+            cwd=ROOT,
+            env=_env(buffering),
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
             check=False,
-        )  # fmt: skip
+        )
     finally:
         os.close(write_end)
     assert proc.returncode == SIGPIPE_STATUS, proc.stderr[-2000:]

@@ -67,8 +67,7 @@ SLOW_WRITER = textwrap.dedent(
 
 def test_a_process_killed_mid_write_leaves_the_previous_file_intact(tmp_path):
     path = atomic_write_bytes(tmp_path / "picture.png", b"OLD PICTURE")
-    proc = subprocess.Popen([sys.executable, "-c", SLOW_WRITER, str(path)], stdout=subprocess.PIPE, text=True,
-                            cwd=ROOT)  # fmt: skip
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_WRITER, str(path)], stdout=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         assert proc.stdout is not None and proc.stdout.readline().strip() == "half written"
     finally:
@@ -101,8 +100,9 @@ def test_the_vlm_quota_survives_the_node_being_killed_while_recording_calls(tmp_
     path = tmp_path / "vlm_quota.json"
     seen = 0
     for delay in (0.15, 0.05, 0.3):
-        proc = subprocess.Popen([sys.executable, "-c", QUOTA_LOOP, str(path), str(T0)], stdout=subprocess.PIPE,
-                                text=True, cwd=ROOT)  # fmt: skip
+        proc = subprocess.Popen(
+            [sys.executable, "-c", QUOTA_LOOP, str(path), str(T0)], stdout=subprocess.PIPE, text=True, cwd=ROOT
+        )
         try:
             assert proc.stdout is not None and proc.stdout.readline().strip() == "recording"
             time.sleep(delay)

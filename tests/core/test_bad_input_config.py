@@ -210,8 +210,10 @@ def test_a_misspelt_plugin_param_suggests_the_plugins_own_param(tmp_path, capsys
 
 def test_every_cross_key_problem_is_listed(tmp_path):
     path = tmp_path / "robot.yaml"
-    path.write_text("perception:\n  targets:\n    target: {marker_id: 7, source: vlm}\n    person: {marker_id: 0}\n"
-                    "    dock: {marker_id: 0}\n")  # fmt: skip
+    path.write_text(
+        "perception:\n  targets:\n    target: {marker_id: 7, source: vlm}\n    person: {marker_id: 0}\n"
+        "    dock: {marker_id: 0}\n"
+    )
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert str(err.value).splitlines() == [

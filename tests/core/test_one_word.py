@@ -153,8 +153,9 @@ def installed_package(tmp_path, monkeypatch):
 
 def test_an_installed_vlm_client_is_chosen_by_its_entry_point_name(installed_package, tmp_path):
     assert "acme" in plugins.installed(plugins.VLM_CLIENTS)
-    src = VlmSource({"client": "acme", "client_params": {"confidence": 0.8}, "state_file": str(tmp_path / "q.json")},
-                    name="vlm")  # fmt: skip
+    src = VlmSource(
+        {"client": "acme", "client_params": {"confidence": 0.8}, "state_file": str(tmp_path / "q.json")}, name="vlm"
+    )
     assert type(src._client).__name__ == "CentreClient" and src._client.confidence == 0.8
     src.close()
 
@@ -178,7 +179,9 @@ def test_an_unknown_client_lists_the_installed_ones_and_where_to_register(tmp_pa
 
 def test_the_module_colon_class_spelling_still_works_with_a_deprecation_warning(tmp_path):
     with pytest.warns(DeprecationWarning, match="register the client as an entry point of the group"):
-        src = VlmSource({"client": "mission.perception_plugins.vlm.stub:ColourShapeClient",
-                         "state_file": str(tmp_path / "q.json")}, name="vlm")  # fmt: skip
+        src = VlmSource(
+            {"client": "mission.perception_plugins.vlm.stub:ColourShapeClient", "state_file": str(tmp_path / "q.json")},
+            name="vlm",
+        )
     assert type(src._client).__name__ == "ColourShapeClient"
     src.close()

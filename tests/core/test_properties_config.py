@@ -37,10 +37,13 @@ json_like = st.recursive(
 def configs(draw: st.DrawFn) -> MissionConfig:
     plugins = draw(st.lists(st.sampled_from(["aruco", "apriltag", "vlm", "vlm_stub"]), min_size=1, max_size=3))
     sources = [
-        SourceConfig(plugin=p, name=f"{p}_{i}" if draw(st.booleans()) or plugins.count(p) > 1 else None,
-                     params=draw(st.dictionaries(names, json_like, max_size=3)))
+        SourceConfig(
+            plugin=p,
+            name=f"{p}_{i}" if draw(st.booleans()) or plugins.count(p) > 1 else None,
+            params=draw(st.dictionaries(names, json_like, max_size=3)),
+        )
         for i, p in enumerate(plugins)
-    ]  # fmt: skip
+    ]
     source_names = [s.name or s.plugin for s in sources]
     targets = draw(
         st.dictionaries(
@@ -104,8 +107,11 @@ def test_yaml_of_any_shape_is_a_config_error_or_a_config(tmp_path, data):
 
 
 @SETTINGS
-@given(section=st.sampled_from(["tree", "perception", "run", "sim"]), sub=st.sampled_from(
-    ["sources", "policy", "targets", "tick_hz", None]), junk=json_like)  # fmt: skip
+@given(
+    section=st.sampled_from(["tree", "perception", "run", "sim"]),
+    sub=st.sampled_from(["sources", "policy", "targets", "tick_hz", None]),
+    junk=json_like,
+)
 def test_junk_under_real_keys_is_a_config_error_naming_a_key(tmp_path, section, sub, junk):
     data = {section: {sub: junk} if sub else junk}
     path = write(tmp_path, data)

@@ -124,8 +124,11 @@ BTCPP_SCRIPTED = {
         (6, 0), (1, 2), (1, 0),
     ],
 }  # fmt: skip
-_LETTERS = {"R": py_trees.common.Status.RUNNING, "S": py_trees.common.Status.SUCCESS,
-            "F": py_trees.common.Status.FAILURE}  # fmt: skip
+_LETTERS = {
+    "R": py_trees.common.Status.RUNNING,
+    "S": py_trees.common.Status.SUCCESS,
+    "F": py_trees.common.Status.FAILURE,
+}
 
 
 class Act(MissionLeaf):

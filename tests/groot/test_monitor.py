@@ -54,8 +54,11 @@ def test_full_tree_is_the_file_with_bt_cpp_uids_and_the_palette(watched):
     assert main == [("ReactiveFallback", "coordinator", "1"), ("SubTree", "follow", "2"), ("SearchSweep", None, "6")]
     assert trees[0].find(".//SubTree").get("_fullpath") == "follow"
     inner = [(el.tag, el.get("_uid"), dict(el.attrib)) for el in trees[1].iter() if el.tag != "BehaviorTree"]
-    assert [(tag, uid) for tag, uid, _ in inner] == [("ReactiveSequence", "3"), ("IsTargetVisible", "4"),
-                                                     ("FollowTarget", "5")]  # fmt: skip
+    assert [(tag, uid) for tag, uid, _ in inner] == [
+        ("ReactiveSequence", "3"),
+        ("IsTargetVisible", "4"),
+        ("FollowTarget", "5"),
+    ]
     assert inner[1][2]["max_misses"] == "0"  # attributes as the file wrote them
     model = root.find("TreeNodesModel/Action[@ID='FollowTarget']")
     assert model is not None
@@ -102,8 +105,11 @@ def test_recording_returns_the_transitions_since_it_started(watched):
     assert abs(started / 1e6 - time.time()) < 5  # wall-clock µs since the epoch
     step(runner, world, 1)
     first = client.transitions()
-    assert [(uid, status) for _t, uid, status in first][:3] == [(COORDINATOR, RUNNING), (SUBTREE, RUNNING),
-                                                                (FOLLOW, RUNNING)]  # fmt: skip
+    assert [(uid, status) for _t, uid, status in first][:3] == [
+        (COORDINATOR, RUNNING),
+        (SUBTREE, RUNNING),
+        (FOLLOW, RUNNING),
+    ]
     assert client.transitions() == []  # each transition is handed over once
 
 
@@ -143,8 +149,19 @@ def test_the_monitor_listens_on_loopback_only_and_a_busy_port_is_one_clear_error
 def test_mission_run_groot_serves_a_simulated_mission_to_the_protocol_client(tmp_path):
     """The whole command: `mission run --groot 0` prints where it listens; Groot2's requests are answered
     while the simulated mission runs (paced to wall-clock time), and the ports close when it ends."""
-    cmd = [sys.executable, "-m", "mission", "run", "--scenario", "explore_dock", "--max-duration", "3",
-           "--quiet", "--groot", "0"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "mission",
+        "run",
+        "--scenario",
+        "explore_dock",
+        "--max-duration",
+        "3",
+        "--quiet",
+        "--groot",
+        "0",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     try:
         port = None
@@ -192,8 +209,11 @@ def test_a_built_tree_that_is_not_its_files_is_named_where_they_part(tmp_path):
     other.write_text(SUBTREE_WATCH.replace('<SearchSweep duration_s="0.35"/>', "<AlwaysFailure/>"))
     numbered = uid_tree(tree)
     assert sorted(bind(numbered, load_tree(tree))) == [1, 2, 3, 4, 5, 6]
-    with pytest.raises(BindError, match=r"watch.xml:5: <SearchSweep>: expected a node named 'SearchSweep', "
-                                        r"the tree has 'AlwaysFailure'"):  # fmt: skip
+    with pytest.raises(
+        BindError,
+        match=r"watch.xml:5: <SearchSweep>: expected a node named 'SearchSweep', "
+        r"the tree has 'AlwaysFailure'",
+    ):
         bind(numbered, load_tree(other))
 
 

@@ -64,8 +64,9 @@ class Groot2Client:
             raise ProtocolError(f"reply header is {len(parts[0])} bytes, expected 22")
         protocol, echoed_type, echoed_id = struct.unpack(HEADER, parts[0][:6])
         if (protocol, echoed_type, echoed_id) != (PROTOCOL, ord(kind), request_id):
-            raise ProtocolError(f"reply header {(protocol, echoed_type, echoed_id)} does not echo "
-                                f"{(PROTOCOL, ord(kind), request_id)}")  # fmt: skip
+            raise ProtocolError(
+                f"reply header {(protocol, echoed_type, echoed_id)} does not echo {(PROTOCOL, ord(kind), request_id)}"
+            )
         return Reply(chr(echoed_type), echoed_id, parts[0][6:], parts[1:])
 
     # -- what Groot2 asks -------------------------------------------------------------------------

@@ -165,8 +165,13 @@ class FakeCamera:
     (marker in view, marker gone, a broken image…). Runs on the client's executor thread.
     """
 
-    def __init__(self, client: RosClient, hz: float = 15.0, image_topic: str = "/camera/image_raw",
-                 info_topic: str = "/camera/camera_info") -> None:  # fmt: skip
+    def __init__(
+        self,
+        client: RosClient,
+        hz: float = 15.0,
+        image_topic: str = "/camera/image_raw",
+        info_topic: str = "/camera/camera_info",
+    ) -> None:
         from sensor_msgs.msg import CameraInfo, Image
 
         self.client = client

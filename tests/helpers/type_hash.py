@@ -42,8 +42,15 @@ class Field:
     nested_type_name: str = ""
 
     def to_json(self) -> dict:
-        return {"name": self.name, "type": {"type_id": self.type_id, "capacity": self.capacity,
-                "string_capacity": self.string_capacity, "nested_type_name": self.nested_type_name}}  # fmt: skip
+        return {
+            "name": self.name,
+            "type": {
+                "type_id": self.type_id,
+                "capacity": self.capacity,
+                "string_capacity": self.string_capacity,
+                "nested_type_name": self.nested_type_name,
+            },
+        }
 
 
 def parse_fields(text: str, package: str) -> list[Field]:

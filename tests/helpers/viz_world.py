@@ -50,8 +50,12 @@ SUBTREE_WATCH = """<root BTCPP_format="4" main_tree_to_execute="Watch">
 </root>
 """
 WATCH_NODES = [  # the root is named after its tree ID by the loader
-    "Watch", "FOLLOW", "IsTargetVisible", "FollowTarget", "SearchSweep",
-]  # fmt: skip
+    "Watch",
+    "FOLLOW",
+    "IsTargetVisible",
+    "FollowTarget",
+    "SearchSweep",
+]
 CAMERA_EXTRINSICS = se3.transform(se3.R_BODY_OPTICAL, (0.0, 0.0, 0.3))
 T_CAM_MARKER = se3.transform(se3.rot_y(np.pi), (0.0, 0.0, 1.0))  # 1 m ahead, facing the camera
 WIDTH, HEIGHT = 320, 240

@@ -63,10 +63,22 @@ class Reply:
         return Reply.answer(json.dumps([{"point": [y, x], "label": label} for y, x in yx]))
 
     @staticmethod
-    def error(status: int, message: str = "", *, retry_after: str | None = None,
-              retry_delay_s: float | None = None, per_day: bool = False) -> Reply:  # fmt: skip
-        return Reply("status", status=status, message=message, retry_after=retry_after, retry_delay_s=retry_delay_s,
-                     per_day=per_day)  # fmt: skip
+    def error(
+        status: int,
+        message: str = "",
+        *,
+        retry_after: str | None = None,
+        retry_delay_s: float | None = None,
+        per_day: bool = False,
+    ) -> Reply:
+        return Reply(
+            "status",
+            status=status,
+            message=message,
+            retry_after=retry_after,
+            retry_delay_s=retry_delay_s,
+            per_day=per_day,
+        )
 
     @staticmethod
     def slow(seconds: float, text: str = "[]") -> Reply:
@@ -108,9 +120,14 @@ class FakeModelServer:
     """A Gemini or OpenAI-compatible model API on 127.0.0.1 (see the module doc). Use as a context manager."""
 
     def __init__(
-        self, api: str, *, api_key: str | None = None, model: str | None = None, answerer: Answerer | None = None,
+        self,
+        api: str,
+        *,
+        api_key: str | None = None,
+        model: str | None = None,
+        answerer: Answerer | None = None,
         on_request: Callable[[Received], None] | None = None,
-    ) -> None:  # fmt: skip
+    ) -> None:
         assert api in ("gemini", "openai"), api
         self.api = api
         self.api_key = api_key
@@ -136,8 +153,9 @@ class FakeModelServer:
 
         self._httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
         self._httpd.daemon_threads = True
-        self._thread = threading.Thread(target=self._httpd.serve_forever, kwargs={"poll_interval": 0.02},
-                                        name=f"fake-{api}", daemon=True)  # fmt: skip
+        self._thread = threading.Thread(
+            target=self._httpd.serve_forever, kwargs={"poll_interval": 0.02}, name=f"fake-{api}", daemon=True
+        )
 
     # -- control -----------------------------------------------------------------------------------
     @property
@@ -280,41 +298,81 @@ class FakeModelServer:
             self.totals.output_tokens += tokens_out
         if self.api == "gemini":
             return {
-                "candidates": [{"content": {"parts": [{"text": text}], "role": "model"}, "finishReason": "STOP",
-                                "index": 0}],
-                "usageMetadata": {"promptTokenCount": tokens_in, "candidatesTokenCount": tokens_out,
-                                  "totalTokenCount": tokens_in + tokens_out},
+                "candidates": [
+                    {"content": {"parts": [{"text": text}], "role": "model"}, "finishReason": "STOP", "index": 0}
+                ],
+                "usageMetadata": {
+                    "promptTokenCount": tokens_in,
+                    "candidatesTokenCount": tokens_out,
+                    "totalTokenCount": tokens_in + tokens_out,
+                },
                 "modelVersion": self.model,
-            }  # fmt: skip
+            }
         return {
-            "id": f"chatcmpl-{len(self.received)}", "object": "chat.completion", "created": int(time.time()),
+            "id": f"chatcmpl-{len(self.received)}",
+            "object": "chat.completion",
+            "created": int(time.time()),
             "model": self.model,
             "choices": [{"index": 0, "message": {"role": "assistant", "content": text}, "finish_reason": "stop"}],
-            "usage": {"prompt_tokens": tokens_in, "completion_tokens": tokens_out,
-                      "total_tokens": tokens_in + tokens_out},
-        }  # fmt: skip
+            "usage": {
+                "prompt_tokens": tokens_in,
+                "completion_tokens": tokens_out,
+                "total_tokens": tokens_in + tokens_out,
+            },
+        }
 
     def _error_body(self, status: int, message: str, reply: Reply | None = None) -> dict[str, Any]:
         if self.api == "gemini":
-            names = {400: "INVALID_ARGUMENT", 401: "UNAUTHENTICATED", 403: "PERMISSION_DENIED", 404: "NOT_FOUND",
-                     429: "RESOURCE_EXHAUSTED", 500: "INTERNAL", 503: "UNAVAILABLE"}  # fmt: skip
+            names = {
+                400: "INVALID_ARGUMENT",
+                401: "UNAUTHENTICATED",
+                403: "PERMISSION_DENIED",
+                404: "NOT_FOUND",
+                429: "RESOURCE_EXHAUSTED",
+                500: "INTERNAL",
+                503: "UNAVAILABLE",
+            }
             details: list[dict[str, Any]] = []
             if reply is not None and status == 429:
-                quota = "GenerateRequestsPerDayPerProjectPerModel-FreeTier" if reply.per_day else \
-                    "GenerateRequestsPerMinutePerProjectPerModel-FreeTier"  # fmt: skip
-                details.append({"@type": "type.googleapis.com/google.rpc.QuotaFailure",
-                                "violations": [{"quotaMetric": "generativelanguage.googleapis.com/"
-                                                "generate_content_free_tier_requests", "quotaId": quota}]})  # fmt: skip
+                quota = (
+                    "GenerateRequestsPerDayPerProjectPerModel-FreeTier"
+                    if reply.per_day
+                    else "GenerateRequestsPerMinutePerProjectPerModel-FreeTier"
+                )
+                details.append(
+                    {
+                        "@type": "type.googleapis.com/google.rpc.QuotaFailure",
+                        "violations": [
+                            {
+                                "quotaMetric": "generativelanguage.googleapis.com/generate_content_free_tier_requests",
+                                "quotaId": quota,
+                            }
+                        ],
+                    }
+                )
             if reply is not None and reply.retry_delay_s is not None:
-                details.append({"@type": "type.googleapis.com/google.rpc.RetryInfo",
-                                "retryDelay": f"{reply.retry_delay_s:g}s"})  # fmt: skip
-            return {"error": {"code": status, "message": message or names.get(status, "error"),
-                              "status": names.get(status, "UNKNOWN"), "details": details}}  # fmt: skip
-        return {"error": {"message": message or f"error {status}", "type": "server_error" if status >= 500 else
-                          "invalid_request_error", "code": status}}  # fmt: skip
+                details.append(
+                    {"@type": "type.googleapis.com/google.rpc.RetryInfo", "retryDelay": f"{reply.retry_delay_s:g}s"}
+                )
+            return {
+                "error": {
+                    "code": status,
+                    "message": message or names.get(status, "error"),
+                    "status": names.get(status, "UNKNOWN"),
+                    "details": details,
+                }
+            }
+        return {
+            "error": {
+                "message": message or f"error {status}",
+                "type": "server_error" if status >= 500 else "invalid_request_error",
+                "code": status,
+            }
+        }
 
-    def _send_json(self, h: BaseHTTPRequestHandler, status: int, data: dict[str, Any],
-                   extra: dict[str, str] | None = None) -> None:  # fmt: skip
+    def _send_json(
+        self, h: BaseHTTPRequestHandler, status: int, data: dict[str, Any], extra: dict[str, str] | None = None
+    ) -> None:
         self._send(h, status, json.dumps(data).encode(), {"content-type": "application/json", **(extra or {})})
 
     @staticmethod

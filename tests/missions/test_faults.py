@@ -27,8 +27,16 @@ from tests.helpers.behaviour_world import IMAGE, ScriptedSource, board, read
 TICK_HZ = 15.0
 
 
-def run_with(tmp_path: Path, faults: dict[str, Any], *, seconds: float = 8.0, config: str = "sim_aruco.yaml",
-             scenario: str = "follow_open", observers: list | None = None, size: int = 240) -> RunOutcome:  # fmt: skip
+def run_with(
+    tmp_path: Path,
+    faults: dict[str, Any],
+    *,
+    seconds: float = 8.0,
+    config: str = "sim_aruco.yaml",
+    scenario: str = "follow_open",
+    observers: list | None = None,
+    size: int = 240,
+) -> RunOutcome:
     """follow_open with `faults` set in the mission config's sim overrides, like a user's config file."""
     cfg = yaml.safe_load(shipped_config(config).read_text())
     sim = dict(cfg.get("sim") or {})

@@ -68,8 +68,9 @@ def test_both_backends_agree_on_rendered_perspective_tags(family):
     n = 8 if family == "tag36h11" else 3
     for i in range(n):
         truth = sv.random_pose(1.0 + i % 3 * 0.5, 35.0, rng, k, 0.2)
-        view = sv.render_marker_view(truth, marker_id=7, marker_size_m=0.2, dictionary=OPENCV_DICT[family],
-                                     intrinsics=k, rng=rng)  # fmt: skip
+        view = sv.render_marker_view(
+            truth, marker_id=7, marker_size_m=0.2, dictionary=OPENCV_DICT[family], intrinsics=k, rng=rng
+        )
         # tag16h5's codes are 5 bits apart: texture decodes as a tag at hamming 2 now and then (AprilTag's docs
         # warn of it), in either backend; the rendered tag is the one compared
         (da,), (do,) = ([d for d in detect(b, view.image, k) if d.marker_id == 7] for b in (a3, cv))
@@ -153,18 +154,24 @@ def _cell_by_cell(gray: np.ndarray, quad: np.ndarray, code: np.ndarray, ppc: int
     hom = cv2.getPerspectiveTransform(quad.astype(np.float32), dst)
     warped = cv2.warpPerspective(gray, hom, (cells * ppc,) * 2, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     q = ppc // 4
-    mean = [[float(warped[r * ppc + q : (r + 1) * ppc - q, c * ppc + q : (c + 1) * ppc - q].mean())
-             for c in range(cells)] for r in range(cells)]  # fmt: skip
+    mean = [
+        [float(warped[r * ppc + q : (r + 1) * ppc - q, c * ppc + q : (c + 1) * ppc - q].mean()) for c in range(cells)]
+        for r in range(cells)
+    ]
     ring = [mean[r][c] for r in range(cells) for c in range(cells) if min(r, c) == 0 or max(r, c) == cells - 1]
-    border = [mean[r][c] for r in range(1, cells - 1) for c in range(1, cells - 1)
-              if min(r, c) == 1 or max(r, c) == cells - 2]  # fmt: skip
+    border = [
+        mean[r][c] for r in range(1, cells - 1) for c in range(1, cells - 1) if min(r, c) == 1 or max(r, c) == cells - 2
+    ]
     threshold = (float(np.median(ring)) + float(np.median(border))) / 2.0
 
     def v(r: int, c: int) -> float:  # a data cell's distance from the threshold; 0 outside the data
         return mean[r + 2][c + 2] - threshold if 0 <= r < n and 0 <= c < n else 0.0
 
-    sharp = [(v(r, c) + 0.25 * (4 * v(r, c) - v(r - 1, c) - v(r + 1, c) - v(r, c - 1) - v(r, c + 1)), bool(code[r, c]))
-             for r in range(n) for c in range(n)]  # fmt: skip
+    sharp = [
+        (v(r, c) + 0.25 * (4 * v(r, c) - v(r - 1, c) - v(r + 1, c) - v(r, c - 1) - v(r, c + 1)), bool(code[r, c]))
+        for r in range(n)
+        for c in range(n)
+    ]
     hamming = sum((x > 0) != white for x, white in sharp)
     above = [x for x, _ in sharp if x > 0]
     below = [-x for x, _ in sharp if x <= 0]
@@ -182,8 +189,15 @@ def test_the_opencv_backends_decode_quality_is_the_cell_by_cell_definition():
     for i in range(8):
         pos = np.array([(i % 4 - 1.5) * 0.35, (i // 4 - 0.5) * 0.4, 1.5])
         truth = sv.pose_facing_camera(pos, rng.uniform(0, 2 * math.pi), math.radians(rng.uniform(0, 25)), 0.0)
-        view = sv.render_marker_view(truth, marker_id=i, marker_size_m=0.12, dictionary=OPENCV_DICT["tag36h11"],
-                                     intrinsics=k, rng=rng, background=background)  # fmt: skip
+        view = sv.render_marker_view(
+            truth,
+            marker_id=i,
+            marker_size_m=0.12,
+            dictionary=OPENCV_DICT["tag36h11"],
+            intrinsics=k,
+            rng=rng,
+            background=background,
+        )
         background = cv2.cvtColor(view.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
     grey = background.astype(np.uint8)
     frames += [grey, (grey * 0.3 + 90).astype(np.uint8)]

@@ -48,8 +48,16 @@ def scene(seed: int = 0) -> np.ndarray:
     img = None
     for t, tag_id, size in ((T_CAM_TAG402, 402, 0.15), (T_CAM_TAG53, 53, 0.10), (T_CAM_TAG9, 9, 0.15)):
         bg = None if img is None else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.float32)
-        img = sv.render_marker_view(t, marker_id=tag_id, marker_size_m=size, dictionary=cv2.aruco.DICT_APRILTAG_36h11,
-                                    intrinsics=K, rng=rng, background=bg, noise_sigma=1.0).image  # fmt: skip
+        img = sv.render_marker_view(
+            t,
+            marker_id=tag_id,
+            marker_size_m=size,
+            dictionary=cv2.aruco.DICT_APRILTAG_36h11,
+            intrinsics=K,
+            rng=rng,
+            background=bg,
+            noise_sigma=1.0,
+        ).image
     return img
 
 
@@ -108,8 +116,16 @@ def test_per_tag_sizes_override_the_default_size(image):
 
 @pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
 def test_report_frame_base_gives_robot_base_to_entity_base(image, backend):
-    src = AprilTagSource({"backend": backend, "marker_size_m": 0.15, "tags": TABLE, "camera_mount": CAMERA_MOUNT,
-                          "report_frame": "base", "base_frame": "base_link"})  # fmt: skip
+    src = AprilTagSource(
+        {
+            "backend": backend,
+            "marker_size_m": 0.15,
+            "tags": TABLE,
+            "camera_mount": CAMERA_MOUNT,
+            "report_frame": "base",
+            "base_frame": "base_link",
+        }
+    )
     d = by_id(src.process(frame(image)))[402]
     assert d.frame_id == "base_link"
     # By hand: autobot03's base is 2.0 m ahead, 0.5 m left of ours, on the floor, turned to face us.
@@ -198,8 +214,14 @@ def test_edge_corner_refinement_makes_corners_more_accurate(backend):
     rng = np.random.default_rng(5)
     err = {True: [], False: []}
     for _ in range(4):
-        view = sv.render_marker_view(sv.random_pose(1.5, 30.0, rng, K, 0.2), marker_id=7, marker_size_m=0.2,
-                                     dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=K, rng=rng)  # fmt: skip
+        view = sv.render_marker_view(
+            sv.random_pose(1.5, 30.0, rng, K, 0.2),
+            marker_id=7,
+            marker_size_m=0.2,
+            dictionary=cv2.aruco.DICT_APRILTAG_36h11,
+            intrinsics=K,
+            rng=rng,
+        )
         for refine in (True, False):
             src = AprilTagSource({"backend": backend, "corner_refinement": "edges" if refine else "none"})
             (d,) = src.process(Frame(view.image, 0.0, intrinsics=K))
@@ -209,8 +231,9 @@ def test_edge_corner_refinement_makes_corners_more_accurate(backend):
 
 def test_temporal_disambiguation_follows_each_tag_over_frames():
     rng = np.random.default_rng(9)
-    views = sv.render_sequence(2.0, 35.0, 5, rng, marker_id=7, marker_size_m=0.2,
-                               dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=K)  # fmt: skip
+    views = sv.render_sequence(
+        2.0, 35.0, 5, rng, marker_id=7, marker_size_m=0.2, dictionary=cv2.aruco.DICT_APRILTAG_36h11, intrinsics=K
+    )
     temporal = AprilTagSource({"marker_size_m": 0.2})
     naive = AprilTagSource({"marker_size_m": 0.2, "disambiguation": "naive"})
     frames = [Frame(v.image, stamp=i / 15, intrinsics=K) for i, v in enumerate(views)]

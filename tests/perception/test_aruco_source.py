@@ -130,11 +130,14 @@ def test_mono_and_bgr_frames_give_the_same_detection():
     assert np.allclose(a.position, b.position, atol=1e-6)
 
 
-@pytest.mark.parametrize(("image", "expected"), [
-    (np.zeros((480, 640), np.float32), "uint8"),
-    (np.zeros((480, 640, 4), np.uint8), "H×W×3"),
-    ("not an image", "numpy image"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("image", "expected"),
+    [
+        (np.zeros((480, 640), np.float32), "uint8"),
+        (np.zeros((480, 640, 4), np.uint8), "H×W×3"),
+        ("not an image", "numpy image"),
+    ],
+)
 def test_a_malformed_frame_is_rejected_with_what_was_expected(image, expected):
     with pytest.raises(ValueError, match=expected):
         ArucoSource({}).process(Frame(image=image, stamp=0.0))
@@ -162,8 +165,9 @@ def test_every_opencv_predefined_dictionary_is_detected_by_its_name(name):
     rng = np.random.default_rng(sum(map(ord, name)))
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
     marker_id = len(dictionary.bytesList) - 1  # the last id: the whole dictionary is there
-    view = sv.render_marker_view(sv.random_pose(1.0, 30, rng), rng=rng, marker_id=marker_id,
-                                 dictionary=getattr(cv2.aruco, name))  # fmt: skip
+    view = sv.render_marker_view(
+        sv.random_pose(1.0, 30, rng), rng=rng, marker_id=marker_id, dictionary=getattr(cv2.aruco, name)
+    )
     dets = ArucoSource({"dictionary": name, "marker_size_m": MARKER}).process(_frame(view))
     assert [d.marker_id for d in dets] == [marker_id]
     assert dets[0].extra["dictionary"] == name and dets[0].distance == pytest.approx(1.0, rel=0.02)
@@ -177,19 +181,23 @@ def test_a_dictionary_file_that_is_missing_or_not_a_dictionary_is_a_config_error
     (tmp_path / "bad.yml").write_text("%YAML:1.0\nnmarkers: 2\nmarkersize: 4\nmarker_0: \"0101\"\n")
     for path in (tmp_path / "missing.yml", tmp_path / "bad.yml"):
         with pytest.raises(ConfigError) as err:
-            registry.create(SourceConfig(plugin="aruco", params={"dictionary": str(path)}),
-                            key_prefix="perception.sources[0]")  # fmt: skip
+            registry.create(
+                SourceConfig(plugin="aruco", params={"dictionary": str(path)}), key_prefix="perception.sources[0]"
+            )
         assert err.value.key == "perception.sources[0].params.dictionary" and str(path) in str(err.value)
 
 
-@pytest.mark.parametrize(("params", "key"), [
-    ({"marker_size_m": 0}, "marker_size_m"),
-    ({"marker_size_m": "big"}, "marker_size_m"),
-    ({"marker_sizes": {7: -1}}, "marker_sizes[7]"),
-    ({"corner_refinement": "magic"}, "corner_refinement"),
-    ({"disambiguation": "guess"}, "disambiguation"),
-    ({"markersize": 0.1}, "markersize"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("params", "key"),
+    [
+        ({"marker_size_m": 0}, "marker_size_m"),
+        ({"marker_size_m": "big"}, "marker_size_m"),
+        ({"marker_sizes": {7: -1}}, "marker_sizes[7]"),
+        ({"corner_refinement": "magic"}, "corner_refinement"),
+        ({"disambiguation": "guess"}, "disambiguation"),
+        ({"markersize": 0.1}, "markersize"),
+    ],
+)
 def test_a_bad_param_is_a_config_error_naming_the_key(params, key):
     with pytest.raises(ConfigError) as err:
         registry.create(SourceConfig(plugin="aruco", params=params), key_prefix="perception.sources[0]")
@@ -217,11 +225,14 @@ def _fallback_reference(view: sv.SyntheticView):
     return ArucoSource({"marker_size_m": MARKER}).process(_frame(view, intrinsics=k))[0]
 
 
-@pytest.mark.parametrize("bad", [
-    None,
-    CameraIntrinsics(fx=0.0, fy=579.4, cx=320, cy=240, width=640, height=480),
-    CameraIntrinsics(fx=579.4, fy=float("nan"), cx=320, cy=240, width=640, height=480),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "bad",
+    [
+        None,
+        CameraIntrinsics(fx=0.0, fy=579.4, cx=320, cy=240, width=640, height=480),
+        CameraIntrinsics(fx=579.4, fy=float("nan"), cx=320, cy=240, width=640, height=480),
+    ],
+)
 def test_missing_or_invalid_intrinsics_warn_once_and_use_the_degraded_pinhole(caplog, bad):
     view = _one_view(1.0, seed=9)
     src = ArucoSource({"marker_size_m": MARKER})
@@ -270,11 +281,19 @@ def test_blurred_small_markers_keep_their_corners_where_opencvs_subpix_drags_the
     rng = np.random.default_rng(21)
     far = {"ours": 0, "unrefined": 0, "subpix": 0}
     for i in range(20):
-        view = sv.render_marker_view(sv.random_pose(2.0, 50, rng, marker_size_m=0.15), rng=rng, marker_size_m=0.15,
-                                     blur_sigma=2.0, noise_sigma=3.0)  # fmt: skip
+        view = sv.render_marker_view(
+            sv.random_pose(2.0, 50, rng, marker_size_m=0.15),
+            rng=rng,
+            marker_size_m=0.15,
+            blur_sigma=2.0,
+            noise_sigma=3.0,
+        )
         dets = ArucoSource({"marker_size_m": 0.15}).process(_frame(view, stamp=float(i)))
-        found = {"ours": dets[0].corners if dets else None, "unrefined": _opencv_corners(view.image, 0),
-                 "subpix": _opencv_corners(view.image, 1)}  # fmt: skip
+        found = {
+            "ours": dets[0].corners if dets else None,
+            "unrefined": _opencv_corners(view.image, 0),
+            "subpix": _opencv_corners(view.image, 1),
+        }
         for k, c in found.items():
             if c is not None:
                 far[k] += int((np.linalg.norm(c - view.corners, axis=1) > 2.0).sum())

@@ -101,8 +101,9 @@ def test_a_huge_image_is_processed_and_the_marker_found_at_its_true_distance(sou
     k = CameraIntrinsics.from_vertical_fov(4000, 3000, 45.0)
     dictionary = cv2.aruco.DICT_4X4_250 if source == "aruco" else cv2.aruco.DICT_APRILTAG_36h11
     rng = np.random.default_rng(8)
-    view = sv.render_marker_view(sv.random_pose(3.0, 20, rng), rng=rng, marker_size_m=MARKER, intrinsics=k,
-                                 dictionary=dictionary, supersample=1)  # fmt: skip
+    view = sv.render_marker_view(
+        sv.random_pose(3.0, 20, rng), rng=rng, marker_size_m=MARKER, intrinsics=k, dictionary=dictionary, supersample=1
+    )
     [det] = SOURCES[source][0]().process(Frame(view.image, stamp=0.0, intrinsics=k))
     assert det.distance == pytest.approx(view.distance, rel=0.01)
 
@@ -197,15 +198,29 @@ class Clock:
 
 def vlm(tmp_path: Path) -> tuple[VlmSource, Clock]:
     clock = Clock()
-    params = {"state_file": str(tmp_path / "quota.json"), "latency_s": 0.0, "miss_rate": 0.0,
-              "publish_rate_limit_hz": 1.0, "daily_quota": 100}  # fmt: skip
+    params = {
+        "state_file": str(tmp_path / "quota.json"),
+        "latency_s": 0.0,
+        "miss_rate": 0.0,
+        "publish_rate_limit_hz": 1.0,
+        "daily_quota": 100,
+    }
     return VlmSource(params, name="vlm", clock=clock), clock
 
 
 def feed(src: VlmSource, clock: Clock, frame: Frame, n: int = 4) -> None:
     for i in range(n):
-        src.process(Frame(frame.image, i * 0.1, frame.frame_id, frame.intrinsics, frame.depth,
-                          frame.T_anchor_camera, frame.anchor_frame))  # fmt: skip
+        src.process(
+            Frame(
+                frame.image,
+                i * 0.1,
+                frame.frame_id,
+                frame.intrinsics,
+                frame.depth,
+                frame.T_anchor_camera,
+                frame.anchor_frame,
+            )
+        )
         assert src.wait_idle(timeout=10.0)
         clock.t += 1.0
 
@@ -224,8 +239,15 @@ def test_vlm_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp
     src, _ = vlm(tmp_path)
     try:
         with pytest.raises(ValueError, match="expected an H×W×3 uint8 BGR image") as err:
-            src.process(Frame(image, 0.0, intrinsics=VLM_FRAME.intrinsics, depth=VLM_FRAME.depth,
-                              T_anchor_camera=VLM_FRAME.T_anchor_camera))  # fmt: skip
+            src.process(
+                Frame(
+                    image,
+                    0.0,
+                    intrinsics=VLM_FRAME.intrinsics,
+                    depth=VLM_FRAME.depth,
+                    T_anchor_camera=VLM_FRAME.T_anchor_camera,
+                )
+            )
         assert words in str(err.value) and "\n" not in str(err.value)
         assert src.model_calls == 0 and src.status()["calls_today"] == 0
     finally:
@@ -250,8 +272,11 @@ def test_vlm_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota
     src, clock = vlm(tmp_path)
     try:
         with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm.source"):
-            feed(src, clock, Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth,
-                                   VLM_FRAME.T_anchor_camera))  # fmt: skip
+            feed(
+                src,
+                clock,
+                Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth, VLM_FRAME.T_anchor_camera),
+            )
         status = src.status()
         assert status["frames_bad_depth"] == 4 and status["calls_today"] == 0 and status["state"] == "bad_depth"
         [line] = [r.getMessage() for r in caplog.records]  # once, not per frame
@@ -268,8 +293,11 @@ def test_vlm_partly_missing_depth_still_latches(tmp_path):
     depth[::2] = np.nan
     src, clock = vlm(tmp_path)
     try:
-        feed(src, clock, Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth,
-                               VLM_FRAME.T_anchor_camera))  # fmt: skip
+        feed(
+            src,
+            clock,
+            Frame(VLM_FRAME.image, 0.0, VLM_FRAME.frame_id, VLM_FRAME.intrinsics, depth, VLM_FRAME.T_anchor_camera),
+        )
         assert src.latch.latched and src.status().get("frames_bad_depth", 0) == 0
     finally:
         src.close()

@@ -53,8 +53,11 @@ def test_a_late_frame_is_placed_where_the_camera_was_when_it_was_taken():
     marker = marker_facing(3.0, 2.0, math.radians(-150))
     then = Pose2D(1.0, 0.5, math.radians(40))
     scene = Scene(robot=then, marker=marker)
-    frame = Frame(image=np.zeros((48, 64, 3), np.uint8), stamp=1.0,
-                  T_anchor_camera=se3.planar(then.x, then.y, then.yaw) @ EXTRINSICS)  # fmt: skip
+    frame = Frame(
+        image=np.zeros((48, 64, 3), np.uint8),
+        stamp=1.0,
+        T_anchor_camera=se3.planar(then.x, then.y, then.yaw) @ EXTRINSICS,
+    )
     seen_then = detection_of(marker, then, stamp=1.0)
     stage = make([ScriptedSource("aruco", lambda f: [seen_then])])
     scene.robot = Pose2D(1.6, 0.9, math.radians(70))  # the robot moved on before the frame was perceived

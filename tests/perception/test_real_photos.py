@@ -83,10 +83,22 @@ def test_mission_detect_reads_a_real_photo_with_a_dictionary_file():
     ps = next(p for p in SHARED_SETS if p.dictionary.endswith(".yml"))
     board = next(p for p in ps.files() if "gboriginal" in p.name)
     proc = subprocess.run(
-        [sys.executable, "-m", "mission", "detect", str(board), "--source", "aruco",
-         "--set", f"dictionary={ps.dictionary_value()}", "--json"],
-        capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "mission",
+            "detect",
+            str(board),
+            "--source",
+            "aruco",
+            "--set",
+            f"dictionary={ps.dictionary_value()}",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     (record,) = [json.loads(line) for line in proc.stdout.splitlines()]
     assert len(record["detections"]) == 35

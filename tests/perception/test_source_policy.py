@@ -117,14 +117,20 @@ def test_hybrid_hands_the_target_from_the_vlm_to_the_tag_source(sim_views):
 
 @pytest.mark.slow
 def test_follow_occlusion_completes_with_the_apriltag_config():
-    assert cli.main(["run", "--scenario", "follow_occlusion", "--config",
-                     str(shipped_config("sim_apriltag.yaml")), "--quiet"]) == 0  # fmt: skip
+    assert (
+        cli.main(
+            ["run", "--scenario", "follow_occlusion", "--config", str(shipped_config("sim_apriltag.yaml")), "--quiet"]
+        )
+        == 0
+    )
 
 
 @pytest.mark.slow
 def test_follow_occlusion_completes_with_the_vlm_config():
-    assert cli.main(["run", "--scenario", "follow_occlusion", "--config",
-                     str(shipped_config("sim_vlm.yaml")), "--quiet"]) == 0  # fmt: skip
+    assert (
+        cli.main(["run", "--scenario", "follow_occlusion", "--config", str(shipped_config("sim_vlm.yaml")), "--quiet"])
+        == 0
+    )
 
 
 @pytest.mark.slow

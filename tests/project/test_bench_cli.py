@@ -20,8 +20,9 @@ CHEAP = ("perception", "apriltag_backends")
 
 
 def _mission(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "mission", *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=timeout, check=False)  # fmt: skip
+    return subprocess.run(
+        [sys.executable, "-m", "mission", *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout, check=False
+    )
 
 
 @pytest.fixture(scope="module")
@@ -91,8 +92,16 @@ def test_report_writes_each_benchmarks_table_plots_and_the_hand_written_notes(qu
 
 def test_report_names_the_file_that_is_not_a_benchmark_result(tmp_path):
     (tmp_path / "tree.json").write_text("{not json")
-    cmd = [sys.executable, "-m", "bench.report", str(tmp_path), "--out", str(tmp_path / "B.md"), "--docs",
-           str(tmp_path / "docs")]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "bench.report",
+        str(tmp_path),
+        "--out",
+        str(tmp_path / "B.md"),
+        "--docs",
+        str(tmp_path / "docs"),
+    ]
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=60, check=False)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "tree.json" in proc.stderr and "not readable as JSON" in proc.stderr
@@ -115,8 +124,9 @@ def test_quick_figures_go_to_out_bench_quick_and_full_ones_to_the_committed_resu
         return argparse.Namespace(quick=quick, only=None, output=None)
 
     assert output_dir(args(quick=True)) == QUICK_RESULTS == ROOT / "out" / "bench-quick"
-    ignored = subprocess.run(["git", "check-ignore", "-q", str(QUICK_RESULTS / "perception.json")], cwd=ROOT,
-                             check=False)  # fmt: skip
+    ignored = subprocess.run(
+        ["git", "check-ignore", "-q", str(QUICK_RESULTS / "perception.json")], cwd=ROOT, check=False
+    )
     assert ignored.returncode == 0  # never committed by accident
     assert output_dir(args(quick=False)) == RESULTS == ROOT / "bench" / "results"
     assert command_line(args(quick=True)) == "mission bench --quick"  # the default directory is not spelt out
@@ -136,8 +146,14 @@ def test_a_quick_run_is_refused_the_committed_results_directory(spelling):
 
 def test_mission_bench_runs_from_any_directory_of_the_checkout(tmp_path):
     exe = Path(sys.executable).parent / "mission"  # the console script: bench/ is not on its sys.path
-    proc = subprocess.run([str(exe), "bench", "--only", "warp_drive"], cwd=tmp_path, capture_output=True,
-                          text=True, timeout=60, check=False)  # fmt: skip
+    proc = subprocess.run(
+        [str(exe), "bench", "--only", "warp_drive"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
     assert proc.stderr.startswith("mission: error: unknown benchmark 'warp_drive'; known: perception")
 
@@ -145,8 +161,14 @@ def test_mission_bench_runs_from_any_directory_of_the_checkout(tmp_path):
 def test_the_report_of_other_results_is_written_beside_them_never_over_benchmarks_md(quick_run):
     results, _ = quick_run
     committed = (ROOT / "BENCHMARKS.md").read_bytes(), _digests(ROOT / "docs" / "bench")
-    proc = subprocess.run([sys.executable, "-m", "bench.report", str(results)], cwd=ROOT, capture_output=True,
-                          text=True, timeout=120, check=False)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench.report", str(results)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith(f"wrote {results / 'BENCHMARKS.md'} (")
     md = (results / "BENCHMARKS.md").read_text()
@@ -156,8 +178,14 @@ def test_the_report_of_other_results_is_written_beside_them_never_over_benchmark
 
 def test_the_report_reads_the_committed_full_run_results_by_default(tmp_path):
     out = tmp_path / "BENCHMARKS.md"
-    proc = subprocess.run([sys.executable, "-m", "bench.report", "--out", str(out), "--docs", str(tmp_path / "docs")],
-                          cwd=ROOT, capture_output=True, text=True, timeout=120, check=False)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "bench.report", "--out", str(out), "--docs", str(tmp_path / "docs")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert proc.returncode == 0, proc.stderr
     md = out.read_text()
     for name in ("perception", "pose", "missions"):

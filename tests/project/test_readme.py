@@ -35,7 +35,14 @@ def test_every_cli_verb_and_every_published_topic_is_documented():
         assert f"`mission {verb}`" in text
     ros = Path(__file__).resolve().parents[2] / "mission" / "ros"
     node_source = "".join((ros / name).read_text() for name in ("node.py", "outputs.py"))
-    for topic in ("/marker_detected", "/aruco/debug", "/detected_aruco_pose", "/aruco_poses", "/mission/tree",
-                  "/mission/redetect", "/tf"):  # fmt: skip
+    for topic in (
+        "/marker_detected",
+        "/aruco/debug",
+        "/detected_aruco_pose",
+        "/aruco_poses",
+        "/mission/tree",
+        "/mission/redetect",
+        "/tf",
+    ):
         assert f'"{topic}"' in node_source, f"{topic} is no longer in the node"
         assert f"`{topic}`" in text, f"{topic} is not in the README's topic table"

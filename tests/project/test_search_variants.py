@@ -60,20 +60,34 @@ def test_a_target_cannot_both_loop_and_leave_the_map():
     from mission.sim.scenario import scenario_from_dict
 
     with pytest.raises(ConfigError, match="leave_at_end and loop cannot both be set"):
-        scenario_from_dict({"name": "x", "target": {"x": 2, "y": 2, "loop": True, "leave_at_end": True,
-                                                    "waypoints": [{"x": 4, "y": 2}]}})  # fmt: skip
+        scenario_from_dict(
+            {
+                "name": "x",
+                "target": {"x": 2, "y": 2, "loop": True, "leave_at_end": True, "waypoints": [{"x": 4, "y": 2}]},
+            }
+        )
 
 
 def test_a_moving_obstacle_may_not_drive_through_a_static_one():
     from mission.sim.scenario import scenario_from_dict
 
     with pytest.raises(ConfigError, match=r"moving_obstacles\[0\].*passes through pillar"):
-        scenario_from_dict({
-            "name": "x",
-            "obstacles": [{"name": "pillar", "shape": "cylinder", "x": 4.0, "y": 4.0, "radius": 0.3}],
-            "moving_obstacles": [{"name": "cart", "shape": "box", "x": 2.0, "y": 4.0, "size": [0.6, 0.4, 1.0],
-                                  "waypoints": [{"x": 6.0, "y": 4.0}]}],
-        })  # fmt: skip
+        scenario_from_dict(
+            {
+                "name": "x",
+                "obstacles": [{"name": "pillar", "shape": "cylinder", "x": 4.0, "y": 4.0, "radius": 0.3}],
+                "moving_obstacles": [
+                    {
+                        "name": "cart",
+                        "shape": "box",
+                        "x": 2.0,
+                        "y": 4.0,
+                        "size": [0.6, 0.4, 1.0],
+                        "waypoints": [{"x": 6.0, "y": 4.0}],
+                    }
+                ],
+            }
+        )
 
 
 def test_the_acceptance_run_keeps_the_finished_runs_of_the_same_code_and_drops_any_other(tmp_path):

@@ -59,9 +59,26 @@ RUN_TIME_DATA = {
 SCENARIO = "explore_dock"  # ~3 s of wall time for 10 simulated seconds
 # A user's shell: nothing of the checkout's venv (PATH, LD_LIBRARY_PATH, the ROS wheels' re-exec guard,
 # PYTHONPATH, the tests' DDS variables); pip's settings pass, so it finds packages as the developer's does.
-PASS_THROUGH = {"HOME", "USER", "LOGNAME", "LANG", "LC_ALL", "LC_CTYPE", "TERM", "TMPDIR", "CI", "SSL_CERT_FILE",
-                "SSL_CERT_DIR", "REQUESTS_CA_BUNDLE", "HTTP_PROXY", "HTTPS_PROXY", "NO_PROXY", "http_proxy",
-                "https_proxy", "no_proxy"}  # fmt: skip
+PASS_THROUGH = {
+    "HOME",
+    "USER",
+    "LOGNAME",
+    "LANG",
+    "LC_ALL",
+    "LC_CTYPE",
+    "TERM",
+    "TMPDIR",
+    "CI",
+    "SSL_CERT_FILE",
+    "SSL_CERT_DIR",
+    "REQUESTS_CA_BUNDLE",
+    "HTTP_PROXY",
+    "HTTPS_PROXY",
+    "NO_PROXY",
+    "http_proxy",
+    "https_proxy",
+    "no_proxy",
+}
 
 
 def user_env(bin_dir: Path | None = None) -> dict[str, str]:
@@ -72,8 +89,16 @@ def user_env(bin_dir: Path | None = None) -> dict[str, str]:
 
 
 def run(cmd: list[str | Path], cwd: Path, env: dict[str, str], timeout: float) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, stdin=subprocess.DEVNULL, capture_output=True,
-                          text=True, timeout=timeout, check=False)  # fmt: skip
+    return subprocess.run(
+        [str(c) for c in cmd],
+        cwd=cwd,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
 
 
 def checked(proc: subprocess.CompletedProcess[str], what: str) -> subprocess.CompletedProcess[str]:
@@ -83,8 +108,12 @@ def checked(proc: subprocess.CompletedProcess[str], what: str) -> subprocess.Com
 
 def source_files() -> list[Path]:
     """The files a clean clone has (tracked, plus untracked ones not ignored): no .venv, build/, install/."""
-    proc = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
-                          capture_output=True, check=False)  # fmt: skip
+    proc = subprocess.run(
+        ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+        cwd=ROOT,
+        capture_output=True,
+        check=False,
+    )
     if proc.returncode == 0:
         return sorted({ROOT / name for name in proc.stdout.decode().split("\0") if name})
     skip = {".git", ".venv", "build", "install", "log", "out", "__pycache__", ".pytest_cache", ".ruff_cache"}
@@ -134,8 +163,15 @@ def wheel(tmp_path_factory) -> Path:
             dest = src / f.relative_to(ROOT)
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(f, dest)
-    checked(run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", base / "dist", src], base,
-                user_env(), timeout=300), "pip wheel")  # fmt: skip
+    checked(
+        run(
+            [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", base / "dist", src],
+            base,
+            user_env(),
+            timeout=300,
+        ),
+        "pip wheel",
+    )
     (built,) = (base / "dist").glob("mission-*.whl")
     return built
 
@@ -167,8 +203,12 @@ def test_the_wheel_holds_what_a_run_reads_at_run_time(wheel):
         f"{dest}/{f.name}" for pattern, dest in RUN_TIME_DATA.items() for f in ROOT.glob(pattern) if f.is_file()
     }
     assert not expected - names, f"run-time data not in the wheel: {sorted(expected - names)}"
-    for essential in ("mission/ros/fastdds_shm.xml", "mission/trees/mission.xml",
-                      f"mission/sim/scenarios/{SCENARIO}.yaml", "mission/viz/static/page.html"):  # fmt: skip
+    for essential in (
+        "mission/ros/fastdds_shm.xml",
+        "mission/trees/mission.xml",
+        f"mission/sim/scenarios/{SCENARIO}.yaml",
+        "mission/viz/static/page.html",
+    ):
         assert essential in names
     with zipfile.ZipFile(wheel) as z:
         assert z.read("mission/ros/fastdds_shm.xml") == (ROOT / "mission/ros/fastdds_shm.xml").read_bytes()
@@ -294,8 +334,9 @@ def test_mission_bench_without_a_checkout_says_it_needs_one(installed):
 
 @pytest.mark.wheel
 def test_a_10_s_mission_run_exits_as_a_mission_run_does(installed):
-    proc = installed.mission("run", "--scenario", SCENARIO, "--max-duration", "10", "--report", "report", "--quiet",
-                             timeout=180)  # fmt: skip
+    proc = installed.mission(
+        "run", "--scenario", SCENARIO, "--max-duration", "10", "--report", "report", "--quiet", timeout=180
+    )
     assert proc.returncode in (0, 1), f"exit {proc.returncode}:\n{proc.stdout}\n{proc.stderr}"
     report = json.loads((installed.workdir / "report" / "report.json").read_text())
     assert report["scenario"] == SCENARIO and report["success"] == (proc.returncode == 0)
@@ -342,11 +383,16 @@ def test_mission_tree_runs_on_the_shipped_shared_memory_profile_and_stops_on_sig
     # The gate before any DDS participant exists: the profile the node will choose is in this venv. Without
     # it FastDDS would fall back to UDP on every interface.
     assert profile.is_file() and profile.is_relative_to(installed.venv)
-    env = {**installed.env, "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp", "ROS_DOMAIN_ID": str(DOMAIN_ID),
-           "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT"}  # fmt: skip
+    env = {
+        **installed.env,
+        "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+        "ROS_DOMAIN_ID": str(DOMAIN_ID),
+        "ROS_AUTOMATIC_DISCOVERY_RANGE": "SYSTEM_DEFAULT",
+    }
     assert "FASTRTPS_DEFAULT_PROFILES_FILE" not in env, "the node must pick the profile itself"
-    node = NodeProcess([str(installed.bin / "mission"), "tree", "--tree", "none"], env, tmp_path / "node.log",
-                       cwd=installed.workdir)  # fmt: skip
+    node = NodeProcess(
+        [str(installed.bin / "mission"), "tree", "--tree", "none"], env, tmp_path / "node.log", cwd=installed.workdir
+    )
     try:
         wait_for(lambda: not node.alive() or "mission_tree: perception only" in node.log(), 60, "the node to start")
         assert node.alive(), f"the node exited {node.proc.returncode}:\n{node.log()}"

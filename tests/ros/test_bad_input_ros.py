@@ -272,8 +272,13 @@ def test_an_unknown_node_parameter_is_named_with_the_likely_one():
     ],
 )
 def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
-    proc = subprocess.run([sys.executable, "-m", "mission", "tree", "--ros-args", *args], capture_output=True,
-                          text=True, timeout=60, cwd=ROOT)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", "tree", "--ros-args", *args],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
     assert proc.returncode == 2, proc.stderr
     errors = [ln for ln in proc.stderr.splitlines() if "DDS: shared memory only" not in ln]
     assert len(errors) == 1 and errors[0].startswith(line), proc.stderr
@@ -283,12 +288,14 @@ def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
 
 
 def _odom(**change: float) -> object:
-    msg = state_to_odometry(MSGS, RobotState(pose=Pose2D(1.0, 2.0, 0.3), twist=Twist(0.2, 0.1), stamp=1.0), "odom",
-                            "base_link")  # fmt: skip
+    msg = state_to_odometry(
+        MSGS, RobotState(pose=Pose2D(1.0, 2.0, 0.3), twist=Twist(0.2, 0.1), stamp=1.0), "odom", "base_link"
+    )
     p, tw = msg.pose.pose, msg.twist.twist
     for key, value in change.items():
-        target, attr = {"x": (p.position, "x"), "z": (p.position, "z"), "v": (tw.linear, "x"),
-                        "w": (tw.angular, "z")}[key]  # fmt: skip
+        target, attr = {"x": (p.position, "x"), "z": (p.position, "z"), "v": (tw.linear, "x"), "w": (tw.angular, "z")}[
+            key
+        ]
         setattr(target, attr, value)
     return msg
 
@@ -314,17 +321,34 @@ def test_odometry_with_nan_or_inf_is_dropped_and_the_last_good_pose_kept(change,
 
 
 def test_a_scan_with_nan_angles_and_a_map_with_zero_resolution_are_dropped():
-    scan = scan_to_msg(MSGS, LaserScan(angle_min=0.0, angle_increment=0.1, ranges=np.ones(8, np.float32),
-                                       range_min=0.1, range_max=5.0, stamp=1.0, frame_id="laser"))  # fmt: skip
+    scan = scan_to_msg(
+        MSGS,
+        LaserScan(
+            angle_min=0.0,
+            angle_increment=0.1,
+            ranges=np.ones(8, np.float32),
+            range_min=0.1,
+            range_max=5.0,
+            stamp=1.0,
+            frame_id="laser",
+        ),
+    )
     scan.angle_increment = float("nan")
     with pytest.raises(BadMessage, match=r"scan has angle_min=0, angle_increment=nan; expected finite, increment ≠ 0"):
         scan_from_msg(scan)
     scan.angle_increment = 0.0
     world = RecordingWorld()
     assert world.cache.on_scan(scan, "/scan") is False and world.cache.stats.dropped == {"scan:value": 1}
-    info = MSGS.new("nav_msgs/msg/MapMetaData", map_load_time=time_msg(MSGS, 0.0), resolution=0.0, width=5, height=4,
-                    origin=matrix_to_pose(MSGS, np.eye(4)))  # fmt: skip
-    grid = MSGS.new("nav_msgs/msg/OccupancyGrid", header=header_msg(MSGS, 1.0, "map"), info=info,
-                    data=np.zeros(20, np.int8))  # fmt: skip
+    info = MSGS.new(
+        "nav_msgs/msg/MapMetaData",
+        map_load_time=time_msg(MSGS, 0.0),
+        resolution=0.0,
+        width=5,
+        height=4,
+        origin=matrix_to_pose(MSGS, np.eye(4)),
+    )
+    grid = MSGS.new(
+        "nav_msgs/msg/OccupancyGrid", header=header_msg(MSGS, 1.0, "map"), info=info, data=np.zeros(20, np.int8)
+    )
     with pytest.raises(BadMessage, match=r"map resolution is 0; expected a cell size > 0 \(m\)"):
         grid_from_msg(grid)

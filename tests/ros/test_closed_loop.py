@@ -52,8 +52,18 @@ def node_command(tree: str, *params: str) -> list[str]:
 
 
 def robot_command(scenario: str, seed: int, report: Path, duration: float | None, *faults: str) -> list[str]:
-    cmd = [MISSION, "sim-robot", "--scenario", scenario, "--seed", str(seed), "--config", CONFIG,
-           "--report", str(report)]  # fmt: skip
+    cmd = [
+        MISSION,
+        "sim-robot",
+        "--scenario",
+        scenario,
+        "--seed",
+        str(seed),
+        "--config",
+        CONFIG,
+        "--report",
+        str(report),
+    ]
     if duration is not None:
         cmd += ["--max-duration", str(duration)]
     for f in faults:
@@ -62,13 +72,21 @@ def robot_command(scenario: str, seed: int, report: Path, duration: float | None
 
 
 @contextmanager
-def closed_loop(tmp: Path, scenario: str, seed: int, tree: str, duration: float | None, faults: tuple[str, ...] = (),
-                params: tuple[str, ...] = ()) -> Iterator[tuple[NodeProcess, NodeProcess]]:  # fmt: skip
+def closed_loop(
+    tmp: Path,
+    scenario: str,
+    seed: int,
+    tree: str,
+    duration: float | None,
+    faults: tuple[str, ...] = (),
+    params: tuple[str, ...] = (),
+) -> Iterator[tuple[NodeProcess, NodeProcess]]:
     build_ros()
     env = installed_env()
     node = NodeProcess(node_command(tree, *params), env, tmp / "node.log")
-    robot = NodeProcess(robot_command(scenario, seed, tmp / "report", duration, *faults), {**os.environ, **ROS_ENV},
-                        tmp / "robot.log")  # fmt: skip
+    robot = NodeProcess(
+        robot_command(scenario, seed, tmp / "report", duration, *faults), {**os.environ, **ROS_ENV}, tmp / "robot.log"
+    )
     try:
         yield node, robot
     except BaseException:
@@ -105,10 +123,17 @@ def test_over_ros_the_mission_explores_and_docks_within_tolerance(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("scenario", "seed", "tree"), [
-    ("mission_full", 0, "mission.xml"), ("mission_full", 1, "mission.xml"), ("mission_full", 2, "mission.xml"),
-    ("follow_occlusion", 0, "follow.xml"), ("search_corner", 2, "follow.xml"), ("explore_dock", 1, "explore_dock.xml"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("scenario", "seed", "tree"),
+    [
+        ("mission_full", 0, "mission.xml"),
+        ("mission_full", 1, "mission.xml"),
+        ("mission_full", 2, "mission.xml"),
+        ("follow_occlusion", 0, "follow.xml"),
+        ("search_corner", 2, "follow.xml"),
+        ("explore_dock", 1, "explore_dock.xml"),
+    ],
+)
 def test_over_ros_the_mission_meets_the_mission_run_criteria(tmp_path, scenario, seed, tree):
     with closed_loop(tmp_path, scenario, seed, tree, None) as (_node, robot):
         report = finish(robot, timeout=900)
@@ -162,8 +187,11 @@ def test_a_nav2_that_aborts_every_goal_fails_the_staging_with_its_reason(tmp_pat
         finish(robot, timeout=200)
         assert node.alive()
     reasons = [s["reason"] for s in watcher.statuses() if s["reason"]]
-    assert any("DOCK: navigation to the staging pose" in r and "navigate_to_pose aborted: the simulated Nav2 "
-               "aborts every goal (fault abort_goals) (error_code 9000)" in r for r in reasons), reasons  # fmt: skip
+    assert any(
+        "DOCK: navigation to the staging pose" in r
+        and "navigate_to_pose aborted: the simulated Nav2 aborts every goal (fault abort_goals) (error_code 9000)" in r
+        for r in reasons
+    ), reasons
 
 
 @pytest.mark.slow
@@ -177,12 +205,15 @@ def test_a_robot_whose_nav2_is_not_up_fails_the_staging_naming_the_missing_serve
     assert "Traceback" not in log
 
 
-@pytest.mark.parametrize(("fault", "seen"), [
-    ("tf_loop", "TF loop: "),
-    pytest.param("tf_stale_at=4", "is stale: the newest transform", marks=pytest.mark.slow),
-    pytest.param("clock_back_at=5", "the clock jumped back", marks=pytest.mark.slow),
-    pytest.param("image_delay_s=1.0", "camera images arrive 1.0", marks=pytest.mark.slow),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("fault", "seen"),
+    [
+        ("tf_loop", "TF loop: "),
+        pytest.param("tf_stale_at=4", "is stale: the newest transform", marks=pytest.mark.slow),
+        pytest.param("clock_back_at=5", "the clock jumped back", marks=pytest.mark.slow),
+        pytest.param("image_delay_s=1.0", "camera images arrive 1.0", marks=pytest.mark.slow),
+    ],
+)
 def test_a_broken_robot_is_a_fault_the_tree_sees_and_the_node_survives(tmp_path, watcher, fault, seen):
     with closed_loop(tmp_path, "explore_dock", 0, "explore_dock.xml", 12.0, (fault,)) as (node, robot):
         wait_for(lambda: watcher.saw(seen), 150, f"/mission/status to carry {seen!r}")

@@ -25,8 +25,7 @@ T_CAM_MARKER = se3.transform(R_FRONTAL, (0.05, 0.02, 1.2))
 
 def test_a_camera_publishing_only_jpeg_on_the_compressed_topic_is_seen(tmp_path):
     build_ros()
-    view = render_marker_view(T_CAM_MARKER, marker_id=7, marker_size_m=0.15, intrinsics=K,
-                              rng=np.random.default_rng(2))  # fmt: skip
+    view = render_marker_view(T_CAM_MARKER, marker_id=7, marker_size_m=0.15, intrinsics=K, rng=np.random.default_rng(2))
     cmd = [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", "marker_size_m:=0.15", "-p", "tick_hz:=30"]
     with node_process(cmd, installed_env(), tmp_path / "node.log") as node:
         client = RosClient("compressed_camera")

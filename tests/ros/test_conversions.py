@@ -81,9 +81,14 @@ def test_depth_16uc1_is_millimetres_and_zero_means_no_return(factory):
 
 def test_big_endian_16uc1_is_read_in_its_byte_order():
     msg = RclpyMessages().new(
-        "sensor_msgs/msg/Image", height=1, width=2, encoding="16UC1", is_bigendian=1, step=4,
+        "sensor_msgs/msg/Image",
+        height=1,
+        width=2,
+        encoding="16UC1",
+        is_bigendian=1,
+        step=4,
         data=np.array([0x01, 0xF4, 0x0B, 0xB8], np.uint8),
-    )  # fmt: skip
+    )
     assert image_to_depth_m(msg).tolist() == [[0.5, 3.0]]
 
 
@@ -120,8 +125,9 @@ def test_depth_encodings_are_not_camera_images():
 
 
 def test_camera_info_round_trips_intrinsics_with_distortion(factory):
-    intr = CameraIntrinsics(fx=500.0, fy=501.0, cx=320.0, cy=239.0, width=640, height=480,
-                            distortion=(0.1, -0.05, 0.001, 0.002, 0.0))  # fmt: skip
+    intr = CameraIntrinsics(
+        fx=500.0, fy=501.0, cx=320.0, cy=239.0, width=640, height=480, distortion=(0.1, -0.05, 0.001, 0.002, 0.0)
+    )
     msg = intrinsics_to_camera_info(factory, intr, 3.0, "cam")
     assert msg.distortion_model == "plumb_bob"
     assert np.allclose(np.asarray(msg.p).reshape(3, 4)[:, :3], intr.matrix)
@@ -194,9 +200,12 @@ def test_32fc1_compressed_depth_is_inverse_depth_as_image_transport_quantises_it
     a, b = quant * (quant + 1.0), 1.0 - quant * (quant + 1.0) / dmax
     inv = np.where(np.isfinite(depth), a / np.nan_to_num(depth, nan=1.0) + b, 0).astype(np.uint16)
     payload = struct.pack("<iff", 0, a, b) + cv2.imencode(".png", inv)[1].tobytes()
-    msg = factory.new("sensor_msgs/msg/CompressedImage", header=array_to_image(factory, np.zeros((1, 1), np.uint8),
-                      "mono8", 0.0, "d").header, format="32FC1; compressedDepth png",
-                      data=np.frombuffer(payload, np.uint8))  # fmt: skip
+    msg = factory.new(
+        "sensor_msgs/msg/CompressedImage",
+        header=array_to_image(factory, np.zeros((1, 1), np.uint8), "mono8", 0.0, "d").header,
+        format="32FC1; compressedDepth png",
+        data=np.frombuffer(payload, np.uint8),
+    )
     out = image_to_depth_m(msg)
     assert np.isnan(out[1, 1]) and np.allclose(out[np.isfinite(depth)], depth[np.isfinite(depth)], rtol=0.01)
 
@@ -222,8 +231,15 @@ def test_ros1_camera_info_spells_its_arrays_in_capitals():
     roi = store.types["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
     info = store.types["sensor_msgs/msg/CameraInfo"](
         header=store.types["std_msgs/msg/Header"](seq=0, stamp=ros2.header.stamp, frame_id="cam"),
-        height=480, width=640, distortion_model="plumb_bob", D=np.asarray(ros2.d), K=np.asarray(ros2.k),
-        R=np.asarray(ros2.r), P=np.asarray(ros2.p), binning_x=0, binning_y=0,
+        height=480,
+        width=640,
+        distortion_model="plumb_bob",
+        D=np.asarray(ros2.d),
+        K=np.asarray(ros2.k),
+        R=np.asarray(ros2.r),
+        P=np.asarray(ros2.p),
+        binning_x=0,
+        binning_y=0,
         roi=roi,
-    )  # fmt: skip
+    )
     assert camera_info_to_intrinsics(info) == intr

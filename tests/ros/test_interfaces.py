@@ -84,8 +84,10 @@ def definitions(type_name: str) -> list[Field]:
         return parse_fields(_interface_file(pkg, "msg", name).read_text(), pkg)
     action, _, part = name.rpartition("_")
     if part == "FeedbackMessage":  # what rosidl adds for an action's feedback topic
-        return [Field("goal_id", 1, nested_type_name="unique_identifier_msgs/msg/UUID"),
-                Field("feedback", 1, nested_type_name=f"{pkg}/action/{action}_Feedback")]  # fmt: skip
+        return [
+            Field("goal_id", 1, nested_type_name="unique_identifier_msgs/msg/UUID"),
+            Field("feedback", 1, nested_type_name=f"{pkg}/action/{action}_Feedback"),
+        ]
     sections = _interface_file(pkg, "action", action).read_text().split("\n---")
     return parse_fields(sections[("Goal", "Result", "Feedback").index(part)], pkg)
 
@@ -101,8 +103,15 @@ def built():
     build_ros()
 
 
-@pytest.mark.parametrize("type_name", ["geometry_msgs/msg/PoseStamped", "sensor_msgs/msg/CameraInfo",
-                                       "nav_msgs/msg/Odometry", "sensor_msgs/msg/LaserScan"])  # fmt: skip
+@pytest.mark.parametrize(
+    "type_name",
+    [
+        "geometry_msgs/msg/PoseStamped",
+        "sensor_msgs/msg/CameraInfo",
+        "nav_msgs/msg/Odometry",
+        "sensor_msgs/msg/LaserScan",
+    ],
+)
 def test_our_hash_computation_agrees_with_the_build_farm_on_jazzy_wheel_messages(type_name):
     pkg, _, name = type_name.split("/")
     farm = built_hashes(VENV_SHARE / pkg / "msg" / f"{name}.json")[type_name]

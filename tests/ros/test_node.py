@@ -77,15 +77,29 @@ def ros(tmp_path_factory):
     """The installed node in perception-only mode + a client with a fake camera and subscriptions."""
     build_ros()
     log = tmp_path_factory.mktemp("node") / "node.log"
-    cmd = [str(TREE_EXE), "--ros-args", "-p", "tree:=none", "-p", f"marker_size_m:={MARKER_SIZE}",
-           "-p", f"target_marker_id:={MARKER_ID}", "-p", "tick_hz:=30"]  # fmt: skip
+    cmd = [
+        str(TREE_EXE),
+        "--ros-args",
+        "-p",
+        "tree:=none",
+        "-p",
+        f"marker_size_m:={MARKER_SIZE}",
+        "-p",
+        f"target_marker_id:={MARKER_ID}",
+        "-p",
+        "tick_hz:=30",
+    ]
     tf = load_tf_message()
     assert tf.message is not None, tf.detail
     with node_process(cmd, installed_env(), log) as node:
         client = RosClient()
-        for topic, msg_type in (("/marker_detected", Bool), ("/aruco/debug", String),
-                                ("/detected_aruco_pose", PoseStamped), ("/aruco_poses", PoseArray),
-                                ("/tf", tf.message)):  # fmt: skip
+        for topic, msg_type in (
+            ("/marker_detected", Bool),
+            ("/aruco/debug", String),
+            ("/detected_aruco_pose", PoseStamped),
+            ("/aruco_poses", PoseArray),
+            ("/tf", tf.message),
+        ):
             client.subscribe(msg_type, topic)
         camera = FakeCamera(client)
         try:
@@ -155,8 +169,11 @@ def test_marker_detected_is_edge_triggered_and_the_pose_is_within_2_percent(ros)
     camera.scene = scene("empty")
     wait_for(lambda: marker_flags(client) == [True, False], 10, "/marker_detected false after the marker left")
     processed_at_false = wait_for(lambda: last_heartbeat(client).get("frames_processed"), 5, "a heartbeat")
-    wait_for(lambda: last_heartbeat(client).get("frames_processed", 0) >= processed_at_false + 15, 10,
-             "15 more frames without the marker")  # fmt: skip
+    wait_for(
+        lambda: last_heartbeat(client).get("frames_processed", 0) >= processed_at_false + 15,
+        10,
+        "15 more frames without the marker",
+    )
     assert marker_flags(client) == [True, False], "false exactly once while the marker stays away"
 
 
@@ -217,8 +234,10 @@ def test_nothing_is_sent_beyond_loopback(ros):
     assert participant.get("is_default_profile") == "true"
     assert participant.findtext("d:rtps/d:useBuiltinTransports", namespaces=ns) == "false"
     used = [e.text for e in participant.findall("d:rtps/d:userTransports/d:transport_id", ns)]
-    types = {d.findtext("d:transport_id", namespaces=ns): d.findtext("d:type", namespaces=ns)
-             for d in root.findall("d:transport_descriptors/d:transport_descriptor", ns)}  # fmt: skip
+    types = {
+        d.findtext("d:transport_id", namespaces=ns): d.findtext("d:type", namespaces=ns)
+        for d in root.findall("d:transport_descriptors/d:transport_descriptor", ns)
+    }
     assert [types[t] for t in used] == ["SHM"]
     shm = root.find("d:transport_descriptors/d:transport_descriptor", ns)
     assert int(shm.findtext("d:segment_size", namespaces=ns)) >= 16 * 2**20 > 640 * 480 * 3

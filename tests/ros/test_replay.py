@@ -162,8 +162,13 @@ def test_replay_of_a_recorded_sim_bag_reproduces_the_live_detections(recording, 
     assert len(live) == len(frames)
 
     # replay: the bag through `mission replay --json`
-    proc = subprocess.run([*MISSION, "replay", str(bag), "--config", str(CONFIG), "--json"],
-                          capture_output=True, text=True, timeout=120, cwd=ROOT)  # fmt: skip
+    proc = subprocess.run(
+        [*MISSION, "replay", str(bag), "--config", str(CONFIG), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
     assert proc.returncode == 0, proc.stderr
     replayed = {round(r["stamp"], 6): r["detections"] for r in map(json.loads, proc.stdout.splitlines())}
     assert f"{len(frames)} frames processed" in proc.stderr
@@ -200,8 +205,13 @@ def test_a_simulated_run_recorded_with_the_bag_observer_replays_frame_for_frame(
 
 def test_replay_rejects_a_path_that_is_not_a_bag(tmp_path):
     (tmp_path / "notabag").mkdir()
-    proc = subprocess.run([sys.executable, "-m", "mission", "replay", str(tmp_path / "notabag")],
-                          capture_output=True, text=True, timeout=60, cwd=ROOT)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", "replay", str(tmp_path / "notabag")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
     assert proc.returncode == 2
     assert proc.stderr.startswith("mission: error: ") and "not a readable rosbag2" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1

@@ -38,8 +38,12 @@ def recorded_frames() -> list[tuple[Frame, RobotState]]:
         stamp = 100.0 + i / 15.0
         depth = np.full((480, 640), np.float32(v.distance))
         depth[:20] = np.nan  # no return at the top
-        out.append((Frame(v.image, stamp, "camera_optical_frame", k, depth=depth),
-                    RobotState(Pose2D(0.1 * i, 0.0, 0.0), Twist(0.1, 0.0), stamp)))  # fmt: skip
+        out.append(
+            (
+                Frame(v.image, stamp, "camera_optical_frame", k, depth=depth),
+                RobotState(Pose2D(0.1 * i, 0.0, 0.0), Twist(0.1, 0.0), stamp),
+            )
+        )
     return out
 
 
@@ -57,8 +61,10 @@ def renamed(src: Path, dst: Path, names: dict[str, str]) -> Path:
         AnyReader([src], default_typestore=store) as reader,
         Writer(dst, version=9, storage_plugin=StoragePlugin.MCAP) as writer,
     ):
-        conns = {c.id: writer.add_connection(names.get(c.topic, c.topic), c.msgtype, typestore=store)
-                 for c in reader.connections}  # fmt: skip
+        conns = {
+            c.id: writer.add_connection(names.get(c.topic, c.topic), c.msgtype, typestore=store)
+            for c in reader.connections
+        }
         for c, t, raw in reader.messages():
             writer.write(conns[c.id], t, raw)
     return dst
@@ -104,8 +110,10 @@ def replayed(bag: Path, warnings: list[str] | None = None, **kw):
 
 
 def ids_and_positions(result) -> list[tuple[float, list[int], np.ndarray]]:
-    return [(round(f.stamp, 3), [d.marker_id for d in f.detections],
-             np.array([d.position for d in f.detections])) for f in result.frames]  # fmt: skip
+    return [
+        (round(f.stamp, 3), [d.marker_id for d in f.detections], np.array([d.position for d in f.detections]))
+        for f in result.frames
+    ]
 
 
 def test_a_raw_recording_replays_every_frame_with_its_marker(bags):
@@ -139,11 +147,23 @@ def test_compressed_depth_arrives_in_metres_with_no_return_kept(bags, frames):
 
 
 def test_topics_come_from_the_flags_and_from_the_config(bags, tmp_path):
-    bag = renamed(bags["jpeg"], tmp_path / "robot", {"/camera/image_raw/compressed": "/front/image/compressed",
-                                                     "/camera/camera_info": "/front/camera_info",
-                                                     "/odom": "/wheel/odom"})  # fmt: skip
-    by_flag = replayed(bag, topics={"image_topic": "/front/image/compressed", "camera_info_topic": "/front/camera_info",
-                                    "odom_topic": "/wheel/odom"})  # fmt: skip
+    bag = renamed(
+        bags["jpeg"],
+        tmp_path / "robot",
+        {
+            "/camera/image_raw/compressed": "/front/image/compressed",
+            "/camera/camera_info": "/front/camera_info",
+            "/odom": "/wheel/odom",
+        },
+    )
+    by_flag = replayed(
+        bag,
+        topics={
+            "image_topic": "/front/image/compressed",
+            "camera_info_topic": "/front/camera_info",
+            "odom_topic": "/wheel/odom",
+        },
+    )
     assert len(by_flag.frames) == N_FRAMES and by_flag.stats["fallback_intrinsics"] == 0
     assert by_flag.read["odom"] == "/wheel/odom" and by_flag.stats["received"]["odom"] == N_FRAMES
     config = MissionConfig(topics=TopicsConfig(image_topic="/front/image", camera_info_topic="/front/camera_info"))
@@ -152,8 +172,11 @@ def test_topics_come_from_the_flags_and_from_the_config(bags, tmp_path):
 
 
 def test_without_the_default_the_only_image_topic_is_used_and_said(bags, tmp_path):
-    bag = renamed(bags["raw"], tmp_path / "robot", {"/camera/image_raw": "/usb_cam/image_raw",
-                                                    "/camera/camera_info": "/usb_cam/camera_info"})  # fmt: skip
+    bag = renamed(
+        bags["raw"],
+        tmp_path / "robot",
+        {"/camera/image_raw": "/usb_cam/image_raw", "/camera/camera_info": "/usb_cam/camera_info"},
+    )
     warnings: list[str] = []
     result = replayed(bag, warnings)
     assert len(result.frames) == N_FRAMES and result.stats["fallback_intrinsics"] == 0
@@ -175,8 +198,9 @@ def test_two_cameras_and_no_choice_is_an_error_naming_them(bags, tmp_path):
             writer.write(conns[c.id], t, raw)
             if c.topic == "/left/image_raw":
                 writer.write(right, t, raw)
-    proc = subprocess.run([sys.executable, "-m", "mission", "replay", str(two)], capture_output=True, text=True,
-                          timeout=120, cwd=ROOT)  # fmt: skip
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", "replay", str(two)], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
     assert proc.returncode == 2
     assert "no image topic /camera/image_raw" in proc.stderr and "/left/image_raw, /right/image_raw" in proc.stderr
     assert "--image-topic" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
@@ -222,9 +246,14 @@ def test_a_truncated_bag_replays_up_to_the_damage_with_a_warning(bags, frames, t
 
 
 def test_the_cli_replays_a_ros1_bag_with_topic_flags_and_a_calibration_file(bags, frames, tmp_path):
-    bag = to_ros1(renamed(bags["jpeg"], tmp_path / "robot", {"/camera/image_raw/compressed": "/cam/image/compressed",
-                                                             "/camera/camera_info": "/cam/info"}),
-                  tmp_path / "robot.bag")  # fmt: skip
+    bag = to_ros1(
+        renamed(
+            bags["jpeg"],
+            tmp_path / "robot",
+            {"/camera/image_raw/compressed": "/cam/image/compressed", "/camera/camera_info": "/cam/info"},
+        ),
+        tmp_path / "robot.bag",
+    )
     k = frames[0][0].intrinsics
     (tmp_path / "cam.yaml").write_text(
         f"image_width: {k.width}\nimage_height: {k.height}\ncamera_name: cam\n"
@@ -232,10 +261,25 @@ def test_the_cli_replays_a_ros1_bag_with_topic_flags_and_a_calibration_file(bags
         "distortion_model: plumb_bob\ndistortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n"
     )
     proc = subprocess.run(
-        [sys.executable, "-m", "mission", "replay", str(bag), "--image-topic", "/cam/image/compressed",
-         "--camera-info-topic", "/nowhere", "--calibration", str(tmp_path / "cam.yaml"), "--json"],
-        capture_output=True, text=True, timeout=120, cwd=ROOT,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "mission",
+            "replay",
+            str(bag),
+            "--image-topic",
+            "/cam/image/compressed",
+            "--camera-info-topic",
+            "/nowhere",
+            "--calibration",
+            str(tmp_path / "cam.yaml"),
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
     assert proc.returncode == 0, proc.stderr
     records = [json.loads(line) for line in proc.stdout.splitlines()]
     assert len(records) == N_FRAMES

@@ -37,8 +37,11 @@ def test_a_camera_pose_at_an_image_stamp_between_odometry_samples_is_interpolate
 
 def test_the_inverse_lookup_is_the_inverse_transform():
     tf = robot_tree()
-    np.testing.assert_allclose(tf.lookup("camera_optical_frame", "map", 0.5),
-                               se3.invert(tf.lookup("map", "camera_optical_frame", 0.5)), atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        tf.lookup("camera_optical_frame", "map", 0.5),
+        se3.invert(tf.lookup("map", "camera_optical_frame", 0.5)),
+        atol=1e-9,
+    )
 
 
 def test_static_mount_needs_no_stamp():

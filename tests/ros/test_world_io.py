@@ -140,25 +140,33 @@ def test_depth_is_paired_with_its_image_by_stamp(world, bb):
 
 
 def test_amcl_pose_corrects_odometry_into_the_map_frame(world, bb):
-    world.cache.on_odometry(state_to_odometry(MSGS, RobotState(Pose2D(1.0, 0.0, 0.0), Twist(0.2, 0.0), 1.0),
-                                              "odom", "base_link"))  # fmt: skip
+    world.cache.on_odometry(
+        state_to_odometry(MSGS, RobotState(Pose2D(1.0, 0.0, 0.0), Twist(0.2, 0.0), 1.0), "odom", "base_link")
+    )
     world.sense(bb)
     assert bbk.get(bb, bbk.ROBOT_STATE).pose == Pose2D(1.0, 0.0, 0.0)
     amcl = MSGS.new(
         "geometry_msgs/msg/PoseWithCovarianceStamped",
-        header=MSGS.new("std_msgs/msg/Header", stamp=MSGS.new("builtin_interfaces/msg/Time", sec=1, nanosec=0),
-                        frame_id="map"),
-        pose=MSGS.new("geometry_msgs/msg/PoseWithCovariance",
-                      pose=MSGS.new("geometry_msgs/msg/Pose",
-                                    position=MSGS.new("geometry_msgs/msg/Point", x=5.0, y=5.0, z=0.0),
-                                    orientation=MSGS.new("geometry_msgs/msg/Quaternion", x=0.0, y=0.0,
-                                                         z=np.sin(np.pi / 4), w=np.cos(np.pi / 4))),
-                      covariance=np.zeros(36)),
-    )  # fmt: skip
+        header=MSGS.new(
+            "std_msgs/msg/Header", stamp=MSGS.new("builtin_interfaces/msg/Time", sec=1, nanosec=0), frame_id="map"
+        ),
+        pose=MSGS.new(
+            "geometry_msgs/msg/PoseWithCovariance",
+            pose=MSGS.new(
+                "geometry_msgs/msg/Pose",
+                position=MSGS.new("geometry_msgs/msg/Point", x=5.0, y=5.0, z=0.0),
+                orientation=MSGS.new(
+                    "geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=np.sin(np.pi / 4), w=np.cos(np.pi / 4)
+                ),
+            ),
+            covariance=np.zeros(36),
+        ),
+    )
     world.cache.on_amcl_pose(amcl)
     # the robot drives 1 m forward in odom; in the map (turned 90°) that is +y
-    world.cache.on_odometry(state_to_odometry(MSGS, RobotState(Pose2D(2.0, 0.0, 0.0), Twist(0.2, 0.0), 2.0),
-                                              "odom", "base_link"))  # fmt: skip
+    world.cache.on_odometry(
+        state_to_odometry(MSGS, RobotState(Pose2D(2.0, 0.0, 0.0), Twist(0.2, 0.0), 2.0), "odom", "base_link")
+    )
     world.sense(bb)
     pose = bbk.get(bb, bbk.ROBOT_STATE).pose
     assert (pose.x, pose.y, pose.yaw) == pytest.approx((5.0, 6.0, np.pi / 2))
@@ -235,8 +243,10 @@ def test_the_debug_observation_has_ids_tvec_and_rvec():
     m = obs["markers"][0]
     assert m["tvec_m"] == [0.0, 0.0, 2.0] and np.allclose(np.abs(m["rvec_rad"]), [np.pi, 0, 0], atol=1e-4)
     assert heartbeat_json("mission_tree", {"frames_dropped": 2}) == {
-        "status": "running", "node": "mission_tree", "frames_dropped": 2,
-    }  # fmt: skip
+        "status": "running",
+        "node": "mission_tree",
+        "frames_dropped": 2,
+    }
 
 
 def test_the_target_pose_is_the_target_tracks_detection_in_this_frame_only():

@@ -72,8 +72,10 @@ CASES = {
         "dock.yaw_deg: 0° turns the tag 90° away from facing into the room (it hangs on the wall at y = 0)",
     ),
     "dock blocked by a shelf": (
-        {"dock": {"x": 0.0, "y": 4.0, "yaw_deg": 0},
-         "obstacles": [{"name": "shelf", "x": 0.3, "y": 4.0, "size": [0.4, 1.2, 1.0]}]},
+        {
+            "dock": {"x": 0.0, "y": 4.0, "yaw_deg": 0},
+            "obstacles": [{"name": "shelf", "x": 0.3, "y": 4.0, "size": [0.4, 1.2, 1.0]}],
+        },
         "dock: no room to dock: the docked robot at (0.47, 4.00), 0.47 m in front of the tag, is inside shelf",
     ),
     "camera far before near": ({"camera": {"near_m": 2.0, "far_m": 1.0}}, "camera.far_m: far_m must be greater"),
@@ -94,7 +96,7 @@ CASES = {
         "target.markers[0].id: id 7 of DICT_APRILTAG_36h11 is also the dock's; expected distinct codes",
     ),
     "NaN robot position": ({"robot": {"x": ".nan"}}, "robot.x: input should be a finite number, got nan"),
-}  # fmt: skip
+}
 
 
 def scenario_file(tmp_path: Path, keys: dict) -> Path:

@@ -41,8 +41,9 @@ def plate(adapter: SimAdapter, centre: np.ndarray, color: tuple[float, float, fl
     world = adapter.world
     assert world is not None
     p = world.p
-    vis = p.createVisualShape(p.GEOM_BOX, halfExtents=[0.0005, 0.02, 0.02], rgbaColor=[*color, 1.0],
-                              physicsClientId=world.cid)  # fmt: skip
+    vis = p.createVisualShape(
+        p.GEOM_BOX, halfExtents=[0.0005, 0.02, 0.02], rgbaColor=[*color, 1.0], physicsClientId=world.cid
+    )
     p.createMultiBody(0, -1, vis, centre.tolist(), [0, 0, 0, 1], physicsClientId=world.cid)
 
 
@@ -55,8 +56,9 @@ def test_a_known_point_lands_on_the_pixel_the_intrinsics_predict(renderer: str) 
         T_map_opt = adapter.T_map_optical()
         # A 4 × 3 grid of plates 2 m ahead, at irregular sub-pixel offsets: each centroid is off by up to
         # half a pixel (hard edges), but a wrong principal point shifts all of them the same way.
-        points = np.array([[CAMERA_X + 2.0, 4.0 + 0.9 - 0.61 * i, 0.35 + 0.4 - 0.29 * j] for i in range(4)
-                           for j in range(3)])  # fmt: skip
+        points = np.array(
+            [[CAMERA_X + 2.0, 4.0 + 0.9 - 0.61 * i, 0.35 + 0.4 - 0.29 * j] for i in range(4) for j in range(3)]
+        )
         for pt in points:
             plate(adapter, pt, (0.0, 1.0, 0.0))
         img = adapter.capture().image
@@ -85,8 +87,9 @@ def test_the_aruco_source_reads_the_target_marker_within_2_percent_of_distance_u
     TinyRenderer does not antialias, so each corner sits up to half a pixel off and a single view at
     2–3 m can be 2–2.5 % off; the median over views is the figure a detector is judged by.
     """
-    source = registry.create(SourceConfig(plugin="aruco", params={"dictionary": "DICT_APRILTAG_36h11",
-                                                                  "marker_size_m": 0.20}))  # fmt: skip
+    source = registry.create(
+        SourceConfig(plugin="aruco", params={"dictionary": "DICT_APRILTAG_36h11", "marker_size_m": 0.20})
+    )
     try:
         for distance in (1.0, 2.0, 3.0):
             errors = []
@@ -161,8 +164,9 @@ def test_pybullet_prints_nothing_from_import_to_disconnect() -> None:
         "a.setup(); bb = bbk.writer('t'); a.sense(bb); a.act(bb); a.advance(0.1); a.ground_truth(); a.close()\n"
     )
     for renderer in ("tiny", "egl"):
-        run = subprocess.run([sys.executable, "-c", code.format(r=renderer)], capture_output=True, text=True,
-                             timeout=120)  # fmt: skip
+        run = subprocess.run(
+            [sys.executable, "-c", code.format(r=renderer)], capture_output=True, text=True, timeout=120
+        )
         assert run.returncode == 0, run.stderr
         assert (run.stdout, run.stderr) == ("", "")
 

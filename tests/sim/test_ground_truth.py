@@ -29,10 +29,17 @@ def scenario(**extra: object) -> Scenario:
 
 def test_line_of_sight_breaks_while_the_target_passes_behind_a_pillar_and_comes_back() -> None:
     pillar = {"name": "pillar", "shape": "cylinder", "x": 3.5, "y": 4.0, "radius": 0.3, "height": 1.5}
-    target = {"x": 6.0, "y": 2.0, "yaw_deg": 90.0, "speed_mps": 0.5, "start_delay_s": 0.0,
-              "waypoints": [{"x": 6.0, "y": 6.0}]}  # fmt: skip
-    adapter = SimAdapter(scenario(obstacles=[pillar], target=target, random={"start_xy_m": 0, "start_yaw_deg": 0,
-                                                                             "timing_frac": 0}))  # fmt: skip
+    target = {
+        "x": 6.0,
+        "y": 2.0,
+        "yaw_deg": 90.0,
+        "speed_mps": 0.5,
+        "start_delay_s": 0.0,
+        "waypoints": [{"x": 6.0, "y": 6.0}],
+    }
+    adapter = SimAdapter(
+        scenario(obstacles=[pillar], target=target, random={"start_xy_m": 0, "start_yaw_deg": 0, "timing_frac": 0})
+    )
     adapter.setup()
     samples = []
     try:
@@ -146,8 +153,13 @@ def test_marker_mounting_jitter_moves_the_marker_in_its_face_plane_only() -> Non
 
 def test_the_target_waits_for_a_robot_standing_in_its_way_instead_of_driving_through_it() -> None:
     target = {"x": 2.0, "y": 4.0, "speed_mps": 0.5, "start_delay_s": 0.0, "waypoints": [{"x": 7.0, "y": 4.0}]}
-    adapter = SimAdapter(scenario(robot={"x": 4.5, "y": 4.0, "yaw_deg": 180.0}, target=target,
-                                  random={"start_xy_m": 0, "start_yaw_deg": 0, "timing_frac": 0}))  # fmt: skip
+    adapter = SimAdapter(
+        scenario(
+            robot={"x": 4.5, "y": 4.0, "yaw_deg": 180.0},
+            target=target,
+            random={"start_xy_m": 0, "start_yaw_deg": 0, "timing_frac": 0},
+        )
+    )
     adapter.setup()
     try:
         while adapter.t < 8.0:

@@ -70,8 +70,11 @@ class Loop:
 def arc_end(x: float, y: float, yaw: float, v: float, w: float, t: float) -> tuple[float, float, float]:
     if abs(w) < 1e-12:
         return x + v * t * math.cos(yaw), y + v * t * math.sin(yaw), yaw
-    return (x + v / w * (math.sin(yaw + w * t) - math.sin(yaw)),
-            y - v / w * (math.cos(yaw + w * t) - math.cos(yaw)), yaw + w * t)  # fmt: skip
+    return (
+        x + v / w * (math.sin(yaw + w * t) - math.sin(yaw)),
+        y - v / w * (math.cos(yaw + w * t) - math.cos(yaw)),
+        yaw + w * t,
+    )
 
 
 @pytest.mark.parametrize(("v", "w"), [(0.3, 0.5), (0.4, -0.3), (0.25, 0.0), (0.0, 0.5)])

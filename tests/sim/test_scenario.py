@@ -85,9 +85,12 @@ def test_a_wrong_value_names_the_key_and_what_was_expected(tmp_path: Path) -> No
 def test_a_robot_starting_inside_an_obstacle_is_rejected(tmp_path: Path) -> None:
     path = write(
         tmp_path,
-        {"name": "x", "robot": {"x": 3.0, "y": 3.0}, "obstacles": [{"name": "pillar", "shape": "cylinder",
-                                                                    "x": 3.1, "y": 3.0, "radius": 0.3}]},
-    )  # fmt: skip
+        {
+            "name": "x",
+            "robot": {"x": 3.0, "y": 3.0},
+            "obstacles": [{"name": "pillar", "shape": "cylinder", "x": 3.1, "y": 3.0, "radius": 0.3}],
+        },
+    )
     with pytest.raises(ConfigError) as err:
         load_scenario(path)
     assert str(err.value).startswith(f"{path}: robot: (3, 3) is inside pillar")

@@ -28,16 +28,18 @@ def test_seeds_are_ranges_and_lists_each_once_in_order():
 
 
 def test_the_matrix_is_every_combination_named_by_what_decides_the_outcome_seed_major():
-    plan = SweepPlan.from_args("follow_open,explore_dock", "0-1",
-                               ["SearchSweep.angular_speed=0.6,1.0", "run.tick_hz=10,15"])  # fmt: skip
+    plan = SweepPlan.from_args(
+        "follow_open,explore_dock", "0-1", ["SearchSweep.angular_speed=0.6,1.0", "run.tick_hz=10,15"]
+    )
     runs = plan.runs()
     assert len(runs) == 2 * 2 * 2 * 2 and len({r.run_id for r in runs}) == len(runs)
     assert [r.seed for r in runs[:8]] == [0] * 8  # every cell's seed 0 before any seed 1
     first = runs[0]
     assert first.run_id == "follow_open__SearchSweep.angular_speed=0.6__run.tick_hz=10/seed-0000"
     assert first.cell == "follow_open SearchSweep.angular_speed=0.6 run.tick_hz=10"
-    assert first.command() == ("mission run --scenario follow_open --seed 0 --set SearchSweep.angular_speed=0.6 "
-                               "--set run.tick_hz=10")  # fmt: skip
+    assert first.command() == (
+        "mission run --scenario follow_open --seed 0 --set SearchSweep.angular_speed=0.6 --set run.tick_hz=10"
+    )
 
 
 def test_a_cell_name_that_is_not_a_safe_folder_name_is_rewritten_and_kept_apart_by_a_hash():
@@ -51,12 +53,25 @@ def _record(store: SweepStore, plan: SweepPlan, failing: set[int]) -> None:
     for spec in plan.runs():
         ok = spec.seed not in failing
         reason = "followed the target to the end" if ok else "2 loss event(s) never recovered"
-        outcome = {"success": ok, "reason": reason,
-                   "sim_time_s": 10.0, "wall_time_s": 4.2, "ticks": 150,
-                   "metrics": {"loss_events": 2, "loss_events_recovered": 2 if ok else 0, "collisions": 0,
-                               "reacquisition_time_s": {"n": 2, "max": 3.5} if ok else None,
-                               "dock": {"lateral_m": 0.01 + 0.001 * spec.seed, "distance_m": 0.02 if ok else 0.04,
-                                        "standoff_m": 0.3, "skew_deg": 2.0}}}  # fmt: skip
+        outcome = {
+            "success": ok,
+            "reason": reason,
+            "sim_time_s": 10.0,
+            "wall_time_s": 4.2,
+            "ticks": 150,
+            "metrics": {
+                "loss_events": 2,
+                "loss_events_recovered": 2 if ok else 0,
+                "collisions": 0,
+                "reacquisition_time_s": {"n": 2, "max": 3.5} if ok else None,
+                "dock": {
+                    "lateral_m": 0.01 + 0.001 * spec.seed,
+                    "distance_m": 0.02 if ok else 0.04,
+                    "standoff_m": 0.3,
+                    "skew_deg": 2.0,
+                },
+            },
+        }
         row = outcome_row(spec, outcome, [1.2, 3.5] if ok else [], pictures=False, worker="here:1")
         store.record(RunResult(spec.run_id, row, {"report.json": b"{}"}))
 
@@ -160,12 +175,19 @@ def test_the_summary_draws_every_figure_it_has_data_for_and_links_every_failing_
     from mission.sweep.summary import write_summary
 
     store = SweepStore(tmp_path)
-    _record(store, SweepPlan.from_args("follow_occlusion,mission_full", "0-9", ["HoldLastGoal.timeout_s=2,3"]),
-            failing={2, 7})  # fmt: skip
+    _record(
+        store,
+        SweepPlan.from_args("follow_occlusion,mission_full", "0-9", ["HoldLastGoal.timeout_s=2,3"]),
+        failing={2, 7},
+    )
     page = write_summary(store).read_text()
     pictures = {p.name for p in (tmp_path / "summary").iterdir()}
-    assert pictures == {"success_by_cell.png", "success_by_HoldLastGoal.timeout_s.png", "reacquisition_cdf.png",
-                        "dock_errors.png"}  # fmt: skip
+    assert pictures == {
+        "success_by_cell.png",
+        "success_by_HoldLastGoal.timeout_s.png",
+        "reacquisition_cdf.png",
+        "dock_errors.png",
+    }
     assert "16/20 = 80 %" not in page and "8/10 = 80 % [49–94 %]" in page  # per cell, with its interval
     failing = [r for r in store.rows.values() if not r["success"]]
     assert len(failing) == 8 and all(r["command"] in page for r in failing)

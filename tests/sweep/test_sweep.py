@@ -27,8 +27,18 @@ from mission.sweep.table import read_jsonl, read_parquet
 
 ROOT = Path(__file__).resolve().parents[2]
 SHORT_S = 2.0  # simulated seconds per run: enough for follow_open to follow and explore_dock not to dock
-DETERMINISTIC = ("success", "reason", "tree_status", "final_state", "sim_time_s", "ticks", "metrics",
-                 "perception_stats", "faults", "interrupted")  # fmt: skip
+DETERMINISTIC = (
+    "success",
+    "reason",
+    "tree_status",
+    "final_state",
+    "sim_time_s",
+    "ticks",
+    "metrics",
+    "perception_stats",
+    "faults",
+    "interrupted",
+)
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +46,14 @@ def cluster() -> Any:
     """An existing Dask cluster, as `--scheduler tcp://…` finds one: two worker processes on 127.0.0.1."""
     from distributed import LocalCluster
 
-    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                     dashboard_address="127.0.0.1:0", silence_logs=40)  # fmt: skip
+    c = LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address="127.0.0.1:0",
+        silence_logs=40,
+    )
     yield c
     c.close()
 
@@ -74,16 +90,31 @@ def test_a_sweeps_runs_equal_mission_run_with_the_same_seeds_and_settings(cluste
         folder = tmp_path / "sweep" / "runs" / run.run_id
         swept = json.loads((folder / "report.json").read_text())
         report = tmp_path / f"run-{run.scenario}-{run.seed}"
-        args = ["run", "--scenario", run.scenario, "--seed", str(run.seed), "--max-duration", str(SHORT_S),
-                "--report", str(report), "--quiet"] + [a for s in sets for a in ("--set", s)]  # fmt: skip
+        args = [
+            "run",
+            "--scenario",
+            run.scenario,
+            "--seed",
+            str(run.seed),
+            "--max-duration",
+            str(SHORT_S),
+            "--report",
+            str(report),
+            "--quiet",
+        ] + [a for s in sets for a in ("--set", s)]
         assert cli.main(args) == (0 if swept["success"] else 1)
         alone = json.loads((report / "report.json").read_text())
         assert {k: swept[k] for k in DETERMINISTIC} == {k: alone[k] for k in DETERMINISTIC}, run.run_id
         assert swept["provenance"]["set"] == {"run.tick_hz": 12, "FollowTarget.offset_m": 0.6}
         assert rows[run.run_id]["success"] == swept["success"]
         # what `mission run --report` writes, the sweep keeps for the run
-        assert {p.name for p in folder.iterdir()} >= {"report.json", "trajectories.png", "timeline.png",
-                                                      "report.html", "trees"}  # fmt: skip
+        assert {p.name for p in folder.iterdir()} >= {
+            "report.json",
+            "trajectories.png",
+            "timeline.png",
+            "report.html",
+            "trees",
+        }
         assert rows[run.run_id]["command"].startswith(f"mission run --scenario {run.scenario} --seed {run.seed}")
     capsys.readouterr()
     summary = (tmp_path / "sweep" / "summary.html").read_text()
@@ -130,14 +161,32 @@ def test_a_worker_killed_mid_run_means_the_run_is_retried_and_counted_once(clust
 
 
 def _sweep_cli(out: Path) -> list[str]:
-    return [sys.executable, "-m", "mission", "sweep", "--scenarios", "follow_open", "--seeds", "0-2",
-            "--max-duration", "1.5", "--workers", "1", "--pictures", "none", "--quiet", "--out", str(out)]  # fmt: skip
+    return [
+        sys.executable,
+        "-m",
+        "mission",
+        "sweep",
+        "--scenarios",
+        "follow_open",
+        "--seeds",
+        "0-2",
+        "--max-duration",
+        "1.5",
+        "--workers",
+        "1",
+        "--pictures",
+        "none",
+        "--quiet",
+        "--out",
+        str(out),
+    ]
 
 
 def test_ctrl_c_leaves_a_complete_table_and_the_same_command_resumes(tmp_path):
     out = tmp_path / "sweep"
-    proc = subprocess.Popen(_sweep_cli(out), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)  # fmt: skip
+    proc = subprocess.Popen(
+        _sweep_cli(out), cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
     deadline = time.monotonic() + 180
     while time.monotonic() < deadline and proc.poll() is None and not read_jsonl(out / "runs.jsonl"):
         time.sleep(0.2)
@@ -184,12 +233,30 @@ def test_a_bad_set_key_is_one_line_naming_it_and_the_nearest_key_before_anything
 
 def test_a_bad_set_value_and_a_port_no_tree_uses_are_errors_before_anything_runs(tmp_path, capsys):
     out = tmp_path / "sweep"
-    assert cli.main(["sweep", "--scenarios", "follow_open", "--seeds", "0-9", "--set", "run.tick_hz=10,500",
-                     "--out", str(out)]) == 2  # fmt: skip
+    assert (
+        cli.main(
+            ["sweep", "--scenarios", "follow_open", "--seeds", "0-9", "--set", "run.tick_hz=10,500", "--out", str(out)]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "run.tick_hz" in err and "500" in err, err
-    assert cli.main(["sweep", "--scenarios", "explore_dock", "--seeds", "0-9", "--set",
-                     "SearchSweep.angular_speed=0.6,1.0", "--out", str(out)]) == 2  # fmt: skip
+    assert (
+        cli.main(
+            [
+                "sweep",
+                "--scenarios",
+                "explore_dock",
+                "--seeds",
+                "0-9",
+                "--set",
+                "SearchSweep.angular_speed=0.6,1.0",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "no SearchSweep node in explore_dock.xml" in err, err
     assert not out.exists()

@@ -123,11 +123,36 @@ def test_the_traces_come_from_a_named_bt_cpp_release_and_cover_the_node_library(
     assert GOLDEN["source"]["version"].startswith("4.") and len(GOLDEN["source"]["commit"]) == 40
     assert len(CASES) >= 25
     used = " ".join(case["xml"] for case in CASES.values())
-    for node in ("Parallel", "ParallelAll", "ReactiveSequence", "ReactiveFallback", "SequenceWithMemory", "IfThenElse",
-                 "WhileDoElse", "TryCatch", "Switch3", "RetryUntilSuccessful", "Repeat", "KeepRunningUntilFailure",
-                 "RunOnce", "Timeout", "Precondition", "Script", "ScriptCondition", "SetBlackboard", "UnsetBlackboard",
-                 "LoopInt", "LoopString", "WasEntryUpdated", "SkipUnlessUpdated", "_skipIf", "_while", "_onHalted",
-                 "_autoremap", "{@"):  # fmt: skip
+    for node in (
+        "Parallel",
+        "ParallelAll",
+        "ReactiveSequence",
+        "ReactiveFallback",
+        "SequenceWithMemory",
+        "IfThenElse",
+        "WhileDoElse",
+        "TryCatch",
+        "Switch3",
+        "RetryUntilSuccessful",
+        "Repeat",
+        "KeepRunningUntilFailure",
+        "RunOnce",
+        "Timeout",
+        "Precondition",
+        "Script",
+        "ScriptCondition",
+        "SetBlackboard",
+        "UnsetBlackboard",
+        "LoopInt",
+        "LoopString",
+        "WasEntryUpdated",
+        "SkipUnlessUpdated",
+        "_skipIf",
+        "_while",
+        "_onHalted",
+        "_autoremap",
+        "{@",
+    ):
         assert node in used, f"no golden trace uses {node}"
 
 

@@ -41,8 +41,22 @@ def test_random_bytes_are_a_tree_error_naming_the_file(tmp_path, data):
     only_tree_errors(tree_file(tmp_path, data))
 
 
-TAGS = ["root", "BehaviorTree", "Sequence", "Fallback", "Inverter", "SubTree", "include", "Explore",
-        "PerceiveTargets", "Parallel", "Timeout", "AlwaysSuccess", "Nope", "TreeNodesModel"]  # fmt: skip
+TAGS = [
+    "root",
+    "BehaviorTree",
+    "Sequence",
+    "Fallback",
+    "Inverter",
+    "SubTree",
+    "include",
+    "Explore",
+    "PerceiveTargets",
+    "Parallel",
+    "Timeout",
+    "AlwaysSuccess",
+    "Nope",
+    "TreeNodesModel",
+]
 ATTRS = ["ID", "BTCPP_format", "main_tree_to_execute", "path", "target", "msec", "name", "timeout_s", "x"]
 VALUES = ["4", "3", "T", "target", "", "-1", "nan", "1e9", "{bb}", "../x.xml", "0", "Sequence"]
 

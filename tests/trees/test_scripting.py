@@ -43,13 +43,29 @@ class Entries:
 @pytest.mark.parametrize(
     ("source", "result"),
     [
-        ("1 + 2 * 3", 7.0), ("(1 + 2) * 3", 9.0), ("7 / 2", 3.5), ("-2 * 3", -6.0), ("0x10 | 1", 17.0),
-        ("6 & 3", 2.0), ("6 ^ 3", 5.0), ("~0", -1.0), ("'ab' + 'cd'", "abcd"), ("'n=' .. 3", "n=3"),
-        ("2 > 1 ? 'yes' : 'no'", "yes"), ("0 ? 1 : 0 ? 2 : 3", 3), ("1 < 2 < 3", True), ("3 > 2 > 2", False),
-        ("true && !false", True), ("false || 1 == 1", True), ("0.1 + 0.2 == 0.3", True),
-        ("'DONE' == DONE", True), ("DOCK == 1", True), ("'2.5' > 2", True), ("1 / 0", float("inf")),
+        ("1 + 2 * 3", 7.0),
+        ("(1 + 2) * 3", 9.0),
+        ("7 / 2", 3.5),
+        ("-2 * 3", -6.0),
+        ("0x10 | 1", 17.0),
+        ("6 & 3", 2.0),
+        ("6 ^ 3", 5.0),
+        ("~0", -1.0),
+        ("'ab' + 'cd'", "abcd"),
+        ("'n=' .. 3", "n=3"),
+        ("2 > 1 ? 'yes' : 'no'", "yes"),
+        ("0 ? 1 : 0 ? 2 : 3", 3),
+        ("1 < 2 < 3", True),
+        ("3 > 2 > 2", False),
+        ("true && !false", True),
+        ("false || 1 == 1", True),
+        ("0.1 + 0.2 == 0.3", True),
+        ("'DONE' == DONE", True),
+        ("DOCK == 1", True),
+        ("'2.5' > 2", True),
+        ("1 / 0", float("inf")),
     ],
-)  # fmt: skip
+)
 def test_an_expression_evaluates_as_in_bt_cpp(source, result):
     assert parse(source).run(Entries()) == result
 
@@ -236,13 +252,21 @@ def test_a_subtree_has_its_own_blackboard_and_sees_the_callers_only_through_its_
     tick(load_tree(path))
     entries = {k: v for k, v in py_trees.blackboard.Blackboard.storage.items() if k.startswith("/tree/")}
     assert entries == {
-        "/tree/x": "caller x", "/tree/v": "caller v", "/tree/mine": "caller only",
+        "/tree/x": "caller x",
+        "/tree/v": "caller v",
+        "/tree/mine": "caller only",
         # the first use: v is the caller's x, k a constant of its own (an int, as BT.CPP stores it)
-        "/tree/Inner::3/k": 7, "/tree/Inner::3/copy": "caller x!", "/tree/Inner::3/seen": "caller only",
-        "/tree/Inner::3/local": 1, "/tree/Inner::3/_private": 2,
+        "/tree/Inner::3/k": 7,
+        "/tree/Inner::3/copy": "caller x!",
+        "/tree/Inner::3/seen": "caller only",
+        "/tree/Inner::3/local": 1,
+        "/tree/Inner::3/_private": 2,
         # the second, autoremapped: every key is the caller's, except _private ones
-        "/tree/copy": "caller v!", "/tree/seen": "caller only", "/tree/local": 1, "/tree/auto/_private": 2,
-    }  # fmt: skip
+        "/tree/copy": "caller v!",
+        "/tree/seen": "caller only",
+        "/tree/local": 1,
+        "/tree/auto/_private": 2,
+    }
 
 
 def test_two_ports_of_different_types_on_one_entry_are_a_load_error_naming_both(tmp_path):

@@ -13,10 +13,25 @@ from mission.viz.tick_log import read_log
 
 def test_run_writes_log_recording_and_report_trees_and_serves_the_page(tmp_path, capsys):
     report, log, gif = tmp_path / "report", tmp_path / "run.jsonl", tmp_path / "run.gif"
-    code = main([
-        "run", "--scenario", "follow_open", "--max-duration", "1.0", "--quiet",
-        "--report", str(report), "--log", str(log), "--record", str(gif), "--serve", "--port", "0",
-    ])  # fmt: skip
+    code = main(
+        [
+            "run",
+            "--scenario",
+            "follow_open",
+            "--max-duration",
+            "1.0",
+            "--quiet",
+            "--report",
+            str(report),
+            "--log",
+            str(log),
+            "--record",
+            str(gif),
+            "--serve",
+            "--port",
+            "0",
+        ]
+    )
     captured = capsys.readouterr()
     assert code == 0, captured.out + captured.err
     assert re.search(r"live view at http://127\.0\.0\.1:\d+/", captured.err)

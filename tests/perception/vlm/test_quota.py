@@ -46,8 +46,13 @@ def test_the_state_file_is_written_atomically_as_small_json(tmp_path):
     store = QuotaStore(path, daily_quota=3, min_interval_s=1.0)
     for k in range(3):
         store.record_call(T0 + k)
-    assert json.loads(path.read_text()) == {"day": "2023-11-14", "calls_today": 3, "last_call": T0 + 2,
-                                            "recent": [T0, T0 + 1, T0 + 2], "not_before": None}  # fmt: skip
+    assert json.loads(path.read_text()) == {
+        "day": "2023-11-14",
+        "calls_today": 3,
+        "last_call": T0 + 2,
+        "recent": [T0, T0 + 1, T0 + 2],
+        "not_before": None,
+    }
     assert sorted(p.name for p in path.parent.iterdir()) == ["q.json"]  # no temp files left behind
 
 

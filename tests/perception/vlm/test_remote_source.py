@@ -53,9 +53,11 @@ def api(request, monkeypatch) -> str:
 @pytest.fixture
 def server(api):
     y, x = true_point()
-    with FakeModelServer(api, api_key=KEY if api == "gemini" else None,
-                         answerer=lambda image, prompt: json.dumps([{"point": [round(y), round(x)],
-                                                                     "label": "red box"}])) as s:  # fmt: skip
+    with FakeModelServer(
+        api,
+        api_key=KEY if api == "gemini" else None,
+        answerer=lambda image, prompt: json.dumps([{"point": [round(y), round(x)], "label": "red box"}]),
+    ) as s:
         yield s
         assert s.problems == []
 
@@ -64,10 +66,22 @@ class World:
     """The source under test, the perception stage the runner would give it, and the clock."""
 
     def __init__(self, server: FakeModelServer, tmp_path, **params) -> None:
-        remote = {"timeout_s": 1.0, "max_retries": 1, "backoff_s": 0.02, "max_backoff_s": 5.0,
-                  **params.pop("remote", {})}  # fmt: skip
-        raw = {"client": server.api, "state_file": str(tmp_path / "quota.json"), "publish_rate_limit_hz": 1.0,
-               "requests_per_minute": 60, "daily_quota": 100, "remote": remote, **params}  # fmt: skip
+        remote = {
+            "timeout_s": 1.0,
+            "max_retries": 1,
+            "backoff_s": 0.02,
+            "max_backoff_s": 5.0,
+            **params.pop("remote", {}),
+        }
+        raw = {
+            "client": server.api,
+            "state_file": str(tmp_path / "quota.json"),
+            "publish_rate_limit_hz": 1.0,
+            "requests_per_minute": 60,
+            "daily_quota": 100,
+            "remote": remote,
+            **params,
+        }
         if server.api == "gemini":
             raw["gemini"] = {"endpoint": server.url}
         else:

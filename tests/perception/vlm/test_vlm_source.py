@@ -256,8 +256,17 @@ def test_a_restarted_source_keeps_the_quota_and_rate_limit(tmp_path, clock):
 
 
 def test_with_the_frame_clock_budget_and_latency_run_on_frame_stamps_and_nothing_is_persisted(tmp_path):
-    src = VlmSource({"state_file": str(tmp_path / "q.json"), "clock": "frame", "latency_s": 0.5,
-                         "publish_rate_limit_hz": 1.0, "miss_rate": 0.0, "pixel_noise": 0.0}, name="vlm")  # fmt: skip
+    src = VlmSource(
+        {
+            "state_file": str(tmp_path / "q.json"),
+            "clock": "frame",
+            "latency_s": 0.5,
+            "publish_rate_limit_hz": 1.0,
+            "miss_rate": 0.0,
+            "pixel_noise": 0.0,
+        },
+        name="vlm",
+    )
     frame = view(0.0)[0]
     calls, answers = [], []
     for i in range(31):  # 3 s of 10 Hz frames

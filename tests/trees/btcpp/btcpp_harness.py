@@ -281,8 +281,9 @@ class Harness:
 
     def register_test_nodes(self, tag: str = "TestNode", *, condition: bool = False, time_s: float = 0.0) -> None:
         """Every ``<tag name="X">`` is a :class:`TestNode` found as ``self.test_nodes["X"]`` once built."""
-        self.factory.register(ConditionTestNode if condition else TestNode, tag, registry=self.test_nodes,
-                              time_s=time_s)  # fmt: skip
+        self.factory.register(
+            ConditionTestNode if condition else TestNode, tag, registry=self.test_nodes, time_s=time_s
+        )
 
     def register_tree_text(self, xml: str) -> None:
         """``registerBehaviorTreeFromText(xml)``: its trees can be created by ID, or used as SubTrees."""
@@ -319,6 +320,16 @@ class Harness:
 
 
 __all__ = [
-    "SCRIPT", "SKIPPED", "STATUS", "TEST", "ConditionTestNode", "Counters", "Harness", "SimpleAction", "TestNode",
-    "Tree", "TreeObserver", "port",
-]  # fmt: skip
+    "SCRIPT",
+    "SKIPPED",
+    "STATUS",
+    "TEST",
+    "ConditionTestNode",
+    "Counters",
+    "Harness",
+    "SimpleAction",
+    "TestNode",
+    "Tree",
+    "TreeObserver",
+    "port",
+]
