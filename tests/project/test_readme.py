@@ -46,3 +46,25 @@ def test_every_cli_verb_and_every_published_topic_is_documented():
     ):
         assert f'"{topic}"' in node_source, f"{topic} is no longer in the node"
         assert f"`{topic}`" in text, f"{topic} is not in the README's topic table"
+
+
+def test_the_layout_table_names_every_package_folder_and_no_other():
+    """The README's floor table matches the folders: each installed package's top folder, under its installed
+    name, and the development folders; a folder added, moved or renamed fails here until the table says so."""
+    import re
+
+    from tools.import_contracts import mapped_roots, package_folders
+
+    text = README.read_text(encoding="utf-8")
+    table = text[text.index("| floor | folder | installed as |") :].split("\n\n", 1)[0]
+    cited = set(re.findall(r"`((?:[a-z_]+/)+)`", table))
+    top = {name for name in package_folders() if name.count(".") == 1}  # mission.core, mission.viz, …
+    root = Path(README).parent
+    expected = {
+        str(folder.relative_to(root)) + "/"
+        for name in top
+        for folder in [mapped_roots().get(name) or root / "mission" / name.split(".")[1]]
+        if (folder / "__init__.py").is_file()
+    }
+    expected |= {"bench/", "tools/", "tests/"}
+    assert cited == expected
