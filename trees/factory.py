@@ -30,6 +30,7 @@ from py_trees.behaviour import Behaviour
 from mission.behaviours.dock import VisualServoDock
 from mission.behaviours.explore import Explore
 from mission.behaviours.follow import FollowTarget
+from mission.behaviours.go_to_pose import GoToPose
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.lost import HoldLastGoal
 from mission.behaviours.mission_state import STATES, SetMissionState
@@ -42,6 +43,7 @@ from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import CoverUnseen, SearchBelief
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
+from mission.behaviours.wait_for_target import WaitForTarget
 from mission.trees.builtins import BUILTINS, RESERVED_TAGS
 from mission.trees.execution import POSTCONDITIONS, PRECONDITIONS
 from mission.trees.manifest import BuildContext, Builder, Check, NodeKind, NodeManifest
@@ -184,6 +186,8 @@ def shipped_factory() -> BehaviourFactory:
         RotateSearch,
         Explore,
         GoToStaging,
+        GoToPose,
+        WaitForTarget,
         VisualServoDock,
         SetMissionState,
     ):

@@ -98,6 +98,8 @@ CATALOGUE = {
         {"target": (str, "dock"), "waypoints": (str, ""), "angular_speed": (float, 0.5), "timeout_s": (float, 120.0)},
     ),
     "GoToStaging": ("Action", {"target": (str, "dock"), "offset_m": (float, 0.7), "timeout_s": (float, 40.0)}),
+    "GoToPose": ("Action", {"pose": (Pose2D, REQUIRED), "timeout_s": (float, 0.0), "what": (str, "the goal")}),
+    "WaitForTarget": ("Action", {"target": (str, "dock"), "timeout_s": (float, 5.0)}),
     "VisualServoDock": (
         "Action",
         {
@@ -137,7 +139,8 @@ def test_the_shipped_factory_registers_exactly_the_catalogue_with_its_ports_and_
 
 def test_constructing_every_leaf_is_light_and_touches_no_blackboard_value():
     for node in shipped_factory().behaviours():
-        required = {n: "DONE" for n, p in node.ports.items() if p.required}
+        value = {Pose2D: Pose2D(0.0, 0.0, 0.0), str: "DONE"}
+        required = {n: value[p.type] for n, p in node.ports.items() if p.required}
         built = node.build(f"my {node.tag}", [], required, BuildContext())
         assert isinstance(built, py_trees.behaviour.Behaviour) and built.name == f"my {node.tag}"
     assert py_trees.blackboard.Blackboard.storage == {}
