@@ -3,6 +3,8 @@
 One protocol for every world. The runner (mission/app/runner.py) calls, in order of attachment:
 
 * ``on_start(run)`` once, after set-up and before the first step;
+* ``on_tree(run)`` when the run's tree is replaced or stopped (an action server's goal starts or ends;
+  ``run.tree`` is then the new tree, or None);
 * ``on_perception(run, perceived)`` after the perception stage processed (or dropped) a frame — inside a
   step, or when the ROS node perceives an image as it arrives;
 * ``on_tick(run, tick)`` after every step (sense → perceive → tick → act);
@@ -66,6 +68,9 @@ class RunObserver:
 
     def on_start(self, run: Run) -> None:
         """The run is set up; the first step follows."""
+
+    def on_tree(self, run: Run) -> None:
+        """The run's tree was replaced (``run.tree``, ``run.tree_path``) or stopped (``run.tree`` is None)."""
 
     def on_perception(self, run: Run, perceived: Perceived) -> None:
         """The perception stage has finished with a frame."""

@@ -28,7 +28,7 @@ import logging
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -42,7 +42,7 @@ from mission.core.movers import MoverTracker
 from mission.core.observers import RunObserver, Tick
 from mission.core.perception import Perceived, PerceptionSource
 from mission.core.snapshot import active_branch, snapshot
-from mission.core.types import LaserScan, NavStatus, RobotState
+from mission.core.types import LaserScan, NavStatus, RobotState, Twist
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import PerceptionStage
@@ -160,17 +160,57 @@ class TreeRunner:
         self.perception = PerceptionStage(self.sources, dict(perception.targets), perception.policy)
         self._seed_blackboard()
         if self.tree_path is not None:
-            root = load_tree(self.tree_path, self.factory)
-            self.tree = py_trees.trees.BehaviourTree(root)
-            # py_trees arms its set-up timeout with a signal, which only the main thread may do; in another
-            # thread (a Dask worker runs each sweep run in one) the tree is set up without it: the shipped
-            # behaviours' setup() is light wiring that never waits.
-            in_main = threading.current_thread() is threading.main_thread()
-            self.tree.setup(timeout=SETUP_TIMEOUT_S if in_main else py_trees.common.Duration.INFINITE)
+            self.tree = self._built(self.tree_path, None)
         self.world.setup()
         self._started = True
         for o in self.observers:
             o.on_start(self)
+
+    @staticmethod
+    def _setup_timeout() -> float | py_trees.common.Duration:
+        """py_trees arms its set-up timeout with a signal, which only the main thread may do; in another thread
+        (a Dask worker runs each sweep run in one, rclpy an action server's callbacks) the tree is set up
+        without it: the shipped behaviours' setup() is light wiring that never waits."""
+        in_main = threading.current_thread() is threading.main_thread()
+        return SETUP_TIMEOUT_S if in_main else py_trees.common.Duration.INFINITE
+
+    def _built(self, path: Path, inputs: Mapping[str, Any] | None) -> py_trees.trees.BehaviourTree:
+        tree = py_trees.trees.BehaviourTree(load_tree(path, self.factory, blackboard=inputs))
+        tree.setup(timeout=self._setup_timeout())
+        return tree
+
+    # -- trees that come and go: an action server's goals ---------------------------------------------
+    def start_tree(self, tree: str | Path, inputs: Mapping[str, Any] | None = None) -> Path:
+        """Tick `tree` from the next step on, its root blackboard holding `inputs` (by their tree-file names):
+        one goal of an action server. A tree already running is halted first and its commands withdrawn.
+        The file is checked completely before anything stops; its path is returned. Observers hear of the
+        new tree (``on_tree``)."""
+        path = checked_tree(self.config, str(tree), self.factory, self.config_file)
+        self._halt_tree()
+        self.tree = self._built(path, inputs)
+        self.tree_path = path
+        self.status = py_trees.common.Status.INVALID
+        for o in self.observers:
+            o.on_tree(self)
+        return path
+
+    def stop_tree(self) -> None:
+        """Halt the running tree (every running node's terminate), stop the robot and tick nothing until the
+        next :meth:`start_tree`; perception goes on. Nothing happens when no tree runs."""
+        if self.tree is None:
+            return
+        self._halt_tree()
+        for o in self.observers:
+            o.on_tree(self)
+
+    def _halt_tree(self) -> None:
+        if self.tree is None:
+            return
+        self.tree.interrupt()
+        self.tree.shutdown()
+        self.tree = None
+        bbk.set_(self.bb, bbk.NAV_GOAL, None)
+        bbk.set_(self.bb, bbk.TWIST, Twist(0.0, 0.0))
 
     def _seed_blackboard(self) -> None:
         assert self.perception is not None
