@@ -119,6 +119,8 @@ def _add_sim_robot(p: argparse.ArgumentParser) -> None:
     p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR at the end")
     p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds before stopping")
     p.add_argument("--rate", type=rate, default=1.0, help="sim time per wall second (1.0 = real time; 0 = flat out)")
+    p.add_argument("--serve", action="store_true",
+                   help="the node serves Nav2's actions (tree:=none): its trees ending do not end the run")
     p.add_argument("--fault", action="append", default=[], metavar="NAME[=VALUE]",
                    help="abort_goals, no_nav_server, no_tf, tf_loop, tf_stale_at=S, clock_back_at=S, "
                         "image_delay_s=D (repeatable)")

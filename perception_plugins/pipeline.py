@@ -111,6 +111,12 @@ class PerceptionStage:
             if not callable(getattr(src, "process", None)):
                 raise TypeError(f"perception source {src!r} has no process(frame) method")
 
+    def retarget(self, name: str, spec: TargetSpec) -> None:
+        """Look for `name` as `spec` from the next frame on, with a fresh track: an action server's goal names
+        the dock to dock at (its tag id), so what was seen of another dock must not count for this one."""
+        self.targets[name] = spec
+        self.tracks[name] = TargetTrack(name=name)  # in place: the blackboard's TRACKS is this dict
+
     def reset_time(self) -> None:
         """Forget the newest processed stamp: the clock jumped back (a simulation restarted, a bag looped), so
         frames stamped before it are new again, not stale."""

@@ -33,7 +33,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed,
         max_duration=args.max_duration,
         pacer=pacer,
-        robot=lambda sim: SimRobot(sim, faults),
+        robot=lambda sim: SimRobot(sim, faults, serve=args.serve),
     )
     if args.report:
         write_report(args.report, outcome, recorder, adapter)

@@ -144,9 +144,10 @@ def _wrap(angle: float) -> float:
 # --- the params file ------------------------------------------------------------------------------------
 
 
-def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
-    """The parameters a node named `node_name` gets from a ROS 2 params file, flattened as rcl does
-    (``home_dock: {pose: […]}`` → ``home_dock.pose``): the ``/**`` section, then the node's own, which wins."""
+def read_params_file(path: str | Path, *node_names: str) -> dict[str, Any]:
+    """The parameters a node gets from a ROS 2 params file, flattened as rcl does (``home_dock: {pose: […]}``
+    → ``home_dock.pose``): the ``/**`` section, then each of `node_names` in order, a later one winning.
+    Several names: our node serves what Nav2 splits between ``docking_server`` and ``following_server``."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text(encoding="utf-8"))
@@ -159,10 +160,12 @@ def read_params_file(path: str | Path, node_name: str) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ConfigError("expected node names mapping to {ros__parameters: …}", file=str(path))
     out: dict[str, Any] = {}
-    sections = [k for k in ("/**", node_name, f"/{node_name}") if k in data]
+    wanted = ["/**"] + [k for name in node_names for k in (name, f"/{name}")]
+    sections = [k for k in wanted if k in data]
     if not sections:
+        expected = " or ".join(repr(k) for k in ["/**", *node_names])
         raise ConfigError(
-            f"no section for this node: expected '/**' or {node_name!r}, found "
+            f"no section for this node: expected {expected}, found "
             f"{', '.join(repr(k) for k in data) or 'nothing'}",
             file=str(path),
         )

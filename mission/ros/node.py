@@ -18,13 +18,18 @@ and a watchdog that notices ``/clock`` or the camera going silent and then ticks
 sees the fault. ``serve_port`` adds the live web view, ``groot_port`` Groot2's live monitor
 (mission.groot.publisher).
 
-``tree:=none`` runs perception only, with no tree: the design notes' aruco_pose_streamer.
+``tree:=none`` runs no mission: perception only (the design notes' aruco_pose_streamer), and the node serves
+Nav2's docking actions, ``dock_robot`` and ``undock_robot``, each goal running its tree (``dock_tree``,
+``undock_tree``) on the same loop (mission/ros/task_servers.py). ``--params-file FILE`` reads Nav2's
+docking_server parameters — the dock database, dock types, timeouts and retries by Nav2's names
+(mission/ros/nav2_params.py) — from the ``/**``, ``docking_server`` or ``mission_tree`` section.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import difflib
 import json
 import math
@@ -75,6 +80,8 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "tf_tolerance_s": (0.1, "an image this much newer than the newest transform still gets it (held)"),
     "image_late_s": (0.5, "images older than this on arrival are reported late in /robot/fault"),
     "input_timeout_s": (2.0, "no /clock (use_sim_time) or no image for this long (wall) is a fault the tree sees"),
+    "dock_tree": ("dock_robot.xml", "tree:=none: the tree a dock_robot goal runs (file or shipped name)"),
+    "undock_tree": ("undock_robot.xml", "tree:=none: the tree an undock_robot goal runs (file or shipped name)"),
     "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
     "groot_port": (0, "serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (Groot2's default 1667); 0 = off"),
 }
@@ -114,6 +121,20 @@ def given_params(argv: Sequence[str]) -> list[str]:
             rule = next(it, "")
             names.append(rule.split(":=", 1)[0].rsplit(":", 1)[-1])
     return names
+
+
+def ros_params_files(argv: Sequence[str]) -> list[str]:
+    """Files given with ``--params-file FILE`` after ``--ros-args``: rcl applies what matches our own parameters,
+    and the node reads Nav2's docking_server keys from them too."""
+    files, in_ros, it = [], False, iter(argv)
+    for token in it:
+        if token == "--ros-args":
+            in_ros = True
+        elif token == "--":
+            in_ros = False
+        elif in_ros and token == "--params-file":
+            files.append(next(it, ""))
+    return [f for f in files if f]
 
 
 def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
@@ -173,7 +194,13 @@ def build_config(params: dict[str, Any]) -> tuple[MissionConfig, str | None]:
 class MissionNode:
     """Owns the rclpy node, the runner and the output publishers."""
 
-    def __init__(self, argv: Sequence[str], cli_config: str | None = None, cli_tree: str | None = None) -> None:
+    def __init__(
+        self,
+        argv: Sequence[str],
+        cli_config: str | None = None,
+        cli_tree: str | None = None,
+        params_files: Sequence[str] = (),
+    ) -> None:
         import rclpy
         from rcl_interfaces.msg import ParameterDescriptor
         from rclpy.node import Node
@@ -185,6 +212,7 @@ class MissionNode:
             self.node.declare_parameter(name, default, ParameterDescriptor(description=doc, dynamic_typing=True))
         self.params = {name: self.node.get_parameter(name).value for name in PARAMETERS}
         self.given = given_params(argv)
+        self.params_files = [*params_files, *ros_params_files(argv)]
         if cli_config:
             self.params["config"] = cli_config
         if cli_tree:
@@ -196,6 +224,7 @@ class MissionNode:
         self._tick_errors: set[str] = set()
         self.live_view: Any = None
         self.groot: Any = None
+        self.tasks: Any = None
 
     # -- set-up ------------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -214,6 +243,7 @@ class MissionNode:
         config, config_file = build_config(p)
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
+        docking = self._docking_params() if self.perception_only else None
         topics = RosTopics(
             image_topic=p["image_topic"],
             camera_info_topic=p["camera_info_topic"],
@@ -241,7 +271,8 @@ class MissionNode:
             self.log.info(f"/tf: reading the robot's frames, publishing marker frames ({tf.detail})")
         self.nav2 = load_nav2()
         navigation = None
-        if p["navigator"] == "action" and not self.perception_only:
+        # server mode without nav2_msgs (a bare pip install) still streams what perception sees
+        if p["navigator"] == "action" and (self.nav2.ok or not self.perception_only):
             if not self.nav2.ok:
                 raise ConfigError(
                     f"navigator:=action needs nav2_msgs: {self.nav2.detail}; or -p navigator:=topic", key="-p navigator"
@@ -266,31 +297,24 @@ class MissionNode:
             emit_dock=self.adapter.emit if self.perception_only else None,
             tf_message=tf_message,
         )
-        observers: list[Any] = [self.outputs]
-        if not self.perception_only:
-            observers += [TreePublisher(n, self.msgs), StatusPublisher(n, self.msgs)]
-            if self.nav2.ok:
-                observers.append(BehaviorTreeLogPublisher(n, self.msgs, self.nav2, self.adapter.now))
-            else:
-                self.log.warning(f"/behavior_tree_log disabled: {self.nav2.detail}")
+        # in server mode the trees come with goals: the same outputs show each goal's tree
+        observers: list[Any] = [self.outputs, TreePublisher(n, self.msgs), StatusPublisher(n, self.msgs)]
+        if self.nav2.ok:
+            observers.append(BehaviorTreeLogPublisher(n, self.msgs, self.nav2, self.adapter.now))
+        else:
+            self.log.warning(f"/behavior_tree_log disabled: {self.nav2.detail}")
         if int(p["serve_port"]) > 0:
-            if self.perception_only:
-                self.log.warning("serve_port: the live view shows a tree, and tree:=none runs none; not serving")
-            else:
-                from mission.viz.web import LiveView
+            from mission.viz.web import LiveView
 
-                self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
-                observers.append(self.live_view)
-                self.log.info(f"live view at {self.live_view.url}")
+            self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
+            observers.append(self.live_view)
+            self.log.info(f"live view at {self.live_view.url}")
         if int(p["groot_port"]) > 0:
-            if self.perception_only:
-                self.log.warning("groot_port: Groot2 monitors a tree, and tree:=none runs none; not serving")
-            else:
-                from mission.groot.publisher import Groot2Publisher
+            from mission.groot.publisher import Groot2Publisher
 
-                self.groot = Groot2Publisher(int(p["groot_port"]), option="-p groot_port", quiet=True)
-                observers.append(self.groot)
-                self.log.info(f"Groot2 monitor on {self.groot.host}:{self.groot.port}")
+            self.groot = Groot2Publisher(int(p["groot_port"]), option="-p groot_port", quiet=True)
+            observers.append(self.groot)
+            self.log.info(f"Groot2 monitor on {self.groot.host}:{self.groot.port}")
         # a bad param is an error naming the config file and key; an unknown dictionary only warns
         self.runner = TreeRunner(
             config,
@@ -302,6 +326,8 @@ class MissionNode:
         )
         self.runner.setup()
         self.sources = self.runner.sources
+        if docking is not None:
+            self._serve_tasks(docking)
         self.config = config
         self.adapter.on_image = self._on_image
         self.adapter.on_time_jump = self._on_time_jump
@@ -323,11 +349,46 @@ class MissionNode:
             )
         self.watchdog_timer = n.create_timer(min(0.5, self.input_timeout_s / 2), self._on_watchdog, clock=steady)
         names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
-        what = "perception only" if self.perception_only else f"tree {self.runner.tree_path}"
+        what = f"tree {self.runner.tree_path}"
+        if self.perception_only:
+            what = "perception only" + ("; serving dock_robot, undock_robot" if self.tasks is not None else "")
         self.log.info(
             f"{NODE_NAME}: {what} at {tick_hz:g} Hz; sources: {names}; "
             f"image {topics.image_topic}, camera info {topics.camera_info_topic}, camera frame {topics.camera_frame}"
         )
+
+    def _docking_params(self) -> Any:
+        """Nav2's docking_server parameters from the params files (defaults without one)."""
+        from mission.ros.nav2_params import DockType, docking_params, read_params_file
+
+        flat: dict[str, Any] = {}
+        for path in self.params_files:
+            flat.update(read_params_file(path, "docking_server", NODE_NAME))
+        file = self.params_files[-1] if self.params_files else None
+        docking = docking_params(flat, file=file, warn=self.log.warning)
+        if not docking.dock_types:  # Nav2 insists on dock_plugins; one default type keeps dock-by-pose simple
+            docking = dataclasses.replace(docking, dock_types={"dock": DockType("dock")})
+        return docking
+
+    def _serve_tasks(self, docking: Any) -> None:
+        from mission.ros.task_servers import TaskServers
+
+        if not self.nav2.ok:
+            self.log.warning(f"dock_robot / undock_robot not served: {self.nav2.detail}")
+            return
+        self.tasks = TaskServers(
+            self.node,
+            self.nav2,
+            self.runner,
+            docking,
+            trees={"dock": str(self.params["dock_tree"]), "undock": str(self.params["undock_tree"])},
+            map_frame=str(self.params["map_frame"]),
+            now=self.adapter.now,
+            log=self.log,
+        )
+        self.runner.attach(self.tasks)
+        docks = ", ".join(docking.docks) or "none (dock by pose)"
+        self.log.info(f"serving dock_robot, undock_robot; docks: {docks}; dock types: {', '.join(docking.dock_types)}")
 
     # -- callbacks ---------------------------------------------------------------------------------
     def _failed(self, what: str, err: Exception) -> None:
@@ -379,7 +440,7 @@ class MissionNode:
         if fault and fault.split(" for ")[0] != self.adapter.extra_fault.split(" for ")[0]:
             self.log.warning(fault)
         self.adapter.extra_fault = fault
-        if fault and now - self._last_step > limit and not self.perception_only:
+        if fault and now - self._last_step > limit and self.runner.tree is not None:
             self._on_tick()  # ROS time stands still: the tree still sees what is wrong
     def counters(self) -> dict[str, Any]:
         stats = dict(self.runner.get(bbk.PERCEPTION_STATS, {}) or {}) if self.runner else {}
@@ -428,6 +489,8 @@ class MissionNode:
             self.rclpy.spin(self.node)
 
     def close(self) -> None:
+        if self.tasks is not None:
+            self.tasks.destroy()
         if self.runner is not None:
             try:
                 self.runner.close()  # observers end, sources close, the world lets go of its topics
@@ -444,6 +507,8 @@ def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="tree", description="the mission tree as a ROS 2 node")
     parser.add_argument("--config", default=None, help="mission config YAML (same as -p config:=FILE)")
     parser.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
+    parser.add_argument("--params-file", action="append", default=[], metavar="FILE",
+                        help="Nav2 params file (docking_server's keys); with --tree none")
     return parser.parse_args(list(argv))
 
 
@@ -464,7 +529,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     node: MissionNode | None = None
     try:
-        node = MissionNode(argv, cli_config=cli.config, cli_tree=cli.tree)
+        node = MissionNode(argv, cli_config=cli.config, cli_tree=cli.tree, params_files=cli.params_file)
         try:
             node.setup()
         except MissionError as err:

@@ -11,7 +11,14 @@
   navigator's reason, canceled; a new goal preempts the running one, which ends aborted as in
   bt_navigator), and ``/goal_pose``;
 * back from the node: ``/mission/status`` (state, reason, root status), so the run is scored here against
-  ground truth by the same code and criteria as ``mission run`` (mission/app/sim_run.py).
+  ground truth by the same code and criteria as ``mission run`` (mission/app/sim_run.py);
+* ``/sim/ground_truth`` (std_msgs/String, JSON, every step): what only a simulator knows — the robot's true
+  pose in the map, and how the camera stands to the dock tag (lateral, distance from the scenario's standoff,
+  skew), as the runs are scored. For tests and benches of a node in server mode, whose goals this process
+  does not see.
+
+With ``serve`` (``mission sim-robot --serve``) the node runs no mission but serves Nav2's actions: its tree
+finishing ends a goal, not the run, which lasts the scenario's duration (or ``--max-duration``).
 
 Faults (``--fault``, for tests and demonstrations): ``abort_goals`` (every goal aborted), ``no_nav_server``
 (no navigate_to_pose action server: a robot whose Nav2 is not up), ``no_tf`` (no /tf
@@ -93,9 +100,10 @@ class _Goal:
 class SimRobot:
     """A WorldAdapter: the SimAdapter's world, with sensors out and commands in over ROS (module doc)."""
 
-    def __init__(self, sim: SimAdapter, faults: Faults | None = None) -> None:
+    def __init__(self, sim: SimAdapter, faults: Faults | None = None, serve: bool = False) -> None:
         self.sim = sim
         self.faults = faults or Faults()
+        self.serve = serve
         self.msgs = RclpyMessages()
         self.node: Any = None
         self.finished = False  # the node's tree reported SUCCESS or FAILURE
@@ -145,6 +153,7 @@ class SimRobot:
             "map": n.create_publisher(m.cls("nav_msgs/msg/OccupancyGrid"), "/map", LATCHED),
             "tf": n.create_publisher(self.tf_message, "/tf", TF_QOS),
             "tf_static": n.create_publisher(self.tf_message, "/tf_static", TF_STATIC_QOS),
+            "truth": n.create_publisher(m.cls("std_msgs/msg/String"), "/sim/ground_truth", RELIABLE),
         }
         pose, string = m.cls("geometry_msgs/msg/PoseStamped"), m.cls("std_msgs/msg/String")
         self.subs = [
@@ -208,7 +217,7 @@ class SimRobot:
         self._state, self._reason = str(d.get("state", "")), str(d.get("reason", ""))
         status = py_trees.common.Status.__members__.get(str(d.get("status", "RUNNING")), py_trees.common.Status.RUNNING)
         self._status = status
-        self.finished = status in (py_trees.common.Status.SUCCESS, py_trees.common.Status.FAILURE)
+        self.finished = not self.serve and status in (py_trees.common.Status.SUCCESS, py_trees.common.Status.FAILURE)
 
     async def _execute(self, handle: Any) -> Any:
         from rclpy.task import Future
@@ -268,6 +277,7 @@ class SimRobot:
             self._scan_stamp = scan.stamp
             self.pub["scan"].publish(scan_to_msg(self.msgs, _restamp(scan, scan.stamp - self._clock_offset)))
         self._report_goal(state)
+        self._publish_truth(stamp)
         # what the remote tree says, for the metrics (this process runs no tree)
         bbk.set_(bb, bbk.STATE, self._state)
         bbk.set_(bb, bbk.REASON, self._reason)
@@ -292,6 +302,18 @@ class SimRobot:
         if self.faults.tf_loop:
             transforms.append(transform_stamped(m, se3.invert(se3.planar(p.x, p.y, p.yaw)), stamp, "base_link", "odom"))
         self.pub["tf"].publish(self.tf_message(transforms=transforms))
+
+    def _publish_truth(self, stamp: float) -> None:
+        from mission.app.metrics import dock_errors
+
+        gt = self.sim.ground_truth()
+        p = gt.robot
+        body: dict[str, Any] = {"t": round(stamp, 4), "robot": [p.x, p.y, p.yaw], "collisions": gt.collisions}
+        if gt.T_map_dock is not None:
+            standoff = float(getattr(getattr(self.sim.scenario, "success", None), "standoff_m", 0.30) or 0.30)
+            err = dock_errors(gt.T_map_optical, gt.T_map_dock, p.yaw, standoff)
+            body["dock"] = {k: round(float(v), 5) for k, v in vars(err).items()}
+        self.pub["truth"].publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(body)))
 
     def _publish_frame(self, frame: Frame) -> None:
         m, stamp = self.msgs, float(frame.stamp) - self._clock_offset

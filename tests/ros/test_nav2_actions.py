@@ -1,0 +1,160 @@
+"""Nav2's docking actions served by our trees, closed loop over real DDS between processes.
+
+Three processes, as on a robot whose team already runs Nav2: ``mission sim-robot --serve`` (the pybullet world
+behind ROS topics, scoring against ground truth on ``/sim/ground_truth``), the colcon-installed node in server
+mode exactly as ``ros2 run mission tree --tree none --params-file FILE`` starts it, and a client written only
+from nav2_msgs' .action definitions (tests/helpers/nav2_task_client.py: rclpy and nav2_msgs, nothing of ours).
+The params file is a Nav2 user's docking_server section (mission/ros/params/explore_dock.yaml): one dock type,
+one dock whose pose is the robot's base when docked.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from tests.helpers.ros_env import ROOT, ROS_ENV, TREE_EXE, NodeProcess, build_ros, clean_shm, installed_env
+
+pytestmark = pytest.mark.ros
+
+MISSION = str(ROOT / ".venv" / "bin" / "mission")
+CONFIG = str(ROOT / "mission" / "configs" / "sim_aruco.yaml")
+PARAMS = ROOT / "mission" / "ros" / "params" / "explore_dock.yaml"
+CLIENT = ROOT / "tests" / "helpers" / "nav2_task_client.py"
+DOCK_POSE = [0.47, 4.0, math.pi]  # home_dock's pose in PARAMS: the base when docked
+# DockRobot's constants (nav2_msgs/action/DockRobot.action)
+DOCK_NOT_IN_DB, FAILED_TO_DETECT_DOCK = 901, 904
+NAV_TO_STAGING_POSE, INITIAL_PERCEPTION, CONTROLLING, RETRY = 1, 2, 3, 5
+
+
+@contextmanager
+def served(tmp: Path, params: Path = PARAMS, duration: float = 200.0) -> Iterator[dict[str, str]]:
+    """sim-robot (explore_dock, serving) and the node in server mode; yields the client's environment."""
+    build_ros()
+    env = installed_env()
+    node = NodeProcess(
+        [
+            str(TREE_EXE),
+            "--config",
+            CONFIG,
+            "--tree",
+            "none",
+            "--params-file",
+            str(params),
+            "--ros-args",
+            "-p",
+            "use_sim_time:=true",
+        ],
+        env,
+        tmp / "node.log",
+    )
+    robot = NodeProcess(
+        [
+            MISSION,
+            "sim-robot",
+            "--scenario",
+            "explore_dock",
+            "--serve",
+            "--config",
+            CONFIG,
+            "--max-duration",
+            str(duration),
+        ],
+        {**os.environ, **ROS_ENV},
+        tmp / "robot.log",
+    )
+    try:
+        yield env
+    except BaseException:
+        print("--- node log\n" + node.log()[-4000:] + "\n--- sim-robot log\n" + robot.log()[-3000:])
+        raise
+    finally:
+        robot.stop()
+        node.stop()
+        clean_shm()
+
+
+def run_client(env: dict[str, str], plan: list[dict], timeout: float = 150.0) -> list[dict]:
+    """Run the plan with the Nav2 user's client; its events."""
+    proc = subprocess.run(
+        [sys.executable, str(CLIENT), json.dumps(plan), str(timeout)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout * len(plan) + 60,
+        check=False,
+    )
+    events = [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+    assert proc.returncode == 0, f"client exited {proc.returncode}: {proc.stderr[-2000:]}\n{proc.stdout}"
+    return events
+
+
+def results(events: list[dict]) -> list[dict]:
+    return [e for e in events if e["event"] == "result"]
+
+
+def states(events: list[dict]) -> list[int]:
+    return [e["state"] for e in events if e["event"] == "feedback"]
+
+
+def docked_within_tolerance(result: dict) -> bool:
+    dock = result["truth"]["dock"]  # ground truth: the camera against the tag, as `mission run` scores docking
+    return dock["lateral_m"] <= 0.03 and dock["distance_m"] <= 0.025 and dock["skew_deg"] <= 10.0
+
+
+def test_an_unknown_dock_a_cancel_and_a_preemption_as_a_nav2_client_sees_them(tmp_path):
+    """Not in the database: DOCK_NOT_IN_DB at once, the robot not moved. Canceled on the way to staging: CANCELED.
+    A dock_robot goal preempted by a dock-by-pose goal: the first ABORTED, the second docks within tolerance."""
+    plan = [
+        {"dock": {"id": "kitchen_dock"}},
+        {"dock": {"id": "home_dock"}, "cancel_after_s": 3.0},
+        {"dock": {"id": "home_dock"}, "preempt_after_s": 2.0, "then": {"dock": {"pose": DOCK_POSE}}},
+    ]
+    with served(tmp_path) as env:
+        events = run_client(env, plan)
+    unknown, canceled, preempted, by_pose = results(events)
+    assert unknown["status"] == "ABORTED" and unknown["error_code"] == DOCK_NOT_IN_DB
+    assert unknown["error_msg"] == "dock 'kitchen_dock' is not in the dock database; known: home_dock"
+    assert canceled["status"] == "CANCELED"
+    assert preempted["status"] == "ABORTED" and preempted["error_msg"] == "preempted by a newer goal"
+    assert by_pose["status"] == "SUCCEEDED" and by_pose["success"], by_pose
+    assert docked_within_tolerance(by_pose), by_pose["truth"]
+    assert sorted(set(states(events))) == [NAV_TO_STAGING_POSE, INITIAL_PERCEPTION, CONTROLLING]
+
+
+def test_an_unknown_dock_leaves_the_robot_where_it_was(tmp_path):
+    with served(tmp_path, duration=60.0) as env:
+        events = run_client(env, [{"dock": {"id": "kitchen_dock"}}, {"dock": {"id": "kitchen_dock"}}])
+    first, second = results(events)
+    assert first["error_code"] == second["error_code"] == DOCK_NOT_IN_DB
+    x0, y0, yaw0 = first["truth"]["robot"]
+    x1, y1, yaw1 = second["truth"]["robot"]
+    assert math.hypot(x1 - x0, y1 - y0) < 0.005 and abs(yaw1 - yaw0) < 0.005
+
+
+@pytest.mark.slow
+def test_a_dock_the_camera_cannot_see_fails_to_detect_it_after_every_retry_and_returns_to_staging(tmp_path):
+    """A dock pose with no tag in front of it: each attempt stages and waits initial_perception_timeout; after
+    max_retries the result is FAILED_TO_DETECT_DOCK with num_retries = max_retries, and the robot is back at
+    the staging pose (where opennav_docking would leave it wherever the last attempt ended)."""
+    params = tmp_path / "params.yaml"
+    params.write_text(PARAMS.read_text().replace("max_retries: 3", "max_retries: 1"))
+    blank_wall = [4.0, 7.3, math.pi / 2]  # facing the north wall, where no tag hangs
+    with served(tmp_path, params) as env:
+        events = run_client(env, [{"dock": {"pose": blank_wall}}], timeout=180.0)
+    (result,) = results(events)
+    assert result["status"] == "ABORTED" and result["error_code"] == FAILED_TO_DETECT_DOCK, result
+    assert result["num_retries"] == 1
+    assert "dock" in result["error_msg"]
+    assert RETRY in states(events)
+    x, y, _ = result["truth"]["robot"]
+    staging = (blank_wall[0], blank_wall[1] - 0.7)
+    assert math.hypot(x - staging[0], y - staging[1]) < 0.3
