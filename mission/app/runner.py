@@ -46,6 +46,7 @@ from mission.core.types import LaserScan, NavStatus, RobotState, Twist
 from mission.core.world import WorldAdapter
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import PerceptionStage
+from mission.trees import scopes
 from mission.trees.factory import BehaviourFactory
 from mission.trees.loader import check_targets, load_tree, resolve_tree_path, validate_tree
 
@@ -371,6 +372,12 @@ class TreeRunner:
 
     def active_branch(self) -> list[str]:
         return active_branch(self.root) if self.tree is not None else []
+
+    def tree_entry(self, name: str, default: Any = None) -> Any:
+        """An entry of the tree's root blackboard by its tree-file name (``{attempt}``), or `default` when the
+        tree never wrote it: what an action server reports of the goal's tree (its retries)."""
+        path = scopes.Scope().entry_path(name)
+        return scopes.read(path) if scopes.exists(path) else default
 
     def get(self, key: bbk.Key, default: Any = None) -> Any:
         return bbk.get(self.bb, key, default)

@@ -32,7 +32,6 @@ from mission.core.types import Pose2D
 from mission.ros import nav2_tasks as tasks
 from mission.ros.conversions import pose_to_matrix
 from mission.ros.nav2_params import DockingParams
-from mission.trees import scopes
 
 ATTEMPT_ENTRY = "attempt"  # the root blackboard entry dock_robot.xml counts its attempts in
 
@@ -209,7 +208,7 @@ class TaskServers(RunObserver):
 
     # -- ending and reporting ------------------------------------------------------------------------------
     def _attempt(self) -> int:
-        value = scopes.read(scopes.Scope().entry_path(ATTEMPT_ENTRY))
+        value = self.runner.tree_entry(ATTEMPT_ENTRY)
         return int(value) if isinstance(value, int | float) and not isinstance(value, bool) else 1
 
     def _feedback(self, active: _Active) -> None:
