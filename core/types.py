@@ -111,6 +111,16 @@ class CameraIntrinsics:
         }
 
 
+@dataclass(frozen=True)
+class Sighting:
+    """A pose of a target that something other than our perception reported — a person detector on a topic,
+    another robot's TF frame — placed in the anchor frame of the camera frame it arrived with."""
+
+    stamp: float  # when it was seen (the pose's own stamp)
+    T_anchor_object: np.ndarray  # 4×4, anchor ← object (TF convention), in the frame's ``anchor_frame``
+    origin: str  # where it came from: the topic or the TF frame
+
+
 @dataclass
 class Frame:
     """One camera image as it arrives from a world adapter."""
@@ -126,6 +136,9 @@ class Frame:
     # (the VLM latch) can hold a world-fixed pose while the robot moves. None = not known for this frame.
     T_anchor_camera: np.ndarray | None = None
     anchor_frame: str = "map"
+    # Poses of targets reported by others since the previous frame (the external_pose source reads them):
+    # they ride on camera frames, so they are perceived at the camera's rate with what the camera saw.
+    sightings: tuple[Sighting, ...] = ()
 
     @property
     def width(self) -> int:

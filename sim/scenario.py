@@ -280,6 +280,22 @@ class Faults(StrictModel):
         return self
 
 
+class ExternalDetector(StrictModel):
+    """A detector other than the robot's camera reporting the target's pose — a person tracker, another robot —
+    which ``mission sim-robot`` publishes (geometry_msgs/PoseStamped in the map frame, and a TF frame), for a
+    node that follows by Nav2's FollowObject. It sees the target in line of sight of the robot's camera, all
+    round (no field of view), within range; noisy, with dropouts, all seeded."""
+
+    topic: str = "/target_pose"  # where the poses go ('' = none)
+    frame: str = ""  # also broadcast map → this TF frame ('' = no TF)
+    rate_hz: float = Field(10.0, gt=0, le=100)  # how often it reports
+    noise_m: float = Field(0.03, ge=0)  # σ of the position error (m, each axis)
+    dropout: float = Field(0.05, ge=0, lt=1)  # probability a report is lost
+    range_m: float = Field(8.0, gt=0)  # it sees the target this far
+    line_of_sight: bool = True  # only when nothing solid stands between the camera and the target
+    silent_after_s: float | None = Field(None, ge=0)  # stops reporting at this sim time (a detector that died)
+
+
 class Scenario(StrictModel):
     name: str  # shown in reports
     description: str = ""  # one line for people reading the file
@@ -300,6 +316,7 @@ class Scenario(StrictModel):
     navigation: NavSpec = Field(default_factory=NavSpec)
     random: RandomSpec = Field(default_factory=RandomSpec)
     faults: Faults = Field(default_factory=Faults)  # injected faults (sim/faults.py); none by default
+    external_detector: ExternalDetector | None = None  # sim-robot publishes the target's pose (Nav2 FollowObject)
 
 
 # --------------------------------------------------------------------------------------------------

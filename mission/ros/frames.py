@@ -131,6 +131,23 @@ class RobotFrames:
         t = t_odom_base if t_map_odom is None else t_map_odom @ t_odom_base
         return dataclasses.replace(odom, pose=Pose2D(float(t[0, 3]), float(t[1, 3]), se3.yaw_of(t)))
 
+    def frame_in_map(self, cache: SensorCache, frame: str, stamp: float | None) -> tuple[np.ndarray | None, str]:
+        """T_map_frame at `stamp` (None: the newest) for any frame on TF — an object's pose's header frame, a
+        tracked frame — through map → odom as the robot's own pose goes (AMCL's correction when TF has none).
+        (None, why) when TF cannot say."""
+        frame = frame.lstrip("/") or self.map_frame
+        if frame == self.map_frame:
+            return np.eye(4), ""
+        direct, _why = self.tf.try_lookup(self.map_frame, frame, stamp)
+        if direct is not None:
+            return direct, ""
+        try:
+            t_odom_frame = self.tf.lookup(self.odom_frame, frame, stamp)
+            t_map_odom = self.map_from_odom(cache, stamp)
+        except TfError as err:
+            return None, f"TF: {err}"
+        return (t_odom_frame if t_map_odom is None else se3.compose(t_map_odom, t_odom_frame)), ""
+
     def camera_in_map(self, cache: SensorCache, camera_frame: str, stamp: float) -> tuple[np.ndarray | None, str]:
         """T_map_camera at the image's `stamp` (None and why when TF cannot say where the camera was)."""
         try:

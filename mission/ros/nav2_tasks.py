@@ -27,7 +27,7 @@ import py_trees
 
 from mission.core.config import TargetSpec
 from mission.core.types import Pose2D
-from mission.ros.nav2_params import Dock, DockingParams, DockType
+from mission.ros.nav2_params import Dock, DockingParams, DockType, FollowingParams
 
 Status = py_trees.common.Status
 
@@ -41,7 +41,7 @@ class TaskSpec:
     states: Mapping[str, str]  # node name → the feedback state constant it reports
     errors: Mapping[str, str]  # node name → the result error constant its failure gives
     retry_state: str = "RETRY"  # the state of going back to staging for another attempt
-    retry_from: str = "NAV_TO_STAGING_POSE"  # the state that is a retry after the first attempt
+    retry_from: str = ""  # the state that is a retry after the first attempt ('' = none)
 
     @property
     def phases(self) -> frozenset[str]:
@@ -64,6 +64,7 @@ DOCK_ROBOT = TaskSpec(
         "CONTROLLING": "FAILED_TO_CONTROL",
         "WAIT_FOR_CHARGE": "FAILED_TO_CHARGE",
     },
+    retry_from="NAV_TO_STAGING_POSE",
 )
 
 UNDOCK_ROBOT = TaskSpec(
@@ -71,6 +72,23 @@ UNDOCK_ROBOT = TaskSpec(
     tree="undock_robot.xml",
     states={},  # UndockRobot's feedback is empty
     errors={"CONTROLLING": "FAILED_TO_CONTROL"},
+)
+
+
+FOLLOW_OBJECT = TaskSpec(
+    action="FollowObject",
+    tree="follow_object.xml",
+    states={
+        "INITIAL_PERCEPTION": "INITIAL_PERCEPTION",
+        "CONTROLLING": "CONTROLLING",
+        "LOST": "RETRY",  # Nav2 retries after a loss; our ladder pursues, then searches
+        "SEARCH": "RETRY",
+    },
+    errors={
+        "INITIAL_PERCEPTION": "FAILED_TO_DETECT_OBJECT",
+        "CONTROLLING": "FAILED_TO_CONTROL",
+        "SEARCH": "FAILED_TO_DETECT_OBJECT",
+    },
 )
 
 
@@ -116,7 +134,7 @@ class PhaseWatch(py_trees.visitors.VisitorBase):
 def feedback_state(spec: TaskSpec, watch: PhaseWatch, attempt: int) -> str:
     """The feedback state constant's name for where the tree is (NONE before any named node runs)."""
     state = spec.states.get(watch.current or "", "NONE")
-    if attempt > 1 and state == spec.retry_from and watch.current != "RETURN_TO_STAGING":
+    if spec.retry_from and attempt > 1 and state == spec.retry_from and watch.current != "RETURN_TO_STAGING":
         return spec.retry_state
     return state
 
@@ -262,3 +280,29 @@ def plan_undock(
 
 def _angle(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
+
+
+# --- FollowObject ---------------------------------------------------------------------------------------
+
+EXTERNAL_SOURCE = "external_pose"  # the source instance that turns the goal's poses into detections
+
+
+@dataclass(frozen=True)
+class FollowGoal:
+    """A FollowObject goal's fields."""
+
+    pose_topic: str = ""
+    tracked_frame: str = ""
+    max_duration: float = 0.0  # s; 0 = until canceled
+
+
+def plan_follow(goal: FollowGoal, params: FollowingParams, *, tree: str = FOLLOW_OBJECT.tree) -> TaskPlan:
+    """The FollowObject tree's inputs; `target` is retargeted to the external poses. ``tracked_frame`` wins over
+    ``pose_topic`` when both are given, as in opennav_following."""
+    if not goal.pose_topic and not goal.tracked_frame:
+        raise TaskRejected("FAILED_TO_DETECT_OBJECT", "No pose topic or target frame provided.")
+    inputs = {
+        "detection_timeout": float(params.detection_timeout),
+        "desired_distance": float(params.desired_distance),
+    }
+    return TaskPlan(tree, inputs, retarget={"target": TargetSpec(source=EXTERNAL_SOURCE)})

@@ -19,10 +19,13 @@ sees the fault. ``serve_port`` adds the live web view, ``groot_port`` Groot2's l
 (mission.groot.publisher).
 
 ``tree:=none`` runs no mission: perception only (the design notes' aruco_pose_streamer), and the node serves
-Nav2's docking actions, ``dock_robot`` and ``undock_robot``, each goal running its tree (``dock_tree``,
-``undock_tree``) on the same loop (mission/ros/task_servers.py). ``--params-file FILE`` reads Nav2's
-docking_server parameters — the dock database, dock types, timeouts and retries by Nav2's names
-(mission/ros/nav2_params.py) — from the ``/**``, ``docking_server`` or ``mission_tree`` section.
+Nav2's docking and following actions, ``dock_robot``, ``undock_robot`` and ``follow_object``, each goal running
+its tree (``dock_tree``, ``undock_tree``, ``follow_tree``) on the same loop (mission/ros/task_servers.py).
+``--params-file FILE`` reads Nav2's docking_server and following_server parameters — the dock database, dock
+types, timeouts, retries, desired distance by Nav2's names (mission/ros/nav2_params.py) — from the ``/**``,
+``docking_server``, ``following_server`` or ``mission_tree`` section. A followed object's poses (a goal's
+``pose_topic`` or ``tracked_frame``) reach perception through the ``external_pose`` source, which server mode
+adds to the config's sources.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from mission.core.perception import PerceptionSource
 from mission.perception_plugins.aruco import ArucoParams
 from mission.perception_plugins.pipeline import source_statuses
 from mission.ros import dds
+from mission.ros.nav2_params import read_params_file
 
 NODE_NAME = "mission_tree"
 
@@ -82,6 +86,7 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "input_timeout_s": (2.0, "no /clock (use_sim_time) or no image for this long (wall) is a fault the tree sees"),
     "dock_tree": ("dock_robot.xml", "tree:=none: the tree a dock_robot goal runs (file or shipped name)"),
     "undock_tree": ("undock_robot.xml", "tree:=none: the tree an undock_robot goal runs (file or shipped name)"),
+    "follow_tree": ("follow_object.xml", "tree:=none: the tree a follow_object goal runs (file or shipped name)"),
     "serve_port": (0, "serve the live web view of the tree on 127.0.0.1:PORT; 0 = off"),
     "groot_port": (0, "serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (Groot2's default 1667); 0 = off"),
 }
@@ -244,6 +249,8 @@ class MissionNode:
         tree = str(p["tree"] or "")
         self.perception_only = tree.lower() == "none"
         docking = self._docking_params() if self.perception_only else None
+        if docking is not None and not any(s.plugin == "external_pose" for s in config.perception.sources):
+            config.perception.sources.append(SourceConfig(plugin="external_pose"))  # follow_object's poses
         topics = RosTopics(
             image_topic=p["image_topic"],
             camera_info_topic=p["camera_info_topic"],
@@ -351,20 +358,23 @@ class MissionNode:
         names = ", ".join(getattr(s, "name", type(s).__name__) for s in self.sources)
         what = f"tree {self.runner.tree_path}"
         if self.perception_only:
-            what = "perception only" + ("; serving dock_robot, undock_robot" if self.tasks is not None else "")
+            what = "perception only" + ("; serving Nav2's docking and following actions" if self.tasks else "")
         self.log.info(
             f"{NODE_NAME}: {what} at {tick_hz:g} Hz; sources: {names}; "
             f"image {topics.image_topic}, camera info {topics.camera_info_topic}, camera frame {topics.camera_frame}"
         )
 
-    def _docking_params(self) -> Any:
-        """Nav2's docking_server parameters from the params files (defaults without one)."""
-        from mission.ros.nav2_params import DockType, docking_params, read_params_file
-
+    def _server_params(self, server: str) -> tuple[dict[str, Any], str | None]:
         flat: dict[str, Any] = {}
         for path in self.params_files:
-            flat.update(read_params_file(path, "docking_server", NODE_NAME))
-        file = self.params_files[-1] if self.params_files else None
+            flat.update(read_params_file(path, server, NODE_NAME))
+        return flat, (self.params_files[-1] if self.params_files else None)
+
+    def _docking_params(self) -> Any:
+        """Nav2's docking_server parameters from the params files (defaults without one)."""
+        from mission.ros.nav2_params import DockType, docking_params
+
+        flat, file = self._server_params("docking_server")
         docking = docking_params(flat, file=file, warn=self.log.warning)
         if not docking.dock_types:  # Nav2 insists on dock_plugins; one default type keeps dock-by-pose simple
             docking = dataclasses.replace(docking, dock_types={"dock": DockType("dock")})
@@ -376,19 +386,38 @@ class MissionNode:
         if not self.nav2.ok:
             self.log.warning(f"dock_robot / undock_robot not served: {self.nav2.detail}")
             return
+        from rclpy.qos import qos_profile_sensor_data
+
+        from mission.ros.external_poses import ExternalPoses
+        from mission.ros.nav2_params import following_params
+
+
+        flat, file = self._server_params("following_server")
+        following = following_params(flat, file=file, warn=self.log.warning)
+        if following.static_object_timeout > 0:
+            self.log.warning("following_server static_object_timeout: not supported yet; a goal ends by max_duration")
+        external = ExternalPoses(self.node, self.msgs.cls("geometry_msgs/msg/PoseStamped"), qos_profile_sensor_data)
+        self.adapter.external = external
         self.tasks = TaskServers(
             self.node,
             self.nav2,
             self.runner,
             docking,
-            trees={"dock": str(self.params["dock_tree"]), "undock": str(self.params["undock_tree"])},
+            following,
+            external=external,
+            trees={
+                "dock": str(self.params["dock_tree"]),
+                "undock": str(self.params["undock_tree"]),
+                "follow": str(self.params["follow_tree"]),
+            },
             map_frame=str(self.params["map_frame"]),
             now=self.adapter.now,
             log=self.log,
         )
         self.runner.attach(self.tasks)
         docks = ", ".join(docking.docks) or "none (dock by pose)"
-        self.log.info(f"serving dock_robot, undock_robot; docks: {docks}; dock types: {', '.join(docking.dock_types)}")
+        types = ", ".join(docking.dock_types)
+        self.log.info(f"serving dock_robot, undock_robot, follow_object; docks: {docks}; dock types: {types}")
 
     # -- callbacks ---------------------------------------------------------------------------------
     def _failed(self, what: str, err: Exception) -> None:
@@ -491,6 +520,8 @@ class MissionNode:
     def close(self) -> None:
         if self.tasks is not None:
             self.tasks.destroy()
+            if self.tasks.external is not None:
+                self.tasks.external.stop()
         if self.runner is not None:
             try:
                 self.runner.close()  # observers end, sources close, the world lets go of its topics

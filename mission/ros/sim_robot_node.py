@@ -17,6 +17,9 @@
   skew), as the runs are scored. For tests and benches of a node in server mode, whose goals this process
   does not see.
 
+A scenario's ``external_detector`` adds what a robot team's person tracker would publish: the target's pose on
+a topic (and a TF frame), in line of sight of the robot, noisy and with dropouts — for FollowObject goals.
+
 With ``serve`` (``mission sim-robot --serve``) the node runs no mission but serves Nav2's actions: its tree
 finishing ends a goal, not the run, which lasts the scenario's duration (or ``--max-duration``).
 
@@ -36,6 +39,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import py_trees
 
 from mission.core import blackboard as bbk
@@ -46,6 +50,7 @@ from mission.ros.conversions import (
     array_to_image,
     grid_to_msg,
     intrinsics_to_camera_info,
+    pose_stamped,
     pose_to_matrix,
     scan_to_msg,
     state_to_odometry,
@@ -118,6 +123,8 @@ class SimRobot:
         self._late: deque[tuple[float, Frame]] = deque()
         self._clock_offset = 0.0
         self._jumped = False
+        self._detector_rng = np.random.default_rng(np.random.SeedSequence([sim.seed, 32]))
+        self._detector_next = 0.0
         self.counts: dict[str, int] = {}
 
     # -- set-up --------------------------------------------------------------------------------------
@@ -143,6 +150,7 @@ class SimRobot:
         self.tf_message = tf.message
         self.nav_action = nav2.get("action", "NavigateToPose")
         sensor = RELIABLE  # reliable publishers also reach best-effort (sensor-data) subscribers
+        pose, string = m.cls("geometry_msgs/msg/PoseStamped"), m.cls("std_msgs/msg/String")
         self.pub = {
             "clock": n.create_publisher(m.cls("rosgraph_msgs/msg/Clock"), "/clock", 10),
             "image": n.create_publisher(m.cls("sensor_msgs/msg/Image"), "/camera/image_raw", sensor),
@@ -155,7 +163,9 @@ class SimRobot:
             "tf_static": n.create_publisher(self.tf_message, "/tf_static", TF_STATIC_QOS),
             "truth": n.create_publisher(m.cls("std_msgs/msg/String"), "/sim/ground_truth", RELIABLE),
         }
-        pose, string = m.cls("geometry_msgs/msg/PoseStamped"), m.cls("std_msgs/msg/String")
+        detector = self.sim.scenario.external_detector
+        if detector is not None and detector.topic:
+            self.pub["detector"] = n.create_publisher(pose, detector.topic, RELIABLE)
         self.subs = [
             n.create_subscription(m.cls("geometry_msgs/msg/Twist"), "/cmd_vel", self._on_cmd_vel, RELIABLE),
             n.create_subscription(pose, "/goal_pose", self._on_goal_pose, RELIABLE),
@@ -307,13 +317,40 @@ class SimRobot:
         from mission.app.metrics import dock_errors
 
         gt = self.sim.ground_truth()
+        self._publish_detector(gt, stamp)
         p = gt.robot
         body: dict[str, Any] = {"t": round(stamp, 4), "robot": [p.x, p.y, p.yaw], "collisions": gt.collisions}
+        if gt.target is not None:
+            body["target"] = [gt.target.x, gt.target.y, gt.target.yaw]
         if gt.T_map_dock is not None:
             standoff = float(getattr(getattr(self.sim.scenario, "success", None), "standoff_m", 0.30) or 0.30)
             err = dock_errors(gt.T_map_optical, gt.T_map_dock, p.yaw, standoff)
             body["dock"] = {k: round(float(v), 5) for k, v in vars(err).items()}
         self.pub["truth"].publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(body)))
+
+    def _publish_detector(self, gt: Any, stamp: float) -> None:
+        """The scenario's external detector: the target's pose, when it can see it (module doc)."""
+        d = self.sim.scenario.external_detector
+        if d is None or self.sim.t < self._detector_next:
+            return
+        self._detector_next = self.sim.t + 1.0 / d.rate_hz
+        rng = self._detector_rng
+        lost = rng.random() < d.dropout
+        noise = rng.normal(0.0, d.noise_m, 2)
+        if gt.target is None or lost or (d.silent_after_s is not None and self.sim.t >= d.silent_after_s):
+            return
+        camera = gt.T_map_optical[:3, 3]
+        if math.hypot(gt.target.x - camera[0], gt.target.y - camera[1]) > d.range_m:
+            return
+        if d.line_of_sight and not gt.target_in_los:
+            return
+        t = se3.planar(gt.target.x + noise[0], gt.target.y + noise[1], gt.target.yaw)
+        t[2, 3] = 0.5  # about the height of a person tracker's box centre
+        if "detector" in self.pub:
+            self.pub["detector"].publish(pose_stamped(self.msgs, t, stamp, "map"))
+        if d.frame and not self.faults.no_tf:
+            self.pub["tf"].publish(self.tf_message(transforms=[transform_stamped(self.msgs, t, stamp, "map", d.frame)]))
+        self._count("detections")
 
     def _publish_frame(self, frame: Frame) -> None:
         m, stamp = self.msgs, float(frame.stamp) - self._clock_offset

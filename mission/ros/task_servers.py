@@ -1,6 +1,7 @@
-"""Nav2's docking actions served by our trees: ``dock_robot`` (nav2_msgs/action/DockRobot) and ``undock_robot``
-(UndockRobot), with the definitions of navigation2's jazzy branch, so a Nav2 client (nav2_simple_commander's
-``dockRobotByID``, ``undockRobot``) works unchanged.
+"""Nav2's docking and following actions served by our trees: ``dock_robot`` (nav2_msgs/action/DockRobot),
+``undock_robot`` (UndockRobot) and ``follow_object`` (FollowObject), with the definitions of navigation2's jazzy
+branch, so a Nav2 client (nav2_simple_commander's ``dockRobotByID``, ``undockRobot``, ``followObjectByTopic``)
+works unchanged.
 
 A goal runs a tree on the node's one runner (``TreeRunner.start_tree`` with the goal's inputs); the node's
 timer ticks it, as it ticks a mission. After each tick the servers — a run observer — look at the goal:
@@ -8,7 +9,9 @@ timer ticks it, as it ticks a mission. After each tick the servers — a run obs
 * a cancel request halts the tree and stops the robot; the goal ends CANCELED;
 * the tree's SUCCESS or FAILURE ends the goal with Nav2's result (mission/ros/nav2_tasks.py maps the node that
   failed to the error code, its reason to ``error_msg``) and stops the robot;
-* otherwise feedback: Nav2's state from the node the tree is in, the time since the goal, the retries.
+* otherwise feedback: Nav2's state from the node the tree is in, the time since the goal, the retries;
+* FollowObject: past ``max_duration`` the goal SUCCEEDS (opennav_following's rule); poses that TF cannot place
+  for ``detection_timeout`` end it with TF_ERROR.
 
 One robot runs one tree: a new goal, of either action, preempts the running one, which ends ABORTED with
 "preempted by a newer goal" (Nav2's SimpleActionServer accepts the newer goal the same way; its docking
@@ -31,7 +34,7 @@ from mission.core.observers import RunObserver, Tick
 from mission.core.types import Pose2D
 from mission.ros import nav2_tasks as tasks
 from mission.ros.conversions import pose_to_matrix
-from mission.ros.nav2_params import DockingParams
+from mission.ros.nav2_params import DockingParams, FollowingParams
 
 ATTEMPT_ENTRY = "attempt"  # the root blackboard entry dock_robot.xml counts its attempts in
 
@@ -49,6 +52,9 @@ class _Active:
     feedback_type: Any
     started: float  # ROS time of the goal's start (s)
     tree: Any  # the tree this goal started: another goal may have replaced it
+    max_duration: float = 0.0  # s; > 0: the goal succeeds after this long (FollowObject)
+    retries: int = 0  # entries into the RETRY state (a tree without an {attempt} counter)
+    last_state: str = "NONE"
 
 
 class TaskServers(RunObserver):
@@ -60,7 +66,9 @@ class TaskServers(RunObserver):
         nav2: Any,
         runner: Any,
         docking: DockingParams,
+        following: FollowingParams | None = None,
         *,
+        external: Any = None,
         trees: dict[str, str] | None = None,
         map_frame: str = "map",
         now: Callable[[], float],
@@ -69,10 +77,19 @@ class TaskServers(RunObserver):
         from rclpy.action import ActionServer, CancelResponse, GoalResponse
 
         self.node, self.runner, self.docking, self.map_frame = node, runner, docking, map_frame
+        self.following = following or FollowingParams()
+        self.external = external  # ExternalPoses: the followed object's poses (mission/ros/external_poses.py)
         self.now, self.log = now, log
-        self.trees = {"dock": tasks.DOCK_ROBOT.tree, "undock": tasks.UNDOCK_ROBOT.tree, **(trees or {})}
+        self.trees = {
+            "dock": tasks.DOCK_ROBOT.tree,
+            "undock": tasks.UNDOCK_ROBOT.tree,
+            "follow": tasks.FOLLOW_OBJECT.tree,
+            **(trees or {}),
+        }
         self.dock_action = nav2.get("action", "DockRobot")
         self.undock_action = nav2.get("action", "UndockRobot")
+        self.follow_action = nav2.get("action", "FollowObject")
+        self._config_targets = dict(runner.perception.targets)  # what a goal's retargeting is undone to
         self.active: _Active | None = None
         self.docked_type = ""  # the dock type of the last successful docking (UndockRobot's default)
         self.counts = {"goals": 0, "succeeded": 0, "aborted": 0, "canceled": 0, "rejected": 0}
@@ -83,23 +100,15 @@ class TaskServers(RunObserver):
         def cancel(_handle: Any) -> Any:
             return CancelResponse.ACCEPT
 
+        served = [
+            ("dock_robot", self.dock_action, self._execute_dock),
+            ("undock_robot", self.undock_action, self._execute_undock),
+        ]
+        if external is not None:
+            served.append(("follow_object", self.follow_action, self._execute_follow))
         self.servers = [
-            ActionServer(
-                node,
-                self.dock_action,
-                "dock_robot",
-                execute_callback=self._execute_dock,
-                goal_callback=accept,
-                cancel_callback=cancel,
-            ),
-            ActionServer(
-                node,
-                self.undock_action,
-                "undock_robot",
-                execute_callback=self._execute_undock,
-                goal_callback=accept,
-                cancel_callback=cancel,
-            ),
+            ActionServer(node, action, name, execute_callback=run, goal_callback=accept, cancel_callback=cancel)
+            for name, action, run in served
         ]
 
     # -- goals -------------------------------------------------------------------------------------------
@@ -141,6 +150,24 @@ class TaskServers(RunObserver):
             lambda robot: tasks.plan_undock(goal, self.docking, robot, self.docked_type, tree=self.trees["undock"]),
         )
 
+    async def _execute_follow(self, handle: Any) -> Any:
+        request = handle.request
+        d = request.max_duration
+        goal = tasks.FollowGoal(
+            pose_topic=str(request.pose_topic),
+            tracked_frame=str(request.tracked_frame),
+            max_duration=float(d.sec) + float(d.nanosec) * 1e-9,
+        )
+        what = f"frame {goal.tracked_frame!r}" if goal.tracked_frame else f"poses on {goal.pose_topic}"
+        return await self._run(
+            handle,
+            tasks.FOLLOW_OBJECT,
+            self.follow_action,
+            what,
+            lambda _robot: tasks.plan_follow(goal, self.following, tree=self.trees["follow"]),
+            follow=goal,
+        )
+
     async def _run(
         self,
         handle: Any,
@@ -148,6 +175,7 @@ class TaskServers(RunObserver):
         action: Any,
         what: str,
         make_plan: Callable[[Pose2D | None], tasks.TaskPlan],
+        follow: tasks.FollowGoal | None = None,
     ) -> Any:
         from rclpy.task import Future
 
@@ -163,6 +191,11 @@ class TaskServers(RunObserver):
             self._end(self.active, "abort", "UNKNOWN", "preempted by a newer goal", stop=False)
         for name, target in plan.retarget.items():
             self.runner.perception.retarget(name, target)
+        if follow is not None:
+            if follow.tracked_frame:
+                self.external.follow_frame(follow.tracked_frame)
+            else:
+                self.external.follow_topic(follow.pose_topic)
         try:
             self.runner.start_tree(plan.tree, plan.inputs)
         except MissionError as err:  # a user's tree that does not load: the goal fails, the node goes on
@@ -173,7 +206,16 @@ class TaskServers(RunObserver):
         self.runner.tree.visitors.append(watch)
         future = Future()
         self.active = _Active(
-            handle, future, spec, plan, watch, action.Result, action.Feedback, self.now(), self.runner.tree
+            handle,
+            future,
+            spec,
+            plan,
+            watch,
+            action.Result,
+            action.Feedback,
+            self.now(),
+            self.runner.tree,
+            max_duration=follow.max_duration if follow is not None else 0.0,
         )
         self.log.info(f"{spec.action} {what}: running {self.runner.tree_path.name}")
         return await future
@@ -188,6 +230,20 @@ class TaskServers(RunObserver):
             return
         if run.tree is not active.tree:  # stopped from outside (the node closing)
             self._end(active, "abort", "UNKNOWN", "the tree was stopped", stop=False)
+            return
+        elapsed = self.now() - active.started
+        if active.max_duration > 0 and elapsed > active.max_duration:
+            self._end(active, "succeed", "NONE", "")  # opennav_following: max_duration reached is success
+            return
+        ext = self.external
+        if (
+            active.spec is tasks.FOLLOW_OBJECT
+            and ext is not None
+            and ext.error
+            and ext.last_placed is None
+            and elapsed > self.following.detection_timeout
+        ):
+            self._end(active, "abort", "TF_ERROR", ext.error)
             return
         status = tick.status.name
         if status == "SUCCESS":
@@ -211,13 +267,21 @@ class TaskServers(RunObserver):
         value = self.runner.tree_entry(ATTEMPT_ENTRY)
         return int(value) if isinstance(value, int | float) and not isinstance(value, bool) else 1
 
+    def _retries(self, active: _Active) -> int:
+        """Retries so far: the tree's {attempt} counter when it has one (DockRobot), else the losses (RETRY)."""
+        value = self.runner.tree_entry(ATTEMPT_ENTRY)
+        return max(0, self._attempt() - 1) if value is not None else active.retries
+
     def _feedback(self, active: _Active) -> None:
         fb = active.feedback_type()
+        state = tasks.feedback_state(active.spec, active.watch, self._attempt())
+        if state == "RETRY" and active.last_state != "RETRY" and self.runner.tree_entry(ATTEMPT_ENTRY) is None:
+            active.retries += 1
+        active.last_state = state
         if not hasattr(fb, "state"):  # UndockRobot's feedback is empty: Nav2 sends none
             return
-        attempt = self._attempt()
-        fb.state = int(getattr(fb, tasks.feedback_state(active.spec, active.watch, attempt)))
-        fb.num_retries = max(0, attempt - 1)
+        fb.state = int(getattr(fb, state))
+        fb.num_retries = self._retries(active)
         elapsed = _duration(self.now() - active.started)
         for name in ("docking_time", "following_time"):
             if hasattr(fb, name):
@@ -228,9 +292,16 @@ class TaskServers(RunObserver):
         self.active = None
         if stop:
             self.runner.stop_tree()  # halt, zero velocity; perception goes on
+        for name in active.plan.retarget:  # perception looks for what the config says again
+            if name in self._config_targets:
+                self.runner.perception.retarget(name, self._config_targets[name])
+        if self.external is not None and active.spec is tasks.FOLLOW_OBJECT:
+            self.external.stop()
         success = how == "succeed"
-        retries = max(0, self._attempt() - 1)
+        retries = self._retries(active)
         result = self._result(active.result_type, success, error, message, retries)
+        if hasattr(result, "total_elapsed_time"):
+            result.total_elapsed_time = _duration(self.now() - active.started)
         if how == "succeed":
             active.handle.succeed()
             self.counts["succeeded"] += 1

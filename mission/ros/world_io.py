@@ -150,6 +150,7 @@ class CachedWorld:
         self.time_jumps = 0
         self.state: RobotState | None = None
         self._camera_frame_id = topics.camera_frame
+        self.external: Any = None  # ExternalPoses while a FollowObject goal follows someone else's poses
 
     # -- to implement ------------------------------------------------------------------------------
     def now(self) -> float:
@@ -188,9 +189,12 @@ class CachedWorld:
         age = now - float(frame.stamp)
         late = self.topics.image_late_s
         self._late = f"camera images arrive {age:.2f} s late (> {late:g} s)" if late > 0 and age > late else ""
+        sightings = () if self.external is None else self.external.take(self.frames, self.cache)
         if t_map_camera is None:
-            return frame
-        return dataclasses.replace(frame, T_anchor_camera=t_map_camera, anchor_frame=self.topics.map_frame)
+            return dataclasses.replace(frame, sightings=sightings) if sightings else frame
+        return dataclasses.replace(
+            frame, T_anchor_camera=t_map_camera, anchor_frame=self.topics.map_frame, sightings=sightings
+        )
 
     def fault(self, now: float) -> str:
         """Why the inputs cannot be trusted now ('' when all is well)."""

@@ -6,7 +6,8 @@ what a team's existing client code would see. It takes a plan, a JSON list of st
 prints one JSON line per event:
 
 * ``{"dock": {"id": "home_dock"}}`` or ``{"dock": {"pose": [x, y, yaw], "type": "", "frame": "map",
-  "navigate": true}}``; ``{"undock": {"type": ""}}``;
+  "navigate": true}}``; ``{"undock": {"type": ""}}``; ``{"follow": {"topic": "/target_pose"}}`` or
+  ``{"follow": {"frame": "target"}}``, with ``"max_duration": S``;
 * a step may carry ``"cancel_after_s": S`` (cancel S wall seconds after acceptance) or
   ``"preempt_after_s": S`` with ``"then": STEP`` (send STEP while the first still runs);
 * events: ``accepted``, ``feedback`` (when state or retries change), ``result`` (status name, error_code,
@@ -25,7 +26,7 @@ import time
 
 import rclpy
 from action_msgs.msg import GoalStatus
-from nav2_msgs.action import DockRobot, UndockRobot
+from nav2_msgs.action import DockRobot, FollowObject, UndockRobot
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
@@ -46,6 +47,7 @@ class Client:
         self.node = rclpy.create_node("nav2_task_client")
         self.dock = ActionClient(self.node, DockRobot, "dock_robot")
         self.undock = ActionClient(self.node, UndockRobot, "undock_robot")
+        self.follow = ActionClient(self.node, FollowObject, "follow_object")
         self.truth: dict = {}
         self.node.create_subscription(String, "/sim/ground_truth", self._on_truth, 10)
         self.executor = SingleThreadedExecutor()
@@ -87,6 +89,14 @@ class Client:
             if "max_staging_time" in spec:
                 goal.max_staging_time = float(spec["max_staging_time"])
             return "dock", self.dock, goal
+        if "follow" in step:
+            spec, goal = step["follow"], FollowObject.Goal()
+            goal.pose_topic = spec.get("topic", "")
+            goal.tracked_frame = spec.get("frame", "")
+            seconds = float(spec.get("max_duration", 0.0))
+            goal.max_duration.sec = int(seconds)
+            goal.max_duration.nanosec = int((seconds - int(seconds)) * 1e9)
+            return "follow", self.follow, goal
         spec, goal = step["undock"], UndockRobot.Goal()
         goal.dock_type = spec.get("type", "")
         if "max_undocking_time" in spec:
@@ -123,10 +133,15 @@ class Client:
             "error_code": r.error_code,
             "error_msg": r.error_msg,
             "num_retries": getattr(r, "num_retries", None),
+            "total_elapsed_time": _seconds(getattr(r, "total_elapsed_time", None)),
             "truth": self.truth,
         }
         emit(**event)
         return event
+
+
+def _seconds(duration) -> float | None:
+    return None if duration is None else duration.sec + duration.nanosec * 1e-9
 
 
 def _wait(future, timeout: float):

@@ -1,11 +1,13 @@
-"""Nav2's docking actions served by our trees, closed loop over real DDS between processes.
+"""Nav2's docking and following actions served by our trees, closed loop over real DDS between processes.
 
 Three processes, as on a robot whose team already runs Nav2: ``mission sim-robot --serve`` (the pybullet world
 behind ROS topics, scoring against ground truth on ``/sim/ground_truth``), the colcon-installed node in server
 mode exactly as ``ros2 run mission tree --tree none --params-file FILE`` starts it, and a client written only
 from nav2_msgs' .action definitions (tests/helpers/nav2_task_client.py: rclpy and nav2_msgs, nothing of ours).
 The params file is a Nav2 user's docking_server section (mission/ros/params/explore_dock.yaml): one dock type,
-one dock whose pose is the robot's base when docked.
+one dock whose pose is the robot's base when docked. For following, the scenario gets an ``external_detector``:
+the sim-robot publishes the target's pose (a person tracker's stand-in: line of sight, noise, dropouts) on
+``/target_pose`` and as the TF frame ``target``, and the goal names one or the other.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+import yaml
 
 from tests.helpers.ros_env import ROOT, ROS_ENV, TREE_EXE, NodeProcess, build_ros, clean_shm, installed_env
 
@@ -33,11 +36,25 @@ DOCK_POSE = [0.47, 4.0, math.pi]  # home_dock's pose in PARAMS: the base when do
 # DockRobot's constants (nav2_msgs/action/DockRobot.action)
 DOCK_NOT_IN_DB, FAILED_TO_DETECT_DOCK = 901, 904
 NAV_TO_STAGING_POSE, INITIAL_PERCEPTION, CONTROLLING, RETRY = 1, 2, 3, 5
+# FollowObject's (nav2_msgs/action/FollowObject.action)
+FAILED_TO_DETECT_OBJECT = 902
+FOLLOW_INITIAL_PERCEPTION, FOLLOW_CONTROLLING, FOLLOW_RETRY = 1, 2, 4
+
+
+def tracked_scenario(tmp: Path, base: str = "follow_occlusion", **detector: object) -> str:
+    """`base` with an external detector reporting the target (module doc); the scenario file's path."""
+    data = yaml.safe_load((ROOT / "sim" / "scenarios" / f"{base}.yaml").read_text())
+    data["external_detector"] = {"topic": "/target_pose", "frame": "target", **detector}
+    path = tmp / f"{base}_tracked.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return str(path)
 
 
 @contextmanager
-def served(tmp: Path, params: Path = PARAMS, duration: float = 200.0) -> Iterator[dict[str, str]]:
-    """sim-robot (explore_dock, serving) and the node in server mode; yields the client's environment."""
+def served(
+    tmp: Path, params: Path = PARAMS, duration: float = 200.0, scenario: str = "explore_dock"
+) -> Iterator[dict[str, str]]:
+    """sim-robot (`scenario`, serving) and the node in server mode; yields the client's environment."""
     build_ros()
     env = installed_env()
     node = NodeProcess(
@@ -61,7 +78,7 @@ def served(tmp: Path, params: Path = PARAMS, duration: float = 200.0) -> Iterato
             MISSION,
             "sim-robot",
             "--scenario",
-            "explore_dock",
+            scenario,
             "--serve",
             "--config",
             CONFIG,
@@ -158,3 +175,52 @@ def test_a_dock_the_camera_cannot_see_fails_to_detect_it_after_every_retry_and_r
     x, y, _ = result["truth"]["robot"]
     staging = (blank_wall[0], blank_wall[1] - 0.7)
     assert math.hypot(x - staging[0], y - staging[1]) < 0.3
+
+
+def follow_states(events: list[dict]) -> list[int]:
+    return [e["state"] for e in events if e["event"] == "feedback" and e["action"] == "follow"]
+
+
+def test_following_poses_on_a_topic_through_an_occlusion_recovers_the_object(tmp_path):
+    """follow_occlusion: the target walks behind a row of pillars, so the tracker loses it for seconds. The goal
+    follows, retries (LOST, then SEARCH if the loss lasts), follows again, and succeeds at max_duration."""
+    with served(tmp_path, scenario=tracked_scenario(tmp_path), duration=90.0) as env:
+        events = run_client(env, [{"follow": {"topic": "/target_pose", "max_duration": 32.0}}], timeout=90.0)
+    (result,) = results(events)
+    assert result["status"] == "SUCCEEDED" and result["error_code"] == 0, result
+    assert 32.0 <= result["total_elapsed_time"] < 33.0
+    seen = follow_states(events)
+    assert seen[:2] == [FOLLOW_INITIAL_PERCEPTION, FOLLOW_CONTROLLING]
+    lost_at = seen.index(FOLLOW_RETRY)
+    assert FOLLOW_CONTROLLING in seen[lost_at:], f"the object was not followed again after the loss: {seen}"
+    assert result["num_retries"] >= 1
+    rx, ry, _ = result["truth"]["robot"]
+    tx, ty, _ = result["truth"]["target"]
+    assert math.hypot(tx - rx, ty - ry) < 2.5, result["truth"]
+
+
+@pytest.mark.slow
+def test_following_a_tf_frame(tmp_path):
+    with served(tmp_path, scenario=tracked_scenario(tmp_path, "follow_open"), duration=60.0) as env:
+        events = run_client(env, [{"follow": {"frame": "target", "max_duration": 30.0}}], timeout=60.0)
+    (result,) = results(events)
+    assert result["status"] == "SUCCEEDED", result
+    assert FOLLOW_CONTROLLING in follow_states(events)
+    rx, ry, _ = result["truth"]["robot"]
+    tx, ty, _ = result["truth"]["target"]
+    assert math.hypot(tx - rx, ty - ry) < 2.5, result["truth"]
+
+
+@pytest.mark.slow
+def test_a_pose_topic_that_goes_silent_fails_to_detect_the_object_after_the_search_not_before(tmp_path):
+    """The tracker dies at 12 s. opennav_following gives up after its retries (FAILED_TO_DETECT_OBJECT within
+    seconds); here the ladder searches first (turn to the bearing, the belief's viewpoints, coverage), and
+    only then is the object given up with the same code."""
+    scenario = tracked_scenario(tmp_path, "follow_open", silent_after_s=12.0)
+    with served(tmp_path, scenario=scenario, duration=200.0) as env:
+        events = run_client(env, [{"follow": {"topic": "/target_pose"}}], timeout=180.0)
+    (result,) = results(events)
+    assert result["status"] == "ABORTED" and result["error_code"] == FAILED_TO_DETECT_OBJECT, result
+    assert "gave up" in result["error_msg"], result["error_msg"]
+    assert FOLLOW_RETRY in follow_states(events)
+    assert result["total_elapsed_time"] > 12.0 + 25.0  # the search ran: at least the belief's 25 s
