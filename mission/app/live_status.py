@@ -2,7 +2,9 @@
 
 On a terminal it is one line redrawn in place (rich); in a log (CI, a pipe) it prints a line per state
 change and a heartbeat every `every_s` simulated seconds — progress without flooding. When the run has a
-known length (`total_s`, else the scenario's duration) the line starts with a progress bar.
+known length (`total_s`, else the scenario's duration) the line starts with a progress bar. A run whose trees
+come and go (an action server's goals) shows ``no tree`` in place of the branch while none runs, and a log gets
+a line at the first tick after each change.
 """
 
 from __future__ import annotations
@@ -33,13 +35,14 @@ class LiveStatus(RunObserver):
         self._live: Live | None = None
         self._last_state = None
         self._last_print = -1e9
+        self._tree_changed = False
 
     def _line(self, runner: Any, tick: Tick) -> str:
         state = runner.get(bbk.STATE, "") or "…"
         gt = tick.ground_truth
         target = getattr(gt, "target", None)
         dist = "" if target is None else f"target {gt.robot.distance_to(target):4.1f} m  "
-        branch = " › ".join(runner.active_branch()[-3:])
+        branch = " › ".join(runner.active_branch()[-3:]) if runner.tree is not None else "no tree"
         return f"[{self.label}] {self._bar(tick.clock)}t={tick.clock:6.1f}s  {state:<7} {dist}{branch}"
 
     def _bar(self, stamp: float, width: int = 16) -> str:
@@ -66,10 +69,14 @@ class LiveStatus(RunObserver):
             self._live.update(Text(line))
             return
         state = runner.get(bbk.STATE, "")
-        if state != self._last_state or tick.clock - self._last_print >= self.every_s:
+        if self._tree_changed or state != self._last_state or tick.clock - self._last_print >= self.every_s:
             print(line, file=self.stream, flush=True)
             self._last_state = state
             self._last_print = tick.clock
+            self._tree_changed = False
+
+    def on_tree(self, runner: Any) -> None:
+        self._tree_changed = True  # a log says so at the next tick (a terminal's line shows it anyway)
 
     def on_end(self, runner: Any, outcome: Any) -> None:
         if self._live is not None:

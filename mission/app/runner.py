@@ -207,7 +207,9 @@ class TreeRunner:
     def _halt_tree(self) -> None:
         if self.tree is None:
             return
-        self.tree.interrupt()
+        # py_trees' halt: every node not INVALID is stopped (a running one's terminate) and left INVALID.
+        # (BehaviourTree.interrupt() only ends tick_tock(); it halts nothing.)
+        self.tree.root.stop(py_trees.common.Status.INVALID)
         self.tree.shutdown()
         self.tree = None
         bbk.set_(self.bb, bbk.NAV_GOAL, None)

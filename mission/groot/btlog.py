@@ -66,7 +66,10 @@ def header_bytes(xml: str, start_us: int) -> bytes:
 class BtLogWriter(RunObserver):
     """Writes every node's status transitions to `path` (a .btlog) from the first tick to the end of the run.
 
-    The file is created (and checked writable) when the writer is made, before the run starts."""
+    The file is created (and checked writable) when the writer is made, before the run starts. A .btlog holds
+    one tree: in a run whose trees come and go (an action server's goals, ``on_tree``) it is the first tree
+    the run has; its log ends when that tree stops or is replaced (with the halt: running nodes to IDLE), and
+    later trees are not logged (said once)."""
 
     def __init__(self, path: str | Path, *, option: str = "--btlog") -> None:
         self.path = Path(path)
@@ -80,16 +83,40 @@ class BtLogWriter(RunObserver):
         except OSError as err:
             raise MissionError(f"{option} {self.path}: {unwritable(err, self.path)}") from None
         self._recorder: TransitionRecorder | None = None
+        self._tree: Any = None  # the py_trees tree the recorder visits
+        self._logged = False  # the header (one tree) is written
         self._t0: float | None = None
         self._last_us = 0
         self.transitions = 0
 
     def on_start(self, run: Run) -> None:
+        if run.tree is not None:  # none: an action server's run before its first goal (on_tree brings it)
+            self._watch(run)
+
+    def on_tree(self, run: Run) -> None:
+        if not self._logged:
+            if run.tree is not None:
+                self._watch(run)
+            return
+        if self._recorder is not None:
+            self._recorder.finalise()  # the tree was halted: its running nodes go to IDLE, as in BT.CPP
+            self._write_changes(self._last_us)
+            self._detach()
+            log.warning("--btlog %s: a .btlog holds one tree; the run's later trees are not logged", self.path)
+
+    def _watch(self, run: Run) -> None:
         watched = watch_run(run, "--btlog")
         if watched is None:
             return
         tree, self._recorder = watched
+        self._tree = run.tree
+        self._logged = True
         self._write(header_bytes(tree.xml(run.factory), time.time_ns() // 1000))
+
+    def _detach(self) -> None:
+        if self._recorder is not None and self._tree is not None and self._recorder in self._tree.visitors:
+            self._tree.visitors.remove(self._recorder)
+        self._recorder, self._tree = None, None
 
     def on_tick(self, run: Run, tick: Tick) -> None:
         if self._recorder is None:
@@ -99,14 +126,17 @@ class BtLogWriter(RunObserver):
         # the run's clock, never backwards in the file (ROS time may jump back when a bag loops)
         stamp = max(self._last_us, round((tick.clock - self._t0) * 1e6))
         self._last_us = stamp
+        self._write_changes(stamp)
+
+    def _write_changes(self, stamp: int) -> None:
+        assert self._recorder is not None
         changes = self._recorder.drain()
         if changes:
             self._write(b"".join(p.pack_transition(stamp, t.uid, t.status) for t in changes))
             self.transitions += len(changes)
 
     def on_end(self, run: Run, outcome: Any) -> None:
-        if self._recorder is not None and run.tree is not None and self._recorder in run.tree.visitors:
-            run.tree.visitors.remove(self._recorder)
+        self._detach()
         self.close()
 
     def _write(self, data: bytes) -> None:

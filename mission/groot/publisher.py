@@ -17,6 +17,12 @@ monitor through ``ssh -L 1667:127.0.0.1:1667 -L 1668:127.0.0.1:1668 robot``). Se
 * HOOKS_DUMP (no hooks: ``[]``), REMOVE_ALL_HOOKS and DISABLE_ALL_HOOKS are acknowledged; inserting a
   hook or breakpoint is refused with an error reply (a breakpoint would stop the tick).
 
+A run's tree may come and go (an action server's goals: ``on_tree``). Until the first tree, FULLTREE is an
+error reply ("no tree yet"). Each new tree is served with a new tree UUID in every reply header, which is how
+Groot2 tells a new tree from the old one and asks for FULLTREE again (as it does when BT.CPP's executor makes
+a new publisher for a new tree); transitions recorded for the old tree are dropped. A tree that stops stays
+served, halted as BT.CPP halts one: its running nodes IDLE after RUNNING.
+
 The requests are answered on a thread of their own; the tick thread only updates a status buffer under a
 lock, so a connected Groot2 costs the tick nothing but the visitor (mission.groot.transitions).
 """
@@ -36,7 +42,7 @@ from mission.core.errors import MissionError
 from mission.core.observers import RunObserver, Tick
 from mission.groot import protocol as p
 from mission.groot.blackboard_export import blackboard_entries
-from mission.groot.transitions import TransitionRecorder, watch_run
+from mission.groot.transitions import Transition, TransitionRecorder, watch_run
 from mission.groot.uids import UidTree
 
 if TYPE_CHECKING:
@@ -86,6 +92,7 @@ class Groot2Publisher(RunObserver):
         self._status_at: dict[int, int] = {}  # uid → offset of its status byte in _status
         self._instances: dict[str, str] = {}  # blackboard name Groot2 asks for → instance path
         self._recorder: TransitionRecorder | None = None
+        self._tree: Any = None  # the py_trees tree the recorder visits (the run's may have changed since)
         self._run: Run | None = None
         self._recording = False
         self._recording_t0 = 0
@@ -115,30 +122,66 @@ class Groot2Publisher(RunObserver):
 
     # -- RunObserver ------------------------------------------------------------------------------
     def on_start(self, run: Run) -> None:
-        watched = watch_run(run, "Groot2 monitor")
-        if watched is None:
-            return
-        tree, recorder = watched
-        with self._lock:
-            self._xml = tree.xml(run.factory).encode("utf-8")
-            self._status, self._status_at = _status_buffer(tree)
-            self._instances = {inst.name: inst.path for inst in tree.instances} | {"": ""}
-            self._recorder, self._run = recorder, run
+        if run.tree is None:  # an action server's run before its first goal: the tree comes with on_tree
+            waiting = " (no tree yet: waiting for a goal)"
+        else:
+            waiting = ""
+            self._watch(run, new_uuid=False)
         if not self.quiet:
             print(
-                f"mission: Groot2 monitor on {self.host}:{self.port} (Groot2 → Monitor → connect)",
+                f"mission: Groot2 monitor on {self.host}:{self.port} (Groot2 → Monitor → connect){waiting}",
                 file=sys.stderr,
                 flush=True,
             )
 
-    def on_tick(self, run: Run, tick: Tick) -> None:
-        if self._recorder is None:
+    def on_tree(self, run: Run) -> None:
+        """The old tree is let go (halted, as it was); a new one is served under a new tree UUID."""
+        self._unwatch(halted=True)
+        if run.tree is not None:
+            self._watch(run, new_uuid=True)
+
+    def _watch(self, run: Run, *, new_uuid: bool) -> None:
+        watched = watch_run(run, "Groot2 monitor")
+        if watched is None:
             return
-        changes = self._recorder.drain()
+        tree, recorder = watched
+        xml = tree.xml(run.factory).encode("utf-8")
+        status, status_at = _status_buffer(tree)
+        with self._lock:
+            self._xml, self._status, self._status_at = xml, status, status_at
+            self._instances = {inst.name: inst.path for inst in tree.instances} | {"": ""}
+            self._recorder, self._tree, self._run = recorder, run.tree, run
+            if new_uuid:
+                self.tree_uuid = p.new_tree_uuid()
+                self._recorded.clear()  # the old tree's UIDs: meaningless in the new one
+
+    def _unwatch(self, *, halted: bool) -> None:
+        """Detach the recorder from the tree it watches; `halted`: that tree was halted (a goal ended), so its
+        running nodes go to IDLE as BT.CPP's haltTree leaves them."""
+        recorder, tree = self._recorder, self._tree
+        if recorder is None:
+            return
+        if tree is not None and recorder in tree.visitors:
+            tree.visitors.remove(recorder)
+        if halted:
+            recorder.finalise()
+            self._apply(recorder, recorder.drain())
+        with self._lock:
+            if self._recorder is recorder:
+                self._recorder, self._tree = None, None
+
+    def on_tick(self, run: Run, tick: Tick) -> None:
+        recorder = self._recorder
+        if recorder is not None:
+            self._apply(recorder, recorder.drain())
+
+    def _apply(self, recorder: TransitionRecorder, changes: list[Transition]) -> None:
         if not changes:
             return
         now = _wall_us()
         with self._lock:
+            if recorder is not self._recorder:  # the tree was replaced meanwhile (another thread)
+                return
             for t in changes:
                 shown = p.IDLE_FROM + t.previous if t.status == p.IDLE else t.status
                 self._status[self._status_at[t.uid]] = shown
@@ -146,8 +189,7 @@ class Groot2Publisher(RunObserver):
                     self._recorded.append(p.pack_transition(now - self._recording_t0, t.uid, t.status))
 
     def on_end(self, run: Run, outcome: Any) -> None:
-        if self._recorder is not None and run.tree is not None and self._recorder in run.tree.visitors:
-            run.tree.visitors.remove(self._recorder)
+        self._unwatch(halted=False)
         self.close()
 
     def close(self) -> None:
@@ -193,15 +235,15 @@ class Groot2Publisher(RunObserver):
             header = p.parse_request_header(request[0])
         except ValueError:
             return _error("wrong request header")
-        first = p.reply_header(header, self.tree_uuid)
         kind = header.type
         if kind in _NEEDS_ARGUMENT and len(request) != 2:
             return _error("must be 2 parts message")
-        with self._lock:
-            xml, status = self._xml, bytes(self._status)
+        with self._lock:  # the tree, its statuses and its UUID as one (a new tree may be swapped in meanwhile)
+            xml, status, tree_uuid = self._xml, bytes(self._status), self.tree_uuid
+        first = p.reply_header(header, tree_uuid)
         if kind == p.FULLTREE:
             if xml is None:
-                return _error("the run has not started: no tree yet")
+                return _error("no tree yet: the run has not started, or waits for a goal")
             return [first, xml]
         if kind == p.STATUS:
             return [first, status]

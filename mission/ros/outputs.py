@@ -9,7 +9,11 @@
   (nav2_msgs/BehaviorTreeLog: every node whose status changed in a tick, as bt_navigator publishes it) and
   ``/behavior_tree`` (std_msgs/String, latched: the tree's XML).
 * :class:`StatusPublisher` — ``/mission/status`` (std_msgs/String JSON, latched, on change): the mission
-  state, the root's status, the reason and the world fault (what the sim-robot scores a run by).
+  state, the root's status, the reason, the world fault (what the sim-robot scores a run by) and the tree.
+
+The run's tree may come and go (an action server's goals, ``on_tree``): ``/behavior_tree`` then carries the
+new tree's XML and ``/behavior_tree_log`` its changes from IDLE; ``/mission/tree`` the new tree's snapshot at
+once (``"tree": null`` while none runs); ``/mission/status`` names the tree that runs (``"tree": null``).
 
 /detected_aruco_pose goes out first: it is what a downstream controller waits for.
 
@@ -20,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -126,19 +131,29 @@ class TreePublisher(RunObserver):
         self._last_body = ""
         self._last_pub = -math.inf
         self._pending = False
+        self._lock = threading.Lock()  # on_tree may come from an action server's thread
 
     def on_tick(self, run: Any, tick: Tick) -> None:
+        self._publish(run, now=False)
+
+    def on_tree(self, run: Any) -> None:
+        """A new tree (or none) is published at once, not after the 2 Hz limit."""
+        self._publish(run, now=True)
+
+    def _publish(self, run: Any, *, now: bool) -> None:
         snap = run.snapshot()
         volatile = ("tick", "clock", "perception")  # change every frame; the tree itself may not
         body = json.dumps({k: v for k, v in snap.items() if k not in volatile}, sort_keys=True)
-        if body != self._last_body:
-            self._last_body = body
-            self._pending = True
-        now = time.monotonic()
-        if self._pending and now - self._last_pub >= TREE_PUBLISH_PERIOD_S:
+        with self._lock:
+            if body != self._last_body:
+                self._last_body = body
+                self._pending = True
+            t = time.monotonic()
+            if not self._pending or (not now and t - self._last_pub < TREE_PUBLISH_PERIOD_S):
+                return
             self._pending = False
-            self._last_pub = now
-            self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
+            self._last_pub = t
+        self.pub.publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(snap)))
 
 
 BT_STATUS = {"SUCCESS": "SUCCESS", "FAILURE": "FAILURE", "RUNNING": "RUNNING", "INVALID": "IDLE"}
@@ -148,8 +163,10 @@ class BehaviorTreeLogPublisher(RunObserver):
     """``/behavior_tree_log`` and ``/behavior_tree``: what Nav2's tools and behaviour-tree panels read.
 
     After every tick, one nav2_msgs/BehaviorTreeLog with an event per node whose status changed (py_trees'
-    INVALID is BT.CPP's IDLE); ``uid`` is the node's place in a depth-first walk from 1, stable for the run,
-    ``node_name`` its name in the tree. The XML of the tree file goes out once, latched."""
+    INVALID is BT.CPP's IDLE); ``uid`` is the node's place in a depth-first walk from 1, stable for the tree,
+    ``node_name`` its name in the tree. The XML of the tree file goes out latched, again for every new tree
+    (``on_tree``); a tree that stops or is replaced gets a last log of its nodes as the halt left them, and
+    the next tree's first log reports its nodes' changes from IDLE."""
 
     def __init__(self, node: Any, msgs: RclpyMessages, nav2: Any, now: Callable[[], float]) -> None:
         from mission.ros.ros_adapter import LATCHED, RELIABLE
@@ -159,19 +176,35 @@ class BehaviorTreeLogPublisher(RunObserver):
         self.event_type = nav2.get("msg", "BehaviorTreeStatusChange")
         self.pub_log = node.create_publisher(self.log_type, "/behavior_tree_log", RELIABLE)
         self.pub_xml = node.create_publisher(msgs.cls("std_msgs/msg/String"), "/behavior_tree", LATCHED)
-        self._last: dict[int, str] = {}
+        self._last: dict[int, str] = {}  # uid → the status last reported, for the tree in _tree
+        self._tree: Any = None
+        self._lock = threading.Lock()  # on_tree may come from an action server's thread
         self.published = 0
 
     def on_start(self, run: Any) -> None:
-        if run.tree_path is not None:
+        self._follow(run)
+
+    def on_tree(self, run: Any) -> None:
+        with self._lock:
+            if self._tree is not None:  # the old tree as its halt left it
+                self._log(self._tree)
+        self._follow(run)
+
+    def _follow(self, run: Any) -> None:
+        with self._lock:
+            self._tree, self._last = run.tree, {}
+        if run.tree is not None and run.tree_path is not None:
             self.pub_xml.publish(self.msgs.new("std_msgs/msg/String", data=Path(run.tree_path).read_text()))
 
     def on_tick(self, run: Any, tick: Tick) -> None:
-        if run.tree is None:
-            return
+        with self._lock:
+            if run.tree is not None and run.tree is self._tree:
+                self._log(run.tree)
+
+    def _log(self, tree: Any) -> None:
         stamp = time_msg(self.msgs, self.now())
         events = []
-        for uid, behaviour in enumerate(run.root.iterate(), start=1):
+        for uid, behaviour in enumerate(tree.root.iterate(), start=1):
             status = BT_STATUS.get(behaviour.status.name, "IDLE")
             previous = self._last.get(uid, "IDLE")
             if status != previous:
@@ -191,7 +224,9 @@ class BehaviorTreeLogPublisher(RunObserver):
 
 
 class StatusPublisher(RunObserver):
-    """``/mission/status``: {state, status, reason, fault, tick, clock} as JSON when any but tick/clock changed."""
+    """``/mission/status``: {state, status, reason, fault, tree, tick, clock} as JSON when any but tick/clock
+    changed. ``tree`` is the file name of the tree that runs (null while none does: perception only, or an
+    action server between goals; ``status`` is then the last tree's last status)."""
 
     def __init__(self, node: Any, msgs: RclpyMessages) -> None:
         from mission.ros.ros_adapter import LATCHED
@@ -201,20 +236,23 @@ class StatusPublisher(RunObserver):
         self._last: tuple[str, ...] = ()
 
     def on_tick(self, run: Any, tick: Tick) -> None:
+        path = getattr(run, "tree_path", None)
         body = (
             str(run.get(bbk.STATE, "")),
             tick.status.name,
             str(run.get(bbk.REASON, "")),
             str(run.get(bbk.WORLD_FAULT, "")),
+            None if run.tree is None or path is None else Path(path).name,
         )
         if body != self._last:
             self._last = body
-            state, status, reason, fault = body
+            state, status, reason, fault, tree = body
             data = {
                 "state": state,
                 "status": status,
                 "reason": reason,
                 "fault": fault,
+                "tree": tree,
                 "tick": tick.index,
                 "clock": round(float(tick.clock), 3),
             }

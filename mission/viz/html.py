@@ -42,15 +42,20 @@ def render_page(
     ticks: list[dict[str, Any]] | None = None,
     tick: int | None = None,
     title: str = "mission",
+    empty: str = "waiting for the run to start…",
+    notice: str = "",
 ) -> str:
-    """The whole page as a string. `root` None (a live run not started yet) shows an empty tree panel."""
+    """The whole page as a string. `root` None (a live run not started yet, or with no tree) shows an empty
+    tree panel saying `empty`; `notice` is a line in the bar (a live run whose tree stopped)."""
     svg = "" if root is None else tree_svg_for_page(root, live=mode != "static")
     data = {"mode": mode, "header": header, "ticks": ticks or [], "tick": tick, "state_colours": STATE_COLOURS}
     page = _asset("page.html")
     for key, value in (
         ("{{CSS}}", _asset("page.css")),
         ("{{JS}}", _asset("page.js")),
-        ("{{SVG}}", svg or '<p class="empty" style="padding:16px">waiting for the run to start…</p>'),
+        ("{{SVG}}", svg or f'<p class="empty" style="padding:16px">{escape(empty)}</p>'),
+        ("{{NOTICE}}", escape(notice)),
+        ("{{NOTICE_HIDDEN}}", "" if notice else " hidden"),
         ("{{DATA}}", _json_for_script(data)),
         ("{{TITLE}}", escape(title)),
         ("{{MODE}}", mode),

@@ -237,11 +237,15 @@ _PROBES: weakref.WeakKeyDictionary[Any, TickProbe] = weakref.WeakKeyDictionary()
 
 
 def probe_for(runner: Any) -> TickProbe:
-    """The one probe of `runner`'s tree (created on first use, after ``runner.setup()``).
+    """The one probe of `runner`'s tree (created on first use, after ``runner.setup()``; the run must have a
+    tree: ``runner.tree`` is None while an action server's run waits for a goal).
 
-    Every viewer that calls this must call :func:`release` when it is done (reference counted).
+    Every viewer that calls this must call :func:`release_probe` with it when it is done (reference counted);
+    the runner's tree may have changed by then (``on_tree``), so a viewer keeps the probe it was given.
     """
     tree = runner.tree
+    if tree is None:
+        raise ValueError("the run has no tree to probe (perception only, or no goal yet)")
     probe = _PROBES.get(tree)
     if probe is None:
         probe = TickProbe(tree, getattr(runner, "tree_path", None), getattr(runner, "factory", None))
@@ -251,11 +255,16 @@ def probe_for(runner: Any) -> TickProbe:
 
 
 def release(runner: Any) -> None:
-    """A viewer is done with `runner`'s probe; the last one removes the instrumentation."""
-    probe = _PROBES.get(runner.tree)
-    if probe is None:
-        return
+    """A viewer is done with the probe of `runner`'s current tree (see :func:`release_probe`)."""
+    probe = None if runner.tree is None else _PROBES.get(runner.tree)
+    if probe is not None:
+        release_probe(probe)
+
+
+def release_probe(probe: TickProbe) -> None:
+    """A viewer is done with `probe`; the last one removes the instrumentation from its tree."""
     probe.users -= 1
     if probe.users <= 0:
-        del _PROBES[runner.tree]
+        if _PROBES.get(probe.tree) is probe:
+            del _PROBES[probe.tree]
         probe.close()

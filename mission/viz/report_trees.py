@@ -15,7 +15,7 @@ from typing import Any
 from mission.core.observers import RunObserver, Tick
 from mission.viz.model import apply_tick, from_snapshot
 from mission.viz.output import write_output
-from mission.viz.probe import probe_for, release
+from mission.viz.probe import TickProbe, probe_for, release_probe
 from mission.viz.style import STATE_COLOURS
 from mission.viz.svg import render_svg
 
@@ -23,18 +23,33 @@ MAX_MOMENTS = 40  # a flapping state keeps the first ones and the final tick
 
 
 class TransitionTrees(RunObserver):
-    """A run observer that keeps the tree at each state transition and writes them at the end."""
+    """A run observer that keeps the tree at each state transition and writes them at the end.
+
+    One tree: in a run whose trees come and go (an action server's goals, ``on_tree``) the first one the run
+    has, until it stops or is replaced."""
 
     def __init__(self, out_dir: str | Path) -> None:
         self.out_dir = Path(out_dir)
         self.moments: list[dict[str, Any]] = []
         self._last_state: str | None = None
         self._last_rec: dict[str, Any] | None = None
-        self._probe: Any = None
+        self._probe: TickProbe | None = None
         self._tree: dict[str, Any] | None = None
         self.written: list[Path] = []
 
     def on_start(self, runner: Any) -> None:
+        if runner.tree is not None:  # none: an action server's run before its first goal (on_tree brings it)
+            self._watch(runner)
+
+    def on_tree(self, runner: Any) -> None:
+        if self._tree is None:
+            if runner.tree is not None:
+                self._watch(runner)
+        elif self._probe is not None:  # the tree reported on stopped or was replaced: its moments end here
+            release_probe(self._probe)
+            self._probe = None
+
+    def _watch(self, runner: Any) -> None:
         self._probe = probe_for(runner)
         from mission.viz.model import to_dict
 
@@ -53,7 +68,7 @@ class TransitionTrees(RunObserver):
 
     def on_end(self, runner: Any, outcome: Any) -> None:
         if self._probe is not None:
-            release(runner)
+            release_probe(self._probe)
             self._probe = None
         if self._last_rec is not None and (not self.moments or self.moments[-1]["tick"] != self._last_rec["tick"]):
             self.moments.append({**self._last_rec, "from": self._last_rec["state"], "final": True})

@@ -28,7 +28,7 @@ from mission.core.errors import MissionError
 from mission.core.files import ensure_parent, unwritable
 from mission.core.observers import RunObserver, Tick
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
-from mission.viz.probe import probe_for, release
+from mission.viz.probe import TickProbe, probe_for, release_probe
 
 log = logging.getLogger(__name__)
 
@@ -60,8 +60,9 @@ def map_info(runner: Any, adapter: Any) -> dict[str, Any] | None:
 
 
 def header(runner: Any, adapter: Any, probe: Any, **extra: Any) -> dict[str, Any]:
-    """The first line of a log (and what the live page is sent first)."""
-    tree_path = getattr(runner, "tree_path", None)
+    """The first line of a log (and what the live page is sent first). `probe` None: a run with no tree
+    (the live page of an action server waiting for its first goal): ``tree`` is then None."""
+    tree_path = getattr(runner, "tree_path", None) if probe is not None else None
     scenario = getattr(getattr(adapter, "scenario", None), "name", None)
     return {
         "kind": "header",
@@ -69,21 +70,26 @@ def header(runner: Any, adapter: Any, probe: Any, **extra: Any) -> dict[str, Any
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "tree_file": None if tree_path is None else str(tree_path),
         "scenario": scenario,
-        "nodes": count(probe.static),
-        "tree": to_dict(probe.static),
+        "nodes": 0 if probe is None else count(probe.static),
+        "tree": None if probe is None else to_dict(probe.static),
         "map": map_info(runner, adapter),
         **extra,
     }
 
 
 class TickLog(RunObserver):
-    """A run observer writing a JSON-lines tick log to `path` (every `every`-th tick)."""
+    """A run observer writing a JSON-lines tick log to `path` (every `every`-th tick).
+
+    A log holds one tree (its header): in a run whose trees come and go (an action server's goals,
+    ``on_tree``) it is the first tree the run has; its ticks end when that tree stops or is replaced, and
+    later trees are not logged (said once)."""
 
     def __init__(self, path: str | Path, every: int = 1) -> None:
         self.path = Path(path)
         self.every = max(1, int(every))
         self._fh: IO[str] | None = None
-        self._probe: Any = None
+        self._probe: TickProbe | None = None
+        self._logged = False  # the header (one tree) is written
         self.lines = 0
         try:  # fail before the (slow) simulation starts when the file cannot be written
             ensure_parent(self.path)
@@ -92,9 +98,23 @@ class TickLog(RunObserver):
             raise MissionError(f"--log {self.path}: {unwritable(err, self.path)}") from None
 
     def on_start(self, runner: Any) -> None:
-        adapter = runner.world
+        if runner.tree is not None:  # none: an action server's run before its first goal (on_tree brings it)
+            self._watch(runner)
+
+    def on_tree(self, runner: Any) -> None:
+        if not self._logged:
+            if runner.tree is not None:
+                self._watch(runner)
+            return
+        if self._probe is not None:
+            release_probe(self._probe)
+            self._probe = None
+            log.warning("--log %s: a tick log holds one tree; the run's later trees are not logged", self.path)
+
+    def _watch(self, runner: Any) -> None:
         self._probe = probe_for(runner)
-        self._write(header(runner, adapter, self._probe))
+        self._logged = True
+        self._write(header(runner, runner.world, self._probe))
 
     def on_tick(self, runner: Any, tick: Tick) -> None:
         ground_truth = tick.ground_truth
@@ -102,10 +122,11 @@ class TickLog(RunObserver):
             self._write(self._probe.record(runner, ground_truth))
 
     def on_end(self, runner: Any, outcome: Any) -> None:
-        if self._probe is not None:
+        if self._logged:
             out = outcome.to_json() if hasattr(outcome, "to_json") else outcome
             self._write({"kind": "end", "outcome": out})
-            release(runner)
+        if self._probe is not None:
+            release_probe(self._probe)
             self._probe = None
         self.close()
 

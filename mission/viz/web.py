@@ -10,6 +10,11 @@ Standard library only: a ThreadingHTTPServer, server-sent events for the ticks, 
                      (the page's "Open log…");
 * ``/api/header``, ``/api/history?after=N``   JSON, for tools and tests.
 
+A run's tree may come and go (an action server's goals, ``on_tree``): with no tree yet the page says it waits
+for a goal; a new tree gets a new header (``generation`` counts them; an open page reloads itself) and a fresh
+history; when the tree stops, the page keeps the last tree with its final statuses and says that no tree runs
+(``running`` false in the header).
+
 It binds 127.0.0.1 only, never another interface. The server starts when the observer is created, so a
 port already in use is reported before the simulation spends time starting.
 """
@@ -29,15 +34,17 @@ from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
 from mission.core.observers import RunObserver, Tick
 from mission.viz.html import render_page, tree_svg_for_page
-from mission.viz.model import VizNode, apply_tick, from_snapshot
+from mission.viz.model import apply_tick, from_snapshot
 from mission.viz.overlay import draw_detections, encode_jpeg
-from mission.viz.probe import probe_for, release
+from mission.viz.probe import TickProbe, probe_for, release_probe
 from mission.viz.svg import render_svg
 from mission.viz.tick_log import header as make_header
 
 HOST = "127.0.0.1"
 MAX_HISTORY = 20_000  # ticks kept for scrubbing (≈1.5 kB each)
 PAGE_HISTORY = 3_000  # ticks embedded in a freshly loaded page; older ones stay scrubbable via the API
+NO_GOAL = "no goal: waiting for a tree"  # the page of a run with no tree (an action server before its first goal)
+STOPPED = "no tree runs (the goal ended); the last tree's final statuses are shown"
 
 
 def _dumps(obj: Any) -> str:
@@ -66,14 +73,13 @@ class LiveView(RunObserver):
         self.quiet = quiet
         self._cv = threading.Condition()
         self._header: dict[str, Any] | None = None
-        self._tree: VizNode | None = None
-        self._svg_live: str | None = None
+        self._generation = 0  # headers sent so far: one per tree the run had (and one while it had none)
         self._history: list[dict[str, Any]] = []
         self._frame: tuple[int, Any, list[Any]] | None = None  # (tick, Frame, detections)
         self._jpeg: tuple[int, bytes] | None = None
         self._ended = False
         self._closing = False
-        self._probe: Any = None
+        self._probe: TickProbe | None = None  # the probe of the tree shown, while that tree runs
         self.server = _bind(port, self)
         self.port = int(self.server.server_address[1])
         self.url = f"http://{HOST}:{self.port}/"
@@ -82,40 +88,59 @@ class LiveView(RunObserver):
 
     # -- RunObserver ------------------------------------------------------------------------------
     def on_start(self, runner: Any) -> None:
-        adapter = runner.world
-        self._probe = probe_for(runner)
-        tree = self._probe.static
-        with self._cv:
-            self._header = make_header(runner, adapter, self._probe)
-            self._tree = tree
-            self._svg_live = tree_svg_for_page(tree, live=True)
-            self._history.clear()
-            self._ended = False
-            self._cv.notify_all()
+        self._show(runner)
         if not self.quiet:
             print(f"mission: live view at {self.url}", file=sys.stderr, flush=True)
 
-    def on_tick(self, runner: Any, tick: Tick) -> None:
-        ground_truth = tick.ground_truth
-        if self._probe is None:
+    def on_tree(self, runner: Any) -> None:
+        """A new tree is shown from its first tick; a stopped one stays on the page with its final statuses."""
+        if runner.tree is not None:
+            self._show(runner)
             return
-        rec = self._probe.record(runner, ground_truth)
+        with self._cv:
+            old, self._probe = self._probe, None
+            if self._header is not None:
+                self._generation += 1
+                self._header = {**self._header, "generation": self._generation, "running": False, "notice": STOPPED}
+            self._cv.notify_all()
+        if old is not None:
+            release_probe(old)
+
+    def _show(self, runner: Any) -> None:
+        """Probe the run's tree (none: the page waits for a goal) and start its history afresh."""
+        probe = None if runner.tree is None else probe_for(runner)
+        header = make_header(runner, runner.world, probe)
+        with self._cv:
+            old, self._probe = self._probe, probe
+            self._generation += 1
+            header.update(generation=self._generation, running=probe is not None, notice="" if probe else NO_GOAL)
+            self._header = header
+            self._history.clear()
+            self._ended = False
+            self._cv.notify_all()
+        if old is not None:
+            release_probe(old)
+
+    def on_tick(self, runner: Any, tick: Tick) -> None:
+        probe = self._probe
+        rec = None if probe is None else probe.record(runner, tick.ground_truth)
         frame = runner.get(bbk.FRAME)
         with self._cv:
-            self._history.append(rec)
-            if len(self._history) > MAX_HISTORY:
-                del self._history[: len(self._history) - MAX_HISTORY]
-            if frame is not None:
-                self._frame = (rec["tick"], frame, list(runner.get(bbk.DETECTIONS, []) or []))
+            if rec is not None and probe is self._probe:  # not a tree replaced meanwhile (another thread)
+                self._history.append(rec)
+                if len(self._history) > MAX_HISTORY:
+                    del self._history[: len(self._history) - MAX_HISTORY]
+            if frame is not None:  # perception goes on without a tree: /camera.jpg stays current
+                self._frame = (int(runner.ticks), frame, list(runner.get(bbk.DETECTIONS, []) or []))
             self._cv.notify_all()
 
     def on_end(self, runner: Any, outcome: Any) -> None:
         with self._cv:
             self._ended = True
+            probe, self._probe = self._probe, None
             self._cv.notify_all()
-        if self._probe is not None:
-            release(runner)
-            self._probe = None
+        if probe is not None:
+            release_probe(probe)
         if self.hold and not self._closing:
             print(f"mission: run finished; the live view stays at {self.url} — Ctrl-C to stop", file=sys.stderr)
             try:
@@ -132,13 +157,22 @@ class LiveView(RunObserver):
         with self._cv:
             header = self._header
             hist = self._history[-PAGE_HISTORY:]
-            svg_tree = self._tree
-        if svg_tree is None:
+        if header is None:
             return render_page("live", None, header=None, title="mission — waiting for the run")
-        root = from_snapshot(header["tree"]) if header else svg_tree
+        if header.get("tree") is None:
+            return render_page("live", None, header=header, title=f"mission — {NO_GOAL}", empty=NO_GOAL)
+        root = from_snapshot(header["tree"])
         if hist:
             apply_tick(root, hist[-1]["nodes"])
-        return render_page("live", root, header=header, ticks=hist, title=f"mission — {root.name}")
+        stopped = "" if header.get("running", True) else " (no tree runs)"
+        return render_page(
+            "live",
+            root,
+            header=header,
+            ticks=hist,
+            title=f"mission — {root.name}{stopped}",
+            notice=header.get("notice", ""),
+        )
 
     def history(self, after: int) -> list[dict[str, Any]]:
         with self._cv:
@@ -165,12 +199,13 @@ class LiveView(RunObserver):
     def tree_svg(self) -> str | None:
         with self._cv:
             header, last = self._header, (self._history[-1] if self._history else None)
-        if header is None:
+        if header is None or header.get("tree") is None:
             return None
         root = from_snapshot(header["tree"])
         if last is not None:
             apply_tick(root, last["nodes"])
-        return render_svg(root, feedback=True, title=f"{root.name} — tick {last['tick'] if last else 0}")
+        stopped = "" if header.get("running", True) else " (no tree runs)"
+        return render_svg(root, feedback=True, title=f"{root.name} — tick {last['tick'] if last else 0}{stopped}")
 
     def stream(self, handler: BaseHTTPRequestHandler, after: int) -> None:
         """Send events until the client goes away or the server closes (what is pending is sent first)."""
@@ -189,7 +224,8 @@ class LiveView(RunObserver):
                     self._cv.wait(1.0)
             chunks: list[str] = []
             if header is not None and header is not sent_header:
-                chunks.append(f"event: header\ndata: {_dumps({'created': header.get('created')})}\n\n")
+                about = {"created": header.get("created"), "generation": header.get("generation")}
+                chunks.append(f"event: header\ndata: {_dumps(about)}\n\n")
                 sent_header = header
             for r in new:
                 chunks.append(f"id: {r['tick']}\nevent: tick\ndata: {_dumps(r)}\n\n")
@@ -267,7 +303,7 @@ class _Handler(BaseHTTPRequestHandler):
             elif url.path == "/tree.svg":
                 svg = self.view.tree_svg()
                 if svg is None:
-                    self._send(404, b"the run has not started", "text/plain")
+                    self._send(404, b"no tree to draw: the run has not started or waits for a goal", "text/plain")
                 else:
                     self._send(200, svg.encode("utf-8"), "image/svg+xml")
             elif url.path == "/api/header":

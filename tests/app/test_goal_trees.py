@@ -94,3 +94,17 @@ def test_cancel_halts_the_tree_and_stops_the_robot_and_a_new_goal_preempts_the_o
         assert trees.seen == ["dock_robot.xml", None, "dock_robot.xml", "dock_robot.xml"]
     finally:
         runner.close()
+
+
+def test_stop_halts_the_tree_every_running_node_terminated():
+    runner, _trees = server_runner()
+    try:
+        runner.start_tree("dock_robot.xml", GOAL)
+        runner.run(until=1.0)
+        tree = runner.tree
+        running = [b.name for b in tree.root.iterate() if b.status == S.RUNNING]
+        assert "NAV_TO_STAGING_POSE" in running
+        runner.stop_tree()
+        assert [b.name for b in tree.root.iterate() if b.status == S.RUNNING] == []  # BT.CPP's haltTree
+    finally:
+        runner.close()

@@ -290,7 +290,8 @@
     });
     src.addEventListener("header", (ev) => {
       const h = JSON.parse(ev.data);
-      if (!app.header || h.created !== app.header.created) location.reload();
+      // a new run or a new tree in this run (an action server's goal): the page of that one
+      if (!app.header || h.created !== app.header.created || h.generation !== app.header.generation) location.reload();
     });
     src.addEventListener("end", () => {
       src.close(); // the server stops after the run: do not reconnect
