@@ -12,6 +12,7 @@ marker mounting jitter, target timing (speed, pauses, start delay), image and li
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -30,8 +31,10 @@ from mission.core.types import (
     OccupancyGrid,
     Pose2D,
     RobotState,
+    Sighting,
     Twist,
 )
+from mission.sim.external_detector import DetectorModel
 from mission.sim.faults import FaultInjector
 from mission.sim.geometry import Footprint, clearance
 from mission.sim.ground_truth import GroundTruth
@@ -107,6 +110,11 @@ class SimAdapter:
         self._noise: list[tuple[np.ndarray, np.ndarray]] = []
         self.frames_rendered = 0
         self.faults = FaultInjector(scenario.faults, self.seed)  # scenario `faults:` (none by default)
+        # a scenario's external detector (a person tracker): its reports ride on the next camera frame
+        spec = scenario.external_detector
+        self.detector = None if spec is None else DetectorModel(spec, self.seed)
+        self.detector_report: np.ndarray | None = None  # T_map_target it reported this step (sim-robot publishes)
+        self._sightings: list[Sighting] = []
 
     # -- WorldAdapter --------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -141,6 +149,7 @@ class SimAdapter:
         bbk.set_(bb, bbk.MAP, self.occupancy_grid)
         bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
         bbk.set_(bb, bbk.NAV_REASON, self.navigator.reason)
+        self._run_detector()
         frame = None
         if self.t >= self._next_frame_t - 1e-9:
             frame = self.capture()
@@ -149,6 +158,9 @@ class SimAdapter:
                 self._next_frame_t += period
         if self.faults.active:
             frame = self.faults.camera(frame, self.t)  # blackout, drop, duplicate, late (old stamp)
+        if frame is not None and self._sightings:
+            frame = dataclasses.replace(frame, sightings=(*frame.sightings, *self._sightings))
+            self._sightings.clear()
         if frame is not None:
             self._frame_seq += 1
             bbk.set_(bb, bbk.FRAME, frame)
@@ -156,6 +168,15 @@ class SimAdapter:
         if self._scan is not None and self._scan_seq != self._scan_published:
             bbk.set_(bb, bbk.SCAN, self._scan)
             self._scan_published = self._scan_seq
+
+    def _run_detector(self) -> None:
+        self.detector_report = None
+        if self.detector is None or not self.detector.due(self.t):
+            return
+        report = self.detector.report(self.ground_truth(), self.t)
+        if report is not None:
+            self.detector_report = report
+            self._sightings.append(Sighting(self.t, report, "external_detector"))
 
     def act(self, bb: py_trees.blackboard.Client) -> None:
         """TWIST overrides navigation (cancels it); a NAV_GOAL with a new seq starts one; neither → stop."""

@@ -39,7 +39,6 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 import py_trees
 
 from mission.core import blackboard as bbk
@@ -123,8 +122,6 @@ class SimRobot:
         self._late: deque[tuple[float, Frame]] = deque()
         self._clock_offset = 0.0
         self._jumped = False
-        self._detector_rng = np.random.default_rng(np.random.SeedSequence([sim.seed, 32]))
-        self._detector_next = 0.0
         self.counts: dict[str, int] = {}
 
     # -- set-up --------------------------------------------------------------------------------------
@@ -316,8 +313,8 @@ class SimRobot:
     def _publish_truth(self, stamp: float) -> None:
         from mission.app.metrics import dock_errors
 
+        self._publish_detector(stamp)
         gt = self.sim.ground_truth()
-        self._publish_detector(gt, stamp)
         p = gt.robot
         body: dict[str, Any] = {"t": round(stamp, 4), "robot": [p.x, p.y, p.yaw], "collisions": gt.collisions}
         if gt.target is not None:
@@ -328,28 +325,16 @@ class SimRobot:
             body["dock"] = {k: round(float(v), 5) for k, v in vars(err).items()}
         self.pub["truth"].publish(self.msgs.new("std_msgs/msg/String", data=json.dumps(body)))
 
-    def _publish_detector(self, gt: Any, stamp: float) -> None:
-        """The scenario's external detector: the target's pose, when it can see it (module doc)."""
-        d = self.sim.scenario.external_detector
-        if d is None or self.sim.t < self._detector_next:
+    def _publish_detector(self, stamp: float) -> None:
+        """The scenario's external detector's report of this step, if any (sim/external_detector.py)."""
+        report, d = self.sim.detector_report, self.sim.scenario.external_detector
+        if report is None or d is None:
             return
-        self._detector_next = self.sim.t + 1.0 / d.rate_hz
-        rng = self._detector_rng
-        lost = rng.random() < d.dropout
-        noise = rng.normal(0.0, d.noise_m, 2)
-        if gt.target is None or lost or (d.silent_after_s is not None and self.sim.t >= d.silent_after_s):
-            return
-        camera = gt.T_map_optical[:3, 3]
-        if math.hypot(gt.target.x - camera[0], gt.target.y - camera[1]) > d.range_m:
-            return
-        if d.line_of_sight and not gt.target_in_los:
-            return
-        t = se3.planar(gt.target.x + noise[0], gt.target.y + noise[1], gt.target.yaw)
-        t[2, 3] = 0.5  # about the height of a person tracker's box centre
         if "detector" in self.pub:
-            self.pub["detector"].publish(pose_stamped(self.msgs, t, stamp, "map"))
+            self.pub["detector"].publish(pose_stamped(self.msgs, report, stamp, "map"))
         if d.frame and not self.faults.no_tf:
-            self.pub["tf"].publish(self.tf_message(transforms=[transform_stamped(self.msgs, t, stamp, "map", d.frame)]))
+            tf = transform_stamped(self.msgs, report, stamp, "map", d.frame)
+            self.pub["tf"].publish(self.tf_message(transforms=[tf]))
         self._count("detections")
 
     def _publish_frame(self, frame: Frame) -> None:
