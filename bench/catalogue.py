@@ -75,6 +75,9 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("ros", "ros_transport", "image → /detected_aruco_pose latency over shared-memory DDS at 30 Hz"),
     Benchmark("ros_missions", "ros_missions", "the mission over ROS (sim-robot + node) vs in process, same seeds "
               "(only with --only ros_missions)", in_quick=False, in_full=False),
+    Benchmark("nav2_actions", "nav2_actions", "Nav2's dock_robot / follow_object served by our trees (three "
+              "processes over DDS) vs the same trees in process, same seeds (only with --only nav2_actions)",
+              in_quick=False, in_full=False),
     Benchmark("soak", "soak", "long-running soak test (only with --only soak)", in_quick=False, in_full=False),
 )
 

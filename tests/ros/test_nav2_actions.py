@@ -31,7 +31,7 @@ pytestmark = pytest.mark.ros
 MISSION = str(ROOT / ".venv" / "bin" / "mission")
 CONFIG = str(ROOT / "mission" / "configs" / "sim_aruco.yaml")
 PARAMS = ROOT / "mission" / "ros" / "params" / "explore_dock.yaml"
-CLIENT = ROOT / "tests" / "helpers" / "nav2_task_client.py"
+CLIENT = ROOT / "bench" / "nav2_task_client.py"  # a Nav2 user's client: rclpy and nav2_msgs only
 DOCK_POSE = [0.47, 4.0, math.pi]  # home_dock's pose in PARAMS: the base when docked
 # DockRobot's constants (nav2_msgs/action/DockRobot.action)
 DOCK_NOT_IN_DB, FAILED_TO_DETECT_DOCK = 901, 904

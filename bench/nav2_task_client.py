@@ -1,7 +1,8 @@
 """A Nav2 user's client script for the docking actions, written from nav2_msgs' .action definitions only.
 
 It imports rclpy and nav2_msgs (the colcon build of ``ros/nav2_msgs``, as a Nav2 install provides it) and
-nothing of the mission package: the closed-loop tests run it as a separate process, so what passes here is
+nothing of the mission package: the closed-loop tests (tests/ros/test_nav2_actions.py) and the bench
+(bench/nav2_actions.py) run it as a separate process, so what passes here is
 what a team's existing client code would see. It takes a plan, a JSON list of steps, runs them in order and
 prints one JSON line per event:
 
@@ -115,7 +116,7 @@ class Client:
             now = {"state": getattr(fb, "state", None), "num_retries": getattr(fb, "num_retries", None)}
             if now != last:
                 last.update(now)
-                emit(event="feedback", action=kind, **now)
+                emit(event="feedback", action=kind, t=self.truth.get("t"), **now)
 
         future = client.send_goal_async(goal, feedback_callback=on_feedback)
         handle = _wait(future, timeout)
