@@ -28,6 +28,7 @@ from typing import Any
 from py_trees.behaviour import Behaviour
 
 from mission.behaviours.dock import VisualServoDock
+from mission.behaviours.drive_to_pose import DriveToPose
 from mission.behaviours.explore import Explore
 from mission.behaviours.follow import FollowTarget
 from mission.behaviours.go_to_pose import GoToPose
@@ -187,6 +188,7 @@ def shipped_factory() -> BehaviourFactory:
         Explore,
         GoToStaging,
         GoToPose,
+        DriveToPose,
         WaitForTarget,
         VisualServoDock,
         SetMissionState,

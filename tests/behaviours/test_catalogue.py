@@ -99,6 +99,19 @@ CATALOGUE = {
     ),
     "GoToStaging": ("Action", {"target": (str, "dock"), "offset_m": (float, 0.7), "timeout_s": (float, 40.0)}),
     "GoToPose": ("Action", {"pose": (Pose2D, REQUIRED), "timeout_s": (float, 0.0), "what": (str, "the goal")}),
+    "DriveToPose": (
+        "Action",
+        {
+            "pose": (Pose2D, REQUIRED),
+            "backward": (bool, False),
+            "max_v": (float, 0.15),
+            "max_w": (float, 0.5),
+            "linear_tolerance": (float, 0.05),
+            "angular_tolerance": (float, 0.05),
+            "timeout_s": (float, 0.0),
+            "what": (str, "the goal"),
+        },
+    ),
     "WaitForTarget": ("Action", {"target": (str, "dock"), "timeout_s": (float, 5.0)}),
     "VisualServoDock": (
         "Action",

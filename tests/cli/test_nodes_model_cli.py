@@ -116,7 +116,7 @@ def test_an_installed_packages_behaviours_are_in_the_palette(tmp_path):
     out = tmp_path / "palette.xml"
     result = mission(["nodes-model", "-o", str(out)], site=site)
     assert result.returncode == 0, result.stderr
-    assert "TreeNodesModel of 19 behaviours" in result.stderr  # 17 shipped (not the deprecated one) + Beacon + Radio
+    assert "TreeNodesModel of 20 behaviours" in result.stderr  # 18 shipped (not the deprecated one) + Beacon + Radio
     models = _models(out.read_text())
     beacon = models["Beacon"]
     assert {p.get("name"): p.get("default") for p in beacon.findall("input_port")} == {"times": "3", "colour": "amber"}
