@@ -147,6 +147,28 @@ def test_an_unknown_dock_a_cancel_and_a_preemption_as_a_nav2_client_sees_them(tm
     assert sorted(set(states(events))) == [NAV_TO_STAGING_POSE, INITIAL_PERCEPTION, CONTROLLING]
 
 
+@pytest.mark.slow
+def test_dock_by_id_then_undock_then_dock_by_pose(tmp_path):
+    """The nav2_simple_commander sequence: dockRobotByID, undockRobot (back out to the staging pose, with the
+    dock type the server docked at), dockRobotByPose with the dock's pose and its type."""
+    plan = [
+        {"dock": {"id": "home_dock"}},
+        {"undock": {}},
+        {"dock": {"pose": DOCK_POSE, "type": "wall_tag_dock", "navigate": False}},
+    ]
+    with served(tmp_path) as env:
+        events = run_client(env, plan)
+    by_id, undock, by_pose = results(events)
+    assert by_id["status"] == "SUCCEEDED" and docked_within_tolerance(by_id), by_id
+    assert undock["status"] == "SUCCEEDED" and undock["success"], undock
+    x, y, yaw = undock["truth"]["robot"]
+    staging = (DOCK_POSE[0] + 0.7, DOCK_POSE[1])  # 0.7 m back along the docked heading (facing −x)
+    assert math.hypot(x - staging[0], y - staging[1]) < 0.06
+    assert abs(math.atan2(math.sin(yaw - math.pi), math.cos(yaw - math.pi))) < 0.06
+    # undocked at the staging pose, the robot is within dock_prestaging_tolerance: it docks from here
+    assert by_pose["status"] == "SUCCEEDED" and docked_within_tolerance(by_pose), by_pose
+
+
 def test_an_unknown_dock_leaves_the_robot_where_it_was(tmp_path):
     with served(tmp_path, duration=60.0) as env:
         events = run_client(env, [{"dock": {"id": "kitchen_dock"}}, {"dock": {"id": "kitchen_dock"}}])
