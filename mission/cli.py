@@ -107,6 +107,8 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
 def _add_tree(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="mission config YAML")
     p.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
+    p.add_argument("--params-file", action="append", default=[], metavar="FILE",
+                   help="with --tree none: a Nav2 params file (docking_server / following_server keys); repeatable")
     p.epilog = "ROS arguments follow --ros-args, e.g. `mission tree --ros-args -p image_topic:=/cam/image`"
     # `--ros-args -p name:=value …` is collected by main() (argparse cannot take options it does not know).
     p.set_defaults(ros_args=[])

@@ -316,7 +316,7 @@ class Scenario(StrictModel):
     navigation: NavSpec = Field(default_factory=NavSpec)
     random: RandomSpec = Field(default_factory=RandomSpec)
     faults: Faults = Field(default_factory=Faults)  # injected faults (sim/faults.py); none by default
-    external_detector: ExternalDetector | None = None  # reports the target's pose (FollowObject; sim/external_detector.py)
+    external_detector: ExternalDetector | None = None  # reports the target's pose (sim/external_detector.py)
 
 
 # --------------------------------------------------------------------------------------------------

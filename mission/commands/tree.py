@@ -13,5 +13,7 @@ def main(args: argparse.Namespace) -> int:
         argv += ["--config", args.config]
     if args.tree:
         argv += ["--tree", args.tree]
+    for path in args.params_file or []:
+        argv += ["--params-file", path]
     argv += [a for a in (args.ros_args or []) if a != "--"]
     return node_main(argv)

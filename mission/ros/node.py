@@ -539,7 +539,7 @@ def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     parser.add_argument("--config", default=None, help="mission config YAML (same as -p config:=FILE)")
     parser.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
     parser.add_argument("--params-file", action="append", default=[], metavar="FILE",
-                        help="Nav2 params file (docking_server's keys); with --tree none")
+                        help="with --tree none: a Nav2 params file (docking_server / following_server keys)")
     return parser.parse_args(list(argv))
 
 

@@ -284,6 +284,40 @@ def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
     assert len(errors) == 1 and errors[0].startswith(line), proc.stderr
 
 
+BAD_DOCK = """/**:
+  ros__parameters:
+    dock_plugins: ["tag_dock"]
+    docks: ["home_dock"]
+    home_dock: {type: "tag_dock", pose: [1.0, 2.0]}
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "line"),
+    [
+        (None, "mission_tree: error: NOFILE: cannot read the params file (No such file or directory)"),
+        (BAD_DOCK, "mission_tree: error: FILE: home_dock.pose: expected [x, y, yaw], got [1.0, 2.0]"),
+        (BAD_DOCK.replace('type: "tag_dock"', 'type: "charger"').replace("2.0]", "2.0, 0.0]"),
+         "mission_tree: error: FILE: home_dock.type: dock type 'charger' is not in dock_plugins; known: tag_dock"),
+    ],
+)
+def test_a_bad_nav2_params_file_stops_the_server_with_one_line_naming_the_file_and_key(tmp_path, text, line):
+    path = tmp_path / "docking.yaml"
+    if text is not None:
+        path.write_text(text)
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", "tree", "--tree", "none", "--params-file", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 2, proc.stderr
+    errors = [ln for ln in proc.stderr.splitlines() if "DDS: shared memory only" not in ln]
+    expected = line.replace("NOFILE", str(path)).replace("FILE", str(path))
+    assert len(errors) == 1 and errors[0] == expected, proc.stderr
+
+
 # -- odometry, AMCL, scans and maps with impossible numbers ------------------------------------------------
 
 

@@ -52,7 +52,11 @@ def tracked_scenario(tmp: Path, base: str = "follow_occlusion", **detector: obje
 
 @contextmanager
 def served(
-    tmp: Path, params: Path = PARAMS, duration: float = 200.0, scenario: str = "explore_dock"
+    tmp: Path,
+    params: Path = PARAMS,
+    duration: float = 200.0,
+    scenario: str = "explore_dock",
+    node_params: tuple[str, ...] = (),
 ) -> Iterator[dict[str, str]]:
     """sim-robot (`scenario`, serving) and the node in server mode; yields the client's environment."""
     build_ros()
@@ -69,6 +73,7 @@ def served(
             "--ros-args",
             "-p",
             "use_sim_time:=true",
+            *[arg for p in node_params for arg in ("-p", p)],
         ],
         env,
         tmp / "node.log",
@@ -177,6 +182,20 @@ def test_an_unknown_dock_leaves_the_robot_where_it_was(tmp_path):
     x0, y0, yaw0 = first["truth"]["robot"]
     x1, y1, yaw1 = second["truth"]["robot"]
     assert math.hypot(x1 - x0, y1 - y0) < 0.005 and abs(yaw1 - yaw0) < 0.005
+
+
+def test_goals_a_server_cannot_run_end_at_once_with_why_and_the_node_serves_the_next(tmp_path):
+    """A dock_tree of the user's that does not load, and a follow goal naming neither a topic nor a frame."""
+    bad_tree = tmp_path / "my_dock.xml"
+    bad_tree.write_text('<root BTCPP_format="4"><BehaviorTree ID="X"><Dock/></BehaviorTree></root>')
+    with served(tmp_path, duration=60.0, node_params=(f"dock_tree:={bad_tree}",)) as env:
+        events = run_client(env, [{"dock": {"id": "home_dock"}}, {"follow": {}}, {"dock": {"id": "kitchen_dock"}}])
+    bad, nothing, unknown = results(events)
+    assert bad["status"] == "ABORTED" and bad["error_code"] == 999  # UNKNOWN
+    assert bad["error_msg"].startswith(f"the tree {bad_tree} cannot run: {bad_tree}:1"), bad["error_msg"]
+    assert nothing["error_code"] == FAILED_TO_DETECT_OBJECT
+    assert nothing["error_msg"] == "No pose topic or target frame provided."
+    assert unknown["error_code"] == DOCK_NOT_IN_DB  # the node still serves
 
 
 @pytest.mark.slow
