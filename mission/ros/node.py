@@ -490,6 +490,7 @@ class MissionNode:
             **cache.to_json(),
             "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
             "sources": source_statuses(self.sources),  # the VLM's budget, breaker (and why), model cost
+            **({"goals": dict(self.tasks.counts)} if self.tasks is not None else {}),  # server mode: Nav2's actions
         }
 
     def _on_heartbeat(self) -> None:
