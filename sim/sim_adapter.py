@@ -34,6 +34,7 @@ from mission.core.types import (
     Sighting,
     Twist,
 )
+from mission.sim.camera_model import CameraModel, has_effects
 from mission.sim.external_detector import DetectorModel
 from mission.sim.faults import FaultInjector
 from mission.sim.geometry import Footprint, clearance
@@ -78,6 +79,12 @@ class SimAdapter:
             raise ConfigError(f"expected 'tiny' or 'egl', got {self.renderer!r}", key="camera.renderer")
         cam = scenario.camera
         self.intrinsics: CameraIntrinsics = intrinsics_for(cam, self.renderer)
+        # a real camera's lens, calibration and exposure (sim/camera_model.py), when the scenario asks for one
+        self.camera_model = (
+            CameraModel(cam, self.intrinsics, self.seed, lambda spec: intrinsics_for(spec, self.renderer))
+            if has_effects(cam)
+            else None
+        )
         m = cam.mount
         self.T_base_optical = se3.transform(se3.rot_y(math.radians(m.pitch_deg)) @ se3.R_BODY_OPTICAL, (m.x, m.y, m.z))
         self.occupancy_grid: OccupancyGrid = static_map(scenario)
@@ -247,7 +254,11 @@ class SimAdapter:
         assert self.world is not None
         cam = self.scenario.camera
         T = self.T_map_optical()
-        img, depth = self.world.render(T, cam, self.scenario.lighting, depth=cam.depth)
+        model = self.camera_model
+        img, depth = self.world.render(T, cam if model is None else model.render_spec, self.scenario.lighting,
+                                       depth=cam.depth)
+        if model is not None:
+            img, depth = model.apply(img, depth, self.base.state.w if self.base is not None else 0.0)
         sigma = self.scenario.lighting.image_noise_sigma
         if sigma > 0:
             plus, minus = self._noise_image(sigma)
@@ -257,7 +268,7 @@ class SimAdapter:
             image=img,
             stamp=self.t,
             frame_id="camera_optical_frame",
-            intrinsics=self.intrinsics,
+            intrinsics=self.intrinsics if model is None else model.told,  # what the detector is told
             depth=depth,
             T_anchor_camera=T,
             anchor_frame="map",

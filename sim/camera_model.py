@@ -1,0 +1,157 @@
+"""A real camera's imperfections on the simulation's ideal pinhole image (issue 33): lens distortion, the
+calibration the detector is told (never exactly the lens), and motion blur over the exposure.
+
+The renderer draws a perfect pinhole. A real lens bends straight lines (plumb-bob k1, k2, p1, p2, k3), a
+real calibration is off by a percent or two, and a camera turning at 1 rad/s with 20 ms of exposure smears
+a marker over ω · t · fx ≈ 8 px. Each effect is a key of the scenario's ``camera:`` section and is off by
+default, so an ``ideal`` world stays exactly what it was.
+
+* **Distortion.** For each pixel of the distorted image, where it comes from in the ideal one is OpenCV's
+  ``undistortPoints`` (the plumb-bob model inverted). A barrel lens sees more than its pinhole would, so the
+  ideal image is rendered with a wider field of view (and the same size), wide enough that every distorted
+  pixel has a source; one ``remap`` then makes the lens's picture. Depth is remapped the same way, nearest.
+* **Calibration.** The frame carries the intrinsics and distortion the detector is *told*: the true ones
+  with a seeded error (``calibration_focal_pct``, ``calibration_center_px``, ``calibration_k1``). The
+  ground truth keeps the true camera.
+* **Motion blur.** The image is averaged over the exposure along the smear the camera's own rotation makes:
+  a yaw rate ω moves the image sideways by ω · t · fx pixels at the centre. The kernel is that line, with
+  sub-pixel ends, so a 10 px smear looks like one; the render is the middle of the exposure (the frame's
+  stamp), so the smear is centred on it. (The target's own motion and the robot's translation are
+  smaller at the ranges the missions work at, and are not modelled yet.)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from mission.core.types import CameraIntrinsics
+from mission.sim.scenario import CameraSpec
+
+BORDER_MARGIN = 1.02  # the wider render's field of view, beyond what the distorted corners need
+
+
+def has_effects(cam: CameraSpec) -> bool:
+    """Whether the scenario asks for anything beyond the ideal pinhole."""
+    return (
+        any(v != 0.0 for v in cam.distortion)
+        or cam.exposure_s > 0
+        or cam.calibration_focal_pct > 0
+        or cam.calibration_center_px > 0
+        or cam.calibration_k1 > 0
+    )
+
+
+class CameraModel:
+    """The scenario camera's lens, calibration and exposure, applied to ideal renders (module doc)."""
+
+    def __init__(
+        self,
+        cam: CameraSpec,
+        true_k: CameraIntrinsics,
+        seed: int,
+        render_k: Callable[[CameraSpec], CameraIntrinsics],
+    ) -> None:
+        self.cam = cam
+        self.true_k = true_k
+        self.distortion = np.asarray(cam.distortion, dtype=np.float64)
+        self.K = _matrix(true_k)
+        self.render_spec = cam
+        self.render_k = true_k
+        self._maps: tuple[np.ndarray, np.ndarray] | None = None
+        if np.any(self.distortion != 0.0):
+            scale = self._render_scale()
+            vfov = 2.0 * math.degrees(math.atan(math.tan(math.radians(cam.vfov_deg) / 2.0) * scale))
+            self.render_spec = cam.model_copy(update={"vfov_deg": vfov})
+            self.render_k = render_k(self.render_spec)
+            self._maps = self._distortion_maps()
+        self.told = self._told(np.random.default_rng(np.random.SeedSequence([int(seed), 33])))
+
+    # -- set-up ----------------------------------------------------------------------------------------
+    def _border_pixels(self) -> np.ndarray:
+        w, h = self.cam.width, self.cam.height
+        xs, ys = np.linspace(0, w - 1, 64), np.linspace(0, h - 1, 48)
+        border = [(x, 0) for x in xs] + [(x, h - 1) for x in xs] + [(0, y) for y in ys] + [(w - 1, y) for y in ys]
+        return np.asarray(border, dtype=np.float64)
+
+    def _ideal_normalized(self, pixels: np.ndarray) -> np.ndarray:
+        """Where distorted pixels look, as ideal normalized image coordinates (x/z, y/z)."""
+        pts = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.K, self.distortion)
+        return pts.reshape(-1, 2)
+
+    def _render_scale(self) -> float:
+        """How much wider than the pinhole the ideal render must look so every distorted pixel has a source."""
+        k = self.true_k
+        n = self._ideal_normalized(self._border_pixels())
+        reach = max(
+            float(np.max(np.abs(n[:, 0]))) * k.fx / max(k.cx, k.width - k.cx),
+            float(np.max(np.abs(n[:, 1]))) * k.fy / max(k.cy, k.height - k.cy),
+        )
+        return max(1.0, reach) * BORDER_MARGIN
+
+    def _distortion_maps(self) -> tuple[np.ndarray, np.ndarray]:
+        w, h = self.cam.width, self.cam.height
+        u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+        n = self._ideal_normalized(np.column_stack([u.ravel(), v.ravel()]))
+        rk = self.render_k
+        map_x = (n[:, 0] * rk.fx + rk.cx).reshape(h, w).astype(np.float32)
+        map_y = (n[:, 1] * rk.fy + rk.cy).reshape(h, w).astype(np.float32)
+        return map_x, map_y
+
+    def _told(self, rng: np.random.Generator) -> CameraIntrinsics:
+        """The calibration the detector gets: the true camera with the scenario's seeded error."""
+        c, k = self.cam, self.true_k
+        focal = 1.0 + rng.normal(0.0, c.calibration_focal_pct / 100.0) if c.calibration_focal_pct > 0 else 1.0
+        dcx, dcy = rng.normal(0.0, c.calibration_center_px, 2) if c.calibration_center_px > 0 else (0.0, 0.0)
+        dist = self.distortion.copy()
+        if c.calibration_k1 > 0:
+            dist[0] += rng.normal(0.0, c.calibration_k1)
+        return CameraIntrinsics(
+            fx=k.fx * focal,
+            fy=k.fy * focal,
+            cx=k.cx + float(dcx),
+            cy=k.cy + float(dcy),
+            width=k.width,
+            height=k.height,
+            distortion=tuple(float(v) for v in dist) if np.any(dist != 0.0) else (),
+        )
+
+    # -- every frame ---------------------------------------------------------------------------------
+    def apply(
+        self, image: np.ndarray, depth: np.ndarray | None, yaw_rate: float
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The lens's picture of an ideal render (made with :attr:`render_spec`), blurred by the rotation."""
+        if self._maps is not None:
+            map_x, map_y = self._maps
+            image = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            if depth is not None:
+                depth = cv2.remap(depth, map_x, map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+        length = self.smear_px(yaw_rate)
+        if length > 0.5:
+            kernel = smear_kernel(length)
+            centre = round(float((kernel[0] * np.arange(kernel.shape[1])).sum()))  # centred within ½ px
+            image = cv2.filter2D(image, -1, kernel, anchor=(centre, 0), borderType=cv2.BORDER_REPLICATE)
+        return image, depth
+
+    def smear_px(self, yaw_rate: float) -> float:
+        """How far the image moves during one exposure when the camera turns at `yaw_rate` (rad/s)."""
+        return abs(float(yaw_rate)) * self.cam.exposure_s * self.true_k.fx
+
+
+def smear_kernel(length: float) -> np.ndarray:
+    """A horizontal line kernel `length` px long (sub-pixel ends), summing to 1: a uniform smear."""
+    n = math.ceil(length) + 1
+    k = np.ones(n, dtype=np.float32)
+    frac = length - math.floor(length)
+    if frac > 0:
+        k[-1] = frac  # the last pixel is covered part of the exposure
+    else:
+        k = k[:-1]
+    return (k / k.sum()).reshape(1, -1)
+
+
+def _matrix(k: CameraIntrinsics) -> np.ndarray:
+    return np.array([[k.fx, 0.0, k.cx], [0.0, k.fy, k.cy], [0.0, 0.0, 1.0]])

@@ -1,0 +1,96 @@
+"""A real camera on the simulation's ideal pinhole (sim/camera_model.py, issue 33): each effect asserted on the
+picture or the numbers it must produce."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from mission.ros.conversions import intrinsics_to_camera_info
+from mission.ros.messages import RclpyMessages
+from mission.sim.camera_model import CameraModel, smear_kernel
+from mission.sim.scenario import CameraSpec, load_scenario
+from mission.sim.scene import intrinsics_for
+from mission.sim.sim_adapter import SimAdapter
+
+WIDE_LENS = (-0.30, 0.08, 0.0, 0.0, 0.0)  # a wide-angle webcam's barrel distortion
+
+
+def model(**camera) -> CameraModel:
+    cam = CameraSpec(**camera)
+    return CameraModel(cam, intrinsics_for(cam, "tiny"), seed=0, render_k=lambda spec: intrinsics_for(spec, "tiny"))
+
+
+def test_a_straight_edge_bends_by_the_distortion_models_amount():
+    m = model(distortion=WIDE_LENS)
+    rk = m.render_k
+    ideal = np.zeros((480, 640, 3), np.uint8)
+    u_line = 560  # a vertical edge near the right border of the ideal (wider) render
+    ideal[:, u_line : u_line + 2] = 255
+    out, _ = m.apply(ideal, None, yaw_rate=0.0)
+    # where the lens puts that edge, row by row: OpenCV's plumb-bob projection of the same rays
+    rows = np.linspace(-0.4, 0.4, 5) * rk.height + rk.cy
+    rays = np.column_stack([(u_line + 0.5 - rk.cx) / rk.fx * np.ones_like(rows), (rows - rk.cy) / rk.fy])
+    pts = np.column_stack([rays, np.ones(len(rays))])
+    projected, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), m.K, m.distortion)
+    seen = []
+    for u, v in projected.reshape(-1, 2):
+        if not 0 <= round(v) < 480:
+            continue
+        row = out[round(v), :, 0].astype(float)
+        if row.sum() > 0:
+            seen.append((float((row * np.arange(640)).sum() / row.sum()), u))
+    assert len(seen) >= 3
+    for measured, expected in seen:
+        assert measured == pytest.approx(expected, abs=0.75)
+    bend = max(u for _, u in seen) - min(u for _, u in seen)
+    assert bend > 10  # the edge is visibly curved: a pinhole would keep it straight (0 px)
+
+
+def test_the_wider_render_leaves_no_pixel_of_the_lens_image_without_a_source():
+    m = model(distortion=WIDE_LENS)
+    out, _ = m.apply(np.full((480, 640, 3), 200, np.uint8), None, 0.0)
+    assert m.render_spec.vfov_deg > 60.0
+    assert int(out.min()) == 200  # no black border
+
+
+def test_a_blur_kernels_length_equals_rate_times_exposure_times_focal_length():
+    m = model(exposure_s=0.02)
+    dot = np.zeros((480, 640), np.uint8)
+    dot[240, 320] = 255
+    out, _ = m.apply(dot, None, yaw_rate=1.0)
+    length = 1.0 * 0.02 * m.true_k.fx  # ≈ 8.3 px for the 640×480 60° camera
+    lit = np.nonzero(out[240])[0]
+    assert lit.max() - lit.min() == math.ceil(length)  # a point smeared over `length` covers ceil(length)+1 px
+    row = out[240].astype(float)
+    # the render is the middle of the exposure: the smear is centred on where the point was then
+    assert (row * np.arange(640)).sum() / row.sum() == pytest.approx(320, abs=0.6)
+    assert smear_kernel(length).sum() == pytest.approx(1.0)
+    still, _ = m.apply(dot, None, yaw_rate=0.0)
+    assert np.array_equal(still, dot)  # standing still: no blur
+
+
+def test_the_calibration_the_detector_is_told_is_off_by_a_seeded_error():
+    told = [model(calibration_focal_pct=2.0, calibration_center_px=3.0).told for _ in range(2)]
+    assert told[0] == told[1]  # the same seed, the same error
+    true = model().true_k
+    assert told[0].fx != true.fx and abs(told[0].fx / true.fx - 1) < 0.08
+    assert abs(told[0].cx - true.cx) < 12
+    assert model().told == true  # no error asked: the truth
+
+
+def test_a_simulated_frame_carries_the_lens_in_its_calibration_and_camera_info():
+    scenario = load_scenario("explore_dock")
+    scenario = scenario.model_copy(update={"camera": scenario.camera.model_copy(update={"distortion": WIDE_LENS})})
+    sim = SimAdapter(scenario, seed=0)
+    sim.setup()
+    try:
+        frame = sim.capture()
+        assert frame.intrinsics.distortion == WIDE_LENS
+        info = intrinsics_to_camera_info(RclpyMessages(), frame.intrinsics, frame.stamp, frame.frame_id)
+        assert info.distortion_model == "plumb_bob" and tuple(info.d) == pytest.approx(WIDE_LENS)
+    finally:
+        sim.close()
