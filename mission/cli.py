@@ -25,6 +25,7 @@ VERBS = {
     "plugins": "list installed perception plugins",
     "tree": "the ROS 2 node (also installed as lib/mission/tree for `ros2 run mission tree`)",
     "sim-robot": "the pybullet world as a ROS 2 robot (camera, odom, scan, map, TF, /clock; navigate_to_pose)",
+    "task": "send Nav2's dock_robot, undock_robot or follow_object goal and watch it (nav2_simple_commander's calls)",
     "replay": "run the tree on a recorded bag (ROS 1 or rosbag2)",
     "sweep": "scenarios × seeds × --set values on Dask (local or a cluster): results table + summary",
     "bench": "run the benchmarks and write their figures",
@@ -49,6 +50,8 @@ def _number(convert: Callable[[str], float], ok: Callable[[float], bool], expect
 
 
 positive_seconds = _number(float, lambda v: math.isfinite(v) and v > 0, "seconds (a finite number > 0)")
+non_negative_seconds = _number(float, lambda v: math.isfinite(v) and v >= 0, "seconds (a finite number ≥ 0)")
+finite = _number(float, math.isfinite, "a finite number")
 non_negative_int = _number(int, lambda v: v >= 0, "a whole number ≥ 0")
 positive_int = _number(int, lambda v: v >= 1, "a whole number ≥ 1")
 rate = _number(float, lambda v: math.isfinite(v) and v >= 0, "a finite number ≥ 0 (0 = as fast as possible)")
@@ -128,6 +131,44 @@ def _add_sim_robot(p: argparse.ArgumentParser) -> None:
                         "image_delay_s=D (repeatable)")
 
 
+def _add_task(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="action", required=True, metavar="ACTION")
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--namespace", default=None, metavar="NS",
+                        help="the servers' namespace: the goal goes to /NS/ACTION (default: none)")
+    common.add_argument("--server-timeout", type=positive_seconds, default=5.0, metavar="S",
+                        help="wait this long for the action server (exit 2 without one) and for each of its answers")
+    what = "dock at a dock of the server's database (--id) or at a pose (--pose): dock_robot"
+    dock = sub.add_parser("dock", parents=[common], help=what, description=what)
+    where = dock.add_mutually_exclusive_group(required=True)
+    where.add_argument("--id", default=None, metavar="DOCK_ID", help="a dock in the server's dock database")
+    where.add_argument("--pose", type=finite, nargs=3, default=None, metavar=("X", "Y", "YAW"),
+                       help="the dock's pose (the robot's when docked), m and rad")
+    dock.add_argument("--type", default=None, metavar="TYPE",
+                      help="with --pose: the dock's type (a dock_plugins name); not needed when the server has one")
+    dock.add_argument("--frame", default=None, metavar="FRAME", help="with --pose: the pose's frame (default map)")
+    dock.add_argument("--no-nav", action="store_true",
+                      help="the robot is at the staging pose already: do not navigate there first")
+    dock.add_argument("--max-staging-time", type=non_negative_seconds, default=None, metavar="S",
+                      help="seconds to reach the staging pose (default: the goal's 1000)")
+    what = "undock from the dock the robot is on: undock_robot"
+    undock = sub.add_parser("undock", parents=[common], help=what, description=what)
+    undock.add_argument("--type", default=None, metavar="TYPE",
+                        help="the dock's type, when the server did not dock the robot itself and knows several")
+    undock.add_argument("--max-undocking-time", type=non_negative_seconds, default=None, metavar="S",
+                        help="seconds to undock (default: the goal's 30)")
+    what = "follow an object by its pose topic (--topic) or its TF frame (--frame): follow_object"
+    follow = sub.add_parser("follow", parents=[common], help=what, description=what)
+    target = follow.add_mutually_exclusive_group(required=True)
+    target.add_argument("--topic", default=None, metavar="TOPIC",
+                        help="the object's pose (geometry_msgs/PoseStamped) is published here")
+    target.add_argument("--frame", default=None, metavar="FRAME", help="the object is this TF frame")
+    follow.add_argument("--max-duration", type=non_negative_seconds, default=0.0, metavar="S",
+                        help="stop following after S seconds (succeeded); default 0: until canceled or failed")
+    p.epilog = ("Ctrl-C cancels the running goal (and waits for the server to end it); exit 0 succeeded, 1 failed, "
+                "2 bad arguments or no action server")
+
+
 def _add_replay(p: argparse.ArgumentParser) -> None:
     p.add_argument("bag", metavar="BAG", help="a ROS 1 .bag file or a rosbag2 directory (sqlite3 or mcap)")
     p.add_argument("--config", default=None, help="mission config YAML")
@@ -190,8 +231,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
-              "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench, "plugins": lambda p: None,
-              "nodes-model": _add_nodes_model}
+              "task": _add_task, "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench,
+              "plugins": lambda p: None, "nodes-model": _add_nodes_model}
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text, add_help=verb not in FORWARDING)
         adders[verb](p)

@@ -219,6 +219,22 @@ def blackboard_block() -> str:
     return _table(("py_trees key", "in a tree file", "holds", "meaning"), rows)
 
 
+def _arguments_table(p: argparse.ArgumentParser) -> str | None:
+    """A parser's arguments as a markdown table (its sub-commands are not rows: they get their own tables)."""
+    rows = []
+    for action in p._actions:
+        if isinstance(action, argparse._HelpAction | argparse._SubParsersAction):
+            continue
+        flag = ", ".join(action.option_strings) or action.metavar or action.dest
+        if action.option_strings and action.nargs != 0:
+            metavar = action.metavar or action.dest.upper()
+            value = " ".join(metavar) if isinstance(metavar, tuple) else metavar  # nargs=2: "A B"
+            flag += f" [{value}]" if action.nargs == "?" else f" {value}"  # an optional value, as --help shows it
+        default = "" if action.default in (None, False, argparse.SUPPRESS, []) else f"`{action.default}`"
+        rows.append((f"`{flag}`", default, (action.help or "").replace("|", "\\|")))
+    return _table(("argument", "default", "meaning"), rows) if rows else None
+
+
 def cli_block() -> str:
     from bench.command import build_parser as bench_parser
     from mission.cli import FORWARDING, VERBS, build_parser
@@ -230,19 +246,19 @@ def cli_block() -> str:
     parts = []
     for verb, help_text in VERBS.items():
         p = forwarded_to.get(verb) or sub.choices[verb]
-        rows = []
-        for action in p._actions:
-            if isinstance(action, argparse._HelpAction):
-                continue
-            flag = ", ".join(action.option_strings) or action.metavar or action.dest
-            if action.option_strings and action.nargs != 0:
-                metavar = action.metavar or action.dest.upper()
-                value = " ".join(metavar) if isinstance(metavar, tuple) else metavar  # nargs=2: "A B"
-                flag += f" [{value}]" if action.nargs == "?" else f" {value}"  # an optional value, as --help shows it
-            default = "" if action.default in (None, False, argparse.SUPPRESS, []) else f"`{action.default}`"
-            rows.append((f"`{flag}`", default, (action.help or "").replace("|", "\\|")))
         parts.append(f"#### `mission {verb}` — {help_text}\n\n")
-        parts.append(_table(("argument", "default", "meaning"), rows) if rows else "(no arguments)\n")
+        table = _arguments_table(p)
+        nested = next((a for a in p._actions if isinstance(a, argparse._SubParsersAction)), None)
+        if table or nested is None:
+            parts.append(table or "(no arguments)\n")
+        if nested is not None:  # `mission task dock|undock|follow`: a heading and a table per sub-command
+            helps = {a.dest: a.help for a in nested._choices_actions}
+            blocks = [
+                f"##### `mission {verb} {name}` — {helps.get(name, '')}\n\n"
+                + (_arguments_table(child) or "(no arguments)\n")
+                for name, child in nested.choices.items()
+            ]
+            parts.append(("\n" if table else "") + "\n".join(blocks))
         if p.epilog:
             parts.append(f"\n{p.epilog}\n")
         parts.append("\n")
