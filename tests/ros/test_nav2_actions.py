@@ -190,12 +190,25 @@ def test_goals_a_server_cannot_run_end_at_once_with_why_and_the_node_serves_the_
     bad_tree.write_text('<root BTCPP_format="4"><BehaviorTree ID="X"><Dock/></BehaviorTree></root>')
     with served(tmp_path, duration=60.0, node_params=(f"dock_tree:={bad_tree}",)) as env:
         events = run_client(env, [{"dock": {"id": "home_dock"}}, {"follow": {}}, {"dock": {"id": "kitchen_dock"}}])
+        # the same from a terminal: `mission task`, nav2_simple_commander's calls on our own client
+        cli = subprocess.run(
+            [MISSION, "task", "dock", "--id", "kitchen_dock", "--server-timeout", "20"],
+            env={**os.environ, **ROS_ENV},
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
     bad, nothing, unknown = results(events)
     assert bad["status"] == "ABORTED" and bad["error_code"] == 999  # UNKNOWN
     assert bad["error_msg"].startswith(f"the tree {bad_tree} cannot run: {bad_tree}:1"), bad["error_msg"]
     assert nothing["error_code"] == FAILED_TO_DETECT_OBJECT
     assert nothing["error_msg"] == "No pose topic or target frame provided."
     assert unknown["error_code"] == DOCK_NOT_IN_DB  # the node still serves
+    assert cli.returncode == 1, cli.stderr
+    assert cli.stdout.strip().splitlines()[-1] == (
+        "FAILED: DOCK_NOT_IN_DB (901): dock 'kitchen_dock' is not in the dock database; known: home_dock"
+    )
 
 
 @pytest.mark.slow
