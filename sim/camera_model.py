@@ -13,6 +13,10 @@ default, so an ``ideal`` world stays exactly what it was.
 * **Calibration.** The frame carries the intrinsics and distortion the detector is *told*: the true ones
   with a seeded error (``calibration_focal_pct``, ``calibration_center_px``, ``calibration_k1``). The
   ground truth keeps the true camera.
+* **Depth.** A stereo camera's error grows with the square of the distance (``depth_noise_pct_at_2m``: about
+  2 % at 2 m for common models), and it has no depth where the scene jumps (``depth_edge_holes_m``).
+* **Latency.** A frame reaches the robot ``latency_s`` (+ up to ``latency_jitter_s``) after its exposure and
+  keeps the exposure's stamp, as a driver stamps it.
 * **Motion blur.** The image is averaged over the exposure along the smear the camera's own rotation makes:
   a yaw rate ω moves the image sideways by ω · t · fx pixels at the centre. The kernel is that line, with
   sub-pixel ends, so a 10 px smear looks like one; the render is the middle of the exposure (the frame's
@@ -42,6 +46,10 @@ def has_effects(cam: CameraSpec) -> bool:
         or cam.calibration_focal_pct > 0
         or cam.calibration_center_px > 0
         or cam.calibration_k1 > 0
+        or cam.latency_s > 0
+        or cam.latency_jitter_s > 0
+        or cam.depth_noise_pct_at_2m > 0
+        or cam.depth_edge_holes_m > 0
     )
 
 
@@ -68,7 +76,9 @@ class CameraModel:
             self.render_spec = cam.model_copy(update={"vfov_deg": vfov})
             self.render_k = render_k(self.render_spec)
             self._maps = self._distortion_maps()
-        self.told = self._told(np.random.default_rng(np.random.SeedSequence([int(seed), 33])))
+        rng = np.random.default_rng(np.random.SeedSequence([int(seed), 33]))
+        self.told = self._told(rng)
+        self._rng = rng  # per frame: depth noise, latency jitter (after the calibration's draws)
 
     # -- set-up ----------------------------------------------------------------------------------------
     def _border_pixels(self) -> np.ndarray:
@@ -129,12 +139,41 @@ class CameraModel:
             image = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
             if depth is not None:
                 depth = cv2.remap(depth, map_x, map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+        if depth is not None:
+            depth = self.depth_errors(depth)
         length = self.smear_px(yaw_rate)
         if length > 0.5:
             kernel = smear_kernel(length)
             centre = round(float((kernel[0] * np.arange(kernel.shape[1])).sum()))  # centred within ½ px
             image = cv2.filter2D(image, -1, kernel, anchor=(centre, 0), borderType=cv2.BORDER_REPLICATE)
         return image, depth
+
+    def depth_errors(self, depth: np.ndarray) -> np.ndarray:
+        """A stereo camera's depth: noise with σ ∝ distance² (so many % at 2 m), no depth across edges."""
+        c = self.cam
+        if c.depth_noise_pct_at_2m <= 0 and c.depth_edge_holes_m <= 0:
+            return depth
+        z = depth.astype(np.float32, copy=True)
+        if c.depth_noise_pct_at_2m > 0:
+            sigma = (c.depth_noise_pct_at_2m / 100.0) * 2.0 * (z / 2.0) ** 2
+            z = z + self._rng.standard_normal(z.shape, dtype=np.float32) * np.nan_to_num(sigma)
+        if c.depth_edge_holes_m > 0:
+            jump = np.zeros(z.shape, dtype=bool)
+            finite = np.nan_to_num(depth, nan=np.inf)
+            dx = np.abs(np.diff(finite, axis=1)) > c.depth_edge_holes_m
+            dy = np.abs(np.diff(finite, axis=0)) > c.depth_edge_holes_m
+            jump[:, 1:] |= dx
+            jump[:, :-1] |= dx
+            jump[1:, :] |= dy
+            jump[:-1, :] |= dy
+            z[jump] = np.nan
+        return z
+
+    def delay(self) -> float:
+        """How long after its exposure this frame reaches the robot (s)."""
+        c = self.cam
+        jitter = float(self._rng.uniform(0.0, c.latency_jitter_s)) if c.latency_jitter_s > 0 else 0.0
+        return c.latency_s + jitter
 
     def smear_px(self, yaw_rate: float) -> float:
         """How far the image moves during one exposure when the camera turns at `yaw_rate` (rad/s)."""

@@ -88,7 +88,13 @@ class Marker(StrictModel):
     id: int = Field(7, ge=0)  # marker id in that dictionary
     marker_size_m: float = Field(0.20, gt=0)  # side of the black square (a detector's marker_size_m)
     quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
+    printed_scale: float = Field(1.0, gt=0.5, lt=1.5)  # as printed ÷ marker_size_m: 0.98 is 2 % small (issue 33)
     height_m: float | None = None  # centre height above the floor; default: camera height, capped by the box
+
+    @property
+    def printed_size_m(self) -> float:
+        """The black square's side as printed: what the camera sees (the config says marker_size_m)."""
+        return self.marker_size_m * self.printed_scale
 
 
 class Waypoint(StrictModel):
@@ -149,6 +155,12 @@ class DockSpec(StrictModel):
     id: int = Field(0, ge=0)  # tag id
     marker_size_m: float = Field(0.15, gt=0)  # side of the black square (m)
     quiet_cells: int = Field(1, ge=1, le=4)  # white border around the black square, in code cells
+    printed_scale: float = Field(1.0, gt=0.5, lt=1.5)  # as printed ÷ marker_size_m: 0.98 is 2 % small (issue 33)
+
+    @property
+    def printed_size_m(self) -> float:
+        """The black square's side as printed: what the camera sees (the config says marker_size_m)."""
+        return self.marker_size_m * self.printed_scale
 
 
 class Lighting(StrictModel):
@@ -185,6 +197,10 @@ class CameraSpec(StrictModel):
     calibration_focal_pct: float = Field(0.0, ge=0, le=20)  # σ of the told focal length's error (%)
     calibration_center_px: float = Field(0.0, ge=0, le=50)  # σ of the told principal point's error (px)
     calibration_k1: float = Field(0.0, ge=0, le=1)  # σ of the told k1's error
+    latency_s: float = Field(0.0, ge=0, le=1)  # frames arrive this long after their exposure (stamped at it)
+    latency_jitter_s: float = Field(0.0, ge=0, le=1)  # plus up to this much more, uniform, seeded
+    depth_noise_pct_at_2m: float = Field(0.0, ge=0, le=20)  # stereo depth σ at 2 m (% of range), ∝ distance²
+    depth_edge_holes_m: float = Field(0.0, ge=0)  # no depth where neighbours differ by more than this; 0: off
 
 
 class LidarSpec(StrictModel):
@@ -482,7 +498,7 @@ def check_geometry(sc: Scenario, file: str | None = None) -> None:
         for i, m in enumerate(t.markers):
             _check_code(m.dictionary, m.id, f"target.markers[{i}]", file)
             face_w = t.size[1] if m.face in ("front", "back") else t.size[0]
-            side = quad_side(m.dictionary, m.marker_size_m, m.quiet_cells)
+            side = quad_side(m.dictionary, m.printed_size_m, m.quiet_cells)
             if side > min(face_w, t.size[2]) + 1e-9:
                 raise ConfigError(
                     f"marker with quiet zone ({side:.3g} m) does not fit on the {m.face} face "

@@ -174,7 +174,7 @@ class World:
         col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[hx, hy, hz], physicsClientId=self.cid)
         link_vis, link_pos, link_orn = [], [], []
         for i, m in enumerate(tg.markers):
-            side = marker_asset(m.dictionary, m.id, m.marker_size_m, m.quiet_cells).quad_side_m
+            side = marker_asset(m.dictionary, m.id, m.printed_size_m, m.quiet_cells).quad_side_m
             nx, ny = FACE_NORMALS[m.face]
             half_depth = hx if m.face in ("front", "back") else hy
             height = self.camera_height() if m.height_m is None else m.height_m
@@ -185,9 +185,9 @@ class World:
             )
             if i < len(self._marker_jitter):
                 T = T @ self._marker_jitter[i]  # mounted slightly off-centre / rotated in its plane
-            self.markers.append(MarkerMount(m.face, m.id, m.dictionary, m.marker_size_m, T))
+            self.markers.append(MarkerMount(m.face, m.id, m.dictionary, m.printed_size_m, T))
             pos, quat = se3.to_pos_quat(T)
-            link_vis.append(self._marker_visual(m.dictionary, m.id, m.marker_size_m, m.quiet_cells))
+            link_vis.append(self._marker_visual(m.dictionary, m.id, m.printed_size_m, m.quiet_cells))
             link_pos.append(pos.tolist())
             link_orn.append(quat.tolist())
         n = len(link_vis)
@@ -216,7 +216,7 @@ class World:
         yaw = math.radians(d.yaw_deg)
         nx, ny = math.cos(yaw), math.sin(yaw)
         z = self.camera_height() if d.z is None else d.z
-        side = marker_asset(d.dictionary, d.id, d.marker_size_m, d.quiet_cells).quad_side_m
+        side = marker_asset(d.dictionary, d.id, d.printed_size_m, d.quiet_cells).quad_side_m
         panel = side + 0.06
         # The board's front face sits DOCK_PANEL_T/2 in front of (x, y); its back half is inside the wall.
         self.bodies.dock = self._box(
@@ -225,7 +225,7 @@ class World:
         off = DOCK_PANEL_T / 2 + MARKER_OFFSET_M
         self.T_map_dock = se3.transform(face_rotation(nx, ny), (d.x + nx * off, d.y + ny * off, z))
         pos, quat = se3.to_pos_quat(self.T_map_dock)
-        vis = self._marker_visual(d.dictionary, d.id, d.marker_size_m, d.quiet_cells)
+        vis = self._marker_visual(d.dictionary, d.id, d.printed_size_m, d.quiet_cells)
         self.bodies.dock_tag = p.createMultiBody(0, -1, vis, pos.tolist(), quat.tolist(), physicsClientId=self.cid)
 
     def _build_robot(self) -> None:
@@ -395,7 +395,7 @@ def static_footprints(sc: Scenario) -> list[Footprint]:
     fps = [obstacle_footprint(o) for o in [*wall_obstacles(sc), *sc.obstacles]]
     if sc.dock is not None:
         d = sc.dock
-        side = quad_side(d.dictionary, d.marker_size_m, d.quiet_cells) + 0.06
+        side = quad_side(d.dictionary, d.printed_size_m, d.quiet_cells) + 0.06
         fps.append(Footprint("box", d.x, d.y, math.radians(d.yaw_deg), DOCK_PANEL_T / 2, side / 2, name="dock"))
     return fps
 

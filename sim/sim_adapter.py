@@ -122,6 +122,7 @@ class SimAdapter:
         self.detector = None if spec is None else DetectorModel(spec, self.seed)
         self.detector_report: np.ndarray | None = None  # T_map_target it reported this step (sim-robot publishes)
         self._sightings: list[Sighting] = []
+        self._in_flight: list[tuple[float, Frame]] = []  # frames exposed, not yet delivered (camera latency)
 
     # -- WorldAdapter --------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -163,6 +164,8 @@ class SimAdapter:
             period = 1.0 / self.scenario.camera.rate_hz
             while self._next_frame_t <= self.t + 1e-9:
                 self._next_frame_t += period
+        if self.camera_model is not None and (self.scenario.camera.latency_s or self.scenario.camera.latency_jitter_s):
+            frame = self._in_flight_frame(frame)  # the camera's latency: exposure stamp, later delivery
         if self.faults.active:
             frame = self.faults.camera(frame, self.t)  # blackout, drop, duplicate, late (old stamp)
         if frame is not None and self._sightings:
@@ -175,6 +178,18 @@ class SimAdapter:
         if self._scan is not None and self._scan_seq != self._scan_published:
             bbk.set_(bb, bbk.SCAN, self._scan)
             self._scan_published = self._scan_seq
+
+    def _in_flight_frame(self, frame: Frame | None) -> Frame | None:
+        """The newest frame whose delivery time has come (older ones due now are superseded, as by a
+        depth-1 topic); `frame`, just exposed, goes in flight."""
+        assert self.camera_model is not None
+        if frame is not None:
+            self._in_flight.append((self.t + self.camera_model.delay(), frame))
+        due = [f for f in self._in_flight if f[0] <= self.t + 1e-9]
+        if not due:
+            return None
+        self._in_flight = [f for f in self._in_flight if f[0] > self.t + 1e-9]
+        return max(due, key=lambda f: f[1].stamp)[1]
 
     def _run_detector(self) -> None:
         self.detector_report = None

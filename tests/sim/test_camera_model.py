@@ -94,3 +94,45 @@ def test_a_simulated_frame_carries_the_lens_in_its_calibration_and_camera_info()
         assert info.distortion_model == "plumb_bob" and tuple(info.d) == pytest.approx(WIDE_LENS)
     finally:
         sim.close()
+
+
+def test_stereo_depth_noise_grows_with_the_square_of_the_distance():
+    m = model(depth=True, depth_noise_pct_at_2m=2.0)
+    near = m.depth_errors(np.full((200, 200), 2.0, np.float32))
+    far = m.depth_errors(np.full((200, 200), 4.0, np.float32))
+    assert float(np.std(near)) == pytest.approx(0.04, rel=0.05)  # 2 % of 2 m
+    assert float(np.std(far)) == pytest.approx(0.16, rel=0.05)  # four times that at twice the range
+    assert float(np.mean(far)) == pytest.approx(4.0, abs=0.005)  # unbiased
+
+
+def test_depth_has_holes_where_the_scene_jumps():
+    m = model(depth=True, depth_edge_holes_m=0.3)
+    z = np.full((40, 40), 3.0, np.float32)
+    z[:, 20:] = 1.5  # a box edge in front of the wall
+    out = m.depth_errors(z)
+    assert np.isnan(out[:, 19:21]).all()  # both sides of the edge
+    assert not np.isnan(out[:, :19]).any() and not np.isnan(out[:, 21:]).any()
+
+
+def test_a_frame_arrives_latency_after_its_exposure_with_the_exposures_stamp():
+    scenario = load_scenario("explore_dock")
+    scenario = scenario.model_copy(update={"camera": scenario.camera.model_copy(update={"latency_s": 0.08})})
+    sim = SimAdapter(scenario, seed=0)
+    sim.setup()
+    from mission.core import blackboard as bbk
+
+    bb = bbk.writer("latency")
+    delivered = []
+    try:
+        seq = 0
+        while sim.t < 1.0:
+            sim.sense(bb)
+            if bbk.get(bb, bbk.FRAME_SEQ, 0) != seq:
+                seq = bbk.get(bb, bbk.FRAME_SEQ)
+                delivered.append((sim.t, bbk.get(bb, bbk.FRAME).stamp))
+            sim.advance(1.0 / 30.0)
+    finally:
+        sim.close()
+    ages = [t - stamp for t, stamp in delivered]
+    assert len(delivered) >= 12  # 15 Hz for a second, the first ones still in flight
+    assert all(0.08 - 1e-6 <= age < 0.08 + 1.0 / 30.0 + 1e-6 for age in ages), ages
