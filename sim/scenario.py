@@ -302,6 +302,20 @@ class Faults(StrictModel):
         return self
 
 
+class LocalizationSpec(StrictModel):
+    """Where the robot believes it is (sim/localization.py): drifting wheel odometry, an AMCL-like corrector.
+    All zero: a perfect localization (the robot knows its true pose)."""
+
+    odom_scale_error_pct: float = Field(0.0, ge=0, le=20)  # σ of the run's distance scale error (%)
+    odom_yaw_error_pct: float = Field(0.0, ge=0, le=20)  # σ of the run's rotation scale error (%)
+    odom_noise_m_per_m: float = Field(0.0, ge=0, le=1)  # random walk of the distance (m per √m driven)
+    amcl: bool = True  # a localizer pulls the estimate back to the truth (with odometry drift only)
+    update_min_d: float = Field(0.25, gt=0)  # it updates after this much motion (Nav2 amcl's default, m)
+    update_min_a: float = Field(0.2, gt=0)  # … or this much turning (Nav2 amcl's default, rad)
+    amcl_sigma_m: float = Field(0.03, ge=0)  # its error at each update (m, each axis)
+    amcl_sigma_rad: float = Field(0.02, ge=0)  # its heading error at each update (rad)
+
+
 class ExternalDetector(StrictModel):
     """A detector other than the robot's camera reporting the target's pose — a person tracker, another robot —
     which ``mission sim-robot`` publishes (geometry_msgs/PoseStamped in the map frame, and a TF frame), for a
@@ -338,6 +352,7 @@ class Scenario(StrictModel):
     navigation: NavSpec = Field(default_factory=NavSpec)
     random: RandomSpec = Field(default_factory=RandomSpec)
     faults: Faults = Field(default_factory=Faults)  # injected faults (sim/faults.py); none by default
+    localization: LocalizationSpec = Field(default_factory=LocalizationSpec)  # odometry drift, AMCL jumps
     external_detector: ExternalDetector | None = None  # reports the target's pose (sim/external_detector.py)
 
 

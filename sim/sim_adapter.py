@@ -39,6 +39,8 @@ from mission.sim.external_detector import DetectorModel
 from mission.sim.faults import FaultInjector
 from mission.sim.geometry import Footprint, clearance
 from mission.sim.ground_truth import GroundTruth
+from mission.sim.localization import Localization
+from mission.sim.localization import has_effects as localization_effects
 from mission.sim.navigator import Navigator
 from mission.sim.robot import DiffDriveBase
 from mission.sim.scenario import MovingObstacle, Scenario
@@ -123,6 +125,7 @@ class SimAdapter:
         self.detector_report: np.ndarray | None = None  # T_map_target it reported this step (sim-robot publishes)
         self._sightings: list[Sighting] = []
         self._in_flight: list[tuple[float, Frame]] = []  # frames exposed, not yet delivered (camera latency)
+        self.localization: Localization | None = None  # what the robot believes, when the scenario asks
 
     # -- WorldAdapter --------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -138,6 +141,8 @@ class SimAdapter:
         self.world.build()
         x, y, yaw = self.start_pose
         self.base = DiffDriveBase(sc.robot, x, y, yaw)
+        if localization_effects(sc.localization):
+            self.localization = Localization(sc.localization, Pose2D(x, y, yaw), self.seed)
         self.navigator = Navigator(self.occupancy_grid, sc.robot.radius, sc.navigation, sc.robot.max_v, sc.robot.max_w)
         if sc.target is not None:
             self.target_path = TargetPath(sc.target, self._rng_timing, r.timing_frac, sc.duration_s)
@@ -152,7 +157,7 @@ class SimAdapter:
         assert self.base is not None and self.navigator is not None, "call setup() first"
         s = self.base.state
         bbk.set_(bb, bbk.CLOCK, self.t)
-        bbk.set_(bb, bbk.ROBOT_STATE, RobotState(Pose2D(s.x, s.y, s.yaw), Twist(s.v, s.w), self.t))
+        bbk.set_(bb, bbk.ROBOT_STATE, RobotState(self.believed_pose, Twist(s.v, s.w), self.t))
         bbk.set_(bb, bbk.CAMERA_EXTRINSICS, self.T_base_optical.copy())
         bbk.set_(bb, bbk.MAP, self.occupancy_grid)
         bbk.set_(bb, bbk.NAV_STATUS, self.navigator.status)
@@ -237,9 +242,11 @@ class SimAdapter:
             if self.t >= self._next_scan_t - 1e-9:
                 self._sync_bodies()
                 self._take_scan()
-            pose = self.robot_pose
+            pose = self.believed_pose  # the navigator drives by what the robot believes
             cmd = self.navigator.command(pose, self.t) if self._mode == "nav" else self._cmd
             self.base.step(cmd.v, cmd.w, h, self._obstacles_for_robot())
+            if self.localization is not None:
+                self.localization.step(self.robot_pose)
             self.t += h
         self._sync_bodies()
 
@@ -259,6 +266,11 @@ class SimAdapter:
         assert self.base is not None
         s = self.base.state
         return Pose2D(s.x, s.y, s.yaw)
+
+    @property
+    def believed_pose(self) -> Pose2D:
+        """Where the robot believes it is: the truth, or the localization's estimate when it drifts."""
+        return self.robot_pose if self.localization is None else self.localization.estimate
 
     def T_map_optical(self) -> np.ndarray:
         p = self.robot_pose
@@ -285,9 +297,14 @@ class SimAdapter:
             frame_id="camera_optical_frame",
             intrinsics=self.intrinsics if model is None else model.told,  # what the detector is told
             depth=depth,
-            T_anchor_camera=T,
+            T_anchor_camera=T if self.localization is None else self._believed_T_map_optical(),
             anchor_frame="map",
         )
+
+    def _believed_T_map_optical(self) -> np.ndarray:
+        """Where the robot believes its camera is: a frame is placed by the localization, not the truth."""
+        p = self.believed_pose
+        return se3.planar(p.x, p.y, p.yaw) @ self.T_base_optical
 
     def _noise_image(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
         """Gaussian image noise as (positive part, negative part): fresh for the first NOISE_BANK frames,
@@ -328,7 +345,7 @@ class SimAdapter:
         )
         self._scan_seq += 1
         assert self.navigator is not None
-        self.navigator.update_scan(pose, self._scan)
+        self.navigator.update_scan(self.believed_pose, self._scan)  # registered where the robot believes it is
         period = 1.0 / li.rate_hz
         while self._next_scan_t <= self.t + 1e-9:
             self._next_scan_t += period

@@ -297,13 +297,15 @@ class SimRobot:
 
     def _publish_pose(self, state: RobotState, stamp: float) -> None:
         m = self.msgs
-        restamped = RobotState(state.pose, state.twist, stamp)
+        loc = self.sim.localization  # drifting odometry and an AMCL-like corrector, when the scenario has them
+        p = state.pose if loc is None else loc.odom
+        mo = (0.0, 0.0, 0.0) if loc is None else (loc.map_from_odom.x, loc.map_from_odom.y, loc.map_from_odom.yaw)
+        restamped = RobotState(p, state.twist, stamp)
         self.pub["odom"].publish(state_to_odometry(m, restamped, "odom", "base_link"))
         if self.faults.no_tf or (self.faults.tf_stale_at is not None and self.sim.t >= self.faults.tf_stale_at):
             return
-        p = state.pose
         transforms = [
-            transform_stamped(m, se3.planar(0.0, 0.0, 0.0), stamp, "map", "odom"),  # the sim's odometry is perfect
+            transform_stamped(m, se3.planar(*mo), stamp, "map", "odom"),  # identity: perfect odometry
             transform_stamped(m, se3.planar(p.x, p.y, p.yaw), stamp, "odom", "base_link"),
         ]
         if self.faults.tf_loop:
