@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import py_trees
+import pytest
 
 from mission.app.runner import TreeRunner
 from mission.app.sim_run import prepare_run
@@ -147,6 +148,7 @@ class Speeds(RunObserver):
             self.v.append(twist.v)
 
 
+@pytest.mark.slow  # the same over DDS: tests/ros/test_nav2_actions.py (dock, undock, dock by pose)
 def test_after_docking_an_undock_goal_reverses_the_robot_to_its_staging_pose():
     runner, trees = server_runner()
     try:

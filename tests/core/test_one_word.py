@@ -6,6 +6,7 @@ one way: an entry point (core/plugins.py), VLM clients included."""
 from __future__ import annotations
 
 import logging
+import re
 import textwrap
 from pathlib import Path
 
@@ -164,7 +165,7 @@ def test_mission_plugins_lists_every_kind_with_the_installed_client(installed_pa
     assert main(["plugins"]) == 0
     out = capsys.readouterr().out
     assert "mission.vlm_clients (a factory (params, budget) -> VlmClient):" in out
-    assert "acme      Always the centre of the image (a test double of a remote model)." in out
+    assert re.search(r"^\s*acme\s+Always the centre of the image \(a test double of a remote model\)\.$", out, re.M)
     assert "mission.behaviours (a Behaviour class declaring its ports, or register(factory)): none installed" in out
 
 

@@ -51,7 +51,7 @@ def test_an_unknown_plugin_in_a_config_names_the_file_the_key_and_the_known_ones
         registry.create_all(cfgs, file="robot.yaml")
     assert str(err.value) == (
         "robot.yaml: perception.sources[1].plugin: unknown perception plugin 'april_tag'; "
-        "known plugins: apriltag, aruco, vlm, vlm_stub"
+        "known plugins: apriltag, aruco, external_pose, vlm, vlm_stub"
     )
 
 

@@ -852,7 +852,10 @@ def test_an_unknown_tree_name_lists_the_shipped_trees():
     with pytest.raises(TreeError) as err:
         resolve_tree_path("folow.xml")
     assert str(err.value).startswith("folow.xml: tree file not found; expected a path to a BehaviorTree.CPP v4 XML")
-    shipped = "dock.xml, dock_robot.xml, explore.xml, explore_dock.xml, follow.xml, mission.xml, undock_robot.xml"
+    shipped = (
+        "dock.xml, dock_robot.xml, explore.xml, explore_dock.xml, follow.xml, follow_object.xml, mission.xml, "
+        "undock_robot.xml"
+    )
     assert shipped in str(err.value)
 
 
