@@ -29,6 +29,7 @@ A family not set in config is taken from the model's name when the name says it 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import re
@@ -147,17 +148,46 @@ class AnswerReader:
 
 
 def read_family(reader: AnswerReader, text: str) -> ReadAnswer:
-    """The points in `text`, read in `reader.family`'s own convention."""
+    """The points in `text`, read in `reader.family`'s own convention, with a hint when the answer looks
+    like another family's (ReadAnswer.hint)."""
     f = reader.family
     if f in ("gemini-er", "generic"):
-        return read_points(text, default_confidence=reader.default_confidence)
-    if f in ("qwen2.5-vl", "qwen3-vl"):
-        return _read_qwen(text, reader)
-    if f == "molmo":
-        return _read_molmo(text, reader.default_confidence)
-    if f == "molmo2":
-        return _read_molmo2(text, reader.default_confidence)
-    raise ValueError(f"unknown model family {f!r}; expected one of {', '.join(FAMILIES)}")
+        read = read_points(text, default_confidence=reader.default_confidence)
+    elif f in ("qwen2.5-vl", "qwen3-vl"):
+        read = _read_qwen(text, reader)
+    elif f == "molmo":
+        read = _read_molmo(text, reader.default_confidence)
+    elif f == "molmo2":
+        read = _read_molmo2(text, reader.default_confidence)
+    else:
+        raise ValueError(f"unknown model family {f!r}; expected one of {', '.join(FAMILIES)}")
+    hint = misread_hint(f, text, read)
+    return dataclasses.replace(read, hint=hint) if hint else read
+
+
+_HINT_FORMS: tuple[tuple[str, re.Pattern[str], str], ...] = (
+    ("molmo2", re.compile(r"<points?\b[^>]*\bcoords\s*=", re.I), 'Molmo2\'s <points coords="…">; set family molmo2'),
+    ("molmo", re.compile(r"<points?\b[^>]*\bx1?\s*=", re.I), "Molmo's <point x y> in percent; set family molmo"),
+    ("qwen", re.compile(r"[\"'](?:bbox_2d|point_2d)[\"']"), "Qwen's bbox_2d / point_2d [x, y]; set family qwen2.5-vl "
+     "(pixels) or qwen3-vl (0-1000)"),
+    ("gemini", re.compile(r"[\"'](?:point|box_2d)[\"']\s*:"), 'Gemini\'s [{"point": [y, x]}]; set family gemini-er'),
+)
+
+
+def misread_hint(family: str, text: str, read: ReadAnswer) -> str:
+    """Why an answer that gave no usable point (or dropped some) was probably read in the wrong convention,
+    as "answers look like …; set family …" — "" when nothing suggests it."""
+    if read.points and not read.dropped:
+        return ""
+    own = {"gemini-er": "gemini", "generic": "gemini", "qwen2.5-vl": "qwen", "qwen3-vl": "qwen"}.get(family, family)
+    for name, pattern, words in _HINT_FORMS:
+        if name != own and pattern.search(text or ""):
+            return f"answers look like {words}"
+    if family == "qwen3-vl" and read.dropped:
+        return "answers look like pixels, not 0-1000; set family qwen2.5-vl"
+    if family == "molmo" and read.dropped:
+        return "answers look like 0-1000, not percent; set family molmo2 or gemini-er"
+    return ""
 
 
 # -- Qwen ------------------------------------------------------------------------------------------

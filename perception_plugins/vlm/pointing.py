@@ -49,6 +49,7 @@ class ReadAnswer:
     found_json: bool
     dropped: int = 0
     salvaged: bool = False  # not valid JSON (cut off, single quotes): the points were read from its "point" pairs
+    hint: str = ""  # the answer looks like another family's convention: which, and what to set (families.py)
 
     @property
     def note(self) -> str:
@@ -60,6 +61,8 @@ class ReadAnswer:
             parts.append(f"{self.dropped} unusable item(s) dropped")
         if self.salvaged:
             parts.append("read from broken JSON")
+        if self.hint:
+            parts.append(self.hint)
         return ", ".join(parts)
 
 

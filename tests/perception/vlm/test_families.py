@@ -12,6 +12,7 @@ import logging
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mission.core import se3
@@ -214,3 +215,107 @@ def test_an_unknown_family_is_a_config_error_listing_the_families():
     with pytest.raises(ConfigError) as err:
         validate_model(VlmParams, {"openai": {"family": "llava"}})
     assert "openai.family" in str(err.value) and "qwen2.5-vl" in str(err.value)
+
+
+# -- the wrong-convention guard ------------------------------------------------------------------------
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.t = 1_700_000_000.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def source_on(server: FakeModelServer, tmp_path: Path, **params):
+    from mission.perception_plugins.vlm.source import VlmSource
+
+    raw = {
+        "client": "openai",
+        "state_file": str(tmp_path / "q.json"),
+        "publish_rate_limit_hz": 1.0,
+        "requests_per_minute": 60,
+        "daily_quota": 100,
+        "remote": {"max_retries": 0},
+        "openai": {"base_url": server.url, "model": server.model},
+        **params,
+    }
+    clock = Clock()
+    return VlmSource(raw, clock=clock), clock
+
+
+def ask(src, clock, frame, n: int) -> None:
+    for _ in range(n):
+        src.process(frame)
+        assert src.wait_idle(timeout=30.0)
+        clock.t += 1.0
+
+
+@pytest.mark.parametrize(
+    ("model", "answer", "cause"),
+    [
+        ("my-finetune", '[{"point_2d": [504, 518], "label": "red box"}]', "Qwen's bbox_2d / point_2d [x, y]"),
+        ("my-finetune", '<points coords="1 1 504 518">red box</points>', "Molmo2's <points coords"),
+        (MODELS["qwen3-vl"], '[{"point_2d": [1290, 1243], "label": "red box"}]', "pixels, not 0-1000"),
+        (MODELS["molmo"], '<points coords="1 1 504 518">red box</points>', "set family molmo2"),
+        (MODELS["molmo"], '<point x="504" y="518" alt="red box">red box</point>', "not percent"),
+    ],
+)
+def test_answers_in_another_convention_are_counted_and_the_status_names_the_likely_cause(
+    model, answer, cause, tmp_path
+):
+    with FakeModelServer("openai", model=model, answerer=lambda image, prompt: answer) as server:
+        src, clock = source_on(server, tmp_path)
+        ask(src, clock, FRAME, 2)
+        assert src.status()["misread_cause"] == ""  # not yet: one misread is not a pattern
+        ask(src, clock, FRAME, 1)
+        st = src.status()
+        src.close()
+    assert cause in st["misread_cause"] and "set family" in st["misread_cause"], st["misread_cause"]
+    assert st["answers_misread"] == 3 and not src.latch.latched
+
+
+def test_a_point_read_in_the_wrong_order_lands_off_the_others_depth_is_dropped_and_named(tmp_path):
+    cam = camera_pose(0.0, 0.0, yaw_towards(0.0, 0.0, BOX.centre[0], BOX.centre[1]) + 0.35)  # box off to a side
+    frame = render(Scene([BOX]), cam)
+    k = frame.intrinsics
+    u, v = k.project(se3.apply(se3.invert(cam), box_front_face(BOX)[:3, 3])[None, :])[0]
+    y, x = round(v / k.height * 1000), round(u / k.width * 1000)
+    assert abs(x - y) > 150  # swapped, the point is elsewhere
+    right = json.dumps([{"point": [y, x], "label": "red box"}])
+    swapped = json.dumps([{"point": [x, y], "label": "red box"}])  # a model writing [x, y] now and then
+    replies = [right, swapped, right, swapped, right, swapped, right]
+    with FakeModelServer("openai") as server:
+        server.script(*[Reply.answer(r) for r in replies])
+        src, clock = source_on(server, tmp_path, min_consecutive_detections=4)
+        ask(src, clock, frame, len(replies))
+        st = src.status()
+        src.close()
+    assert st["answers_off_depth"] == 3 and st["answers_misread"] == 3
+    assert st["misread_cause"].startswith("answers look like [x, y], read as [y, x]; set family")
+    assert src.latch.latched and st["model_calls"] == 7  # the four right answers latched: the others dropped
+    face = box_front_face(BOX)[:3, 3]
+    assert np.linalg.norm(src.latch.T_anchor_target[:3, 3] - face) < 0.05
+
+
+def test_a_target_seen_twice_at_a_new_depth_has_moved_and_the_consensus_restarts(tmp_path):
+    near = Box((2.0, 0.2, 0.25), BOX.size, BOX.bgr, yaw=0.2)
+    frames = [render(Scene([b]), CAM) for b in (BOX, near)]
+
+    def point(frame, box) -> str:
+        k = frame.intrinsics
+        u, v = k.project(se3.apply(se3.invert(CAM), box_front_face(box)[:3, 3])[None, :])[0]
+        return json.dumps([{"point": [round(v / k.height * 1000), round(u / k.width * 1000)], "label": "red box"}])
+
+    with FakeModelServer("openai") as server:
+        server.script(*[Reply.answer(point(frames[0], BOX))] * 2, *[Reply.answer(point(frames[1], near))] * 3)
+        src, clock = source_on(server, tmp_path)
+        ask(src, clock, frames[0], 2)
+        ask(src, clock, frames[1], 3)
+        st = src.status()
+        src.close()
+    assert st["answers_off_depth"] == 1  # the first answer at the new depth was held back…
+    assert src.latch.latched and st["model_calls"] == 5  # …the second confirmed it: a new consensus of three
+    face = box_front_face(near)[:3, 3]
+    assert np.linalg.norm(src.latch.T_anchor_target[:3, 3] - face) < 0.05
