@@ -11,8 +11,12 @@ or an OpenAI-compatible local server, ``openai`` (openai_chat.py)):
   the quota; a remote client's retries ask the same budget first (quota.py); with ``clock: frame``
   (simulation) budget and latency run on frame stamps instead and nothing is persisted, so a seeded sim
   run repeats whatever the machine's speed;
-* each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
-  Canny + PCA in-plane axis (x axis) — depth_pose.py;
+* the remote clients ask each model family in its trained form and read its answer in its own convention
+  (families.py); a point outside the image, or an answer at a depth the agreeing answers contradict, is
+  counted and dropped, and after :data:`MISREADS_BEFORE_CAUSE` misreads ``status()["misread_cause"]``
+  names the likely cause ("answers look like [x, y] …; set family");
+* each answer (a pixel; a box bounds its depth patch) becomes a pose: back-projection with depth,
+  MAD-filtered SVD plane (z axis), Canny + PCA in-plane axis (x axis) — depth_pose.py;
 * answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
   in the anchor frame (``map_frame``); the pose is then latched there and re-emitted at
   ``republish_rate_hz`` as ``inv(T_anchor_camera_now) @ T_anchor_target`` with no further calls
