@@ -83,7 +83,7 @@ PROMPTS: dict[str, str] = {
 
 # what a model's name says about its family, first match wins (molmo2 before molmo, qwen3 before …)
 _NAMES: tuple[tuple[str, re.Pattern[str]], ...] = (
-    ("gemini-er", re.compile(r"gemini-robotics-er")),
+    ("gemini-er", re.compile(r"gemini")),  # Robotics-ER, and the Gemini models it shares its convention with
     ("qwen2.5-vl", re.compile(r"qwen2[._]?5[-_ ]?vl")),
     ("qwen3-vl", re.compile(r"qwen3[._]?\d*[-_ ]?vl")),
     ("molmo2", re.compile(r"molmo[-_ ]?2")),
@@ -92,7 +92,8 @@ _NAMES: tuple[tuple[str, re.Pattern[str]], ...] = (
 
 
 def detect_family(model: str | None) -> str | None:
-    """The family a model's name says it belongs to (``Qwen/Qwen2.5-VL-7B-Instruct`` → qwen2.5-vl,
+    """The family a model's name says it belongs to (``gemini-robotics-er-2-preview`` → gemini-er,
+    ``Qwen/Qwen2.5-VL-7B-Instruct`` → qwen2.5-vl,
     ``qwen2.5vl:7b`` → qwen2.5-vl, ``allenai/Molmo2-8B`` → molmo2); None when the name does not say."""
     name = (model or "").lower()
     return next((family for family, pattern in _NAMES if pattern.search(name)), None)

@@ -67,6 +67,7 @@ def client_of(server: FakeModelServer, tmp_path: Path, monkeypatch, **section):
     ("name", "family"),
     [
         ("gemini-robotics-er-2-preview", "gemini-er"),
+        ("gemini-2.5-flash", "gemini-er"),  # Gemini's own models point the same way
         ("Qwen/Qwen2.5-VL-7B-Instruct", "qwen2.5-vl"),
         ("qwen2.5vl:7b", "qwen2.5-vl"),  # Ollama's tag
         ("Qwen/Qwen2_5_VL-3B", "qwen2.5-vl"),
@@ -123,6 +124,24 @@ def test_each_familys_golden_answers_put_the_box_at_its_true_pixel(family, tmp_p
         assert prompt == "Point to the red box."
     else:
         assert "[y, x]" in prompt and "0-1000" in prompt
+
+
+@pytest.mark.parametrize(
+    ("family", "text", "yx"),
+    [
+        ("molmo2", '<points coords="1 1 100 200 2 300 400">cups</points>', [(200, 100), (400, 300)]),
+        ("molmo2", '<points coords="1: 1 100 200; 2: 1 300 400"/>', [(200, 100), (400, 300)]),
+        ("molmo", '<points x1="10.0" y1="20.5" x2="30" y2="40" alt="cups">cups</points>', [(205, 100), (400, 300)]),
+        ("qwen3-vl", '[{"point_2d": [100, 200]}, {"point_2d": [300, 400], "label": "b"}]', [(200, 100), (400, 300)]),
+        ("qwen3-vl", '```json\n[{"bbox_2d": [100, 200, 300, 400], "label": "a"}, {"bbox_2d": [5', [(300, 200)]),
+        ("gemini-er", '{"box_2d": [200, 100, 400, 300], "label": "a"}', [(300, 200)]),
+    ],
+)
+def test_each_reader_takes_every_point_in_order_from_its_own_form(family, text, yx):
+    from mission.perception_plugins.vlm.families import AnswerReader
+
+    read = AnswerReader(family, 0.8)(text)
+    assert [(p.y, p.x) for p in read.points] == yx and read.found_json
 
 
 def test_a_box_answer_keeps_its_box_for_the_depth_patch(tmp_path, monkeypatch):
