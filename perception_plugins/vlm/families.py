@@ -184,6 +184,8 @@ def misread_hint(family: str, text: str, read: ReadAnswer) -> str:
     for name, pattern, words in _HINT_FORMS:
         if name != own and pattern.search(text or ""):
             return f"answers look like {words}"
+    if family == "qwen2.5-vl" and read.dropped:
+        return "answers look like 0-1000, not pixels of the resized image; set family qwen3-vl"
     if family == "qwen3-vl" and read.dropped:
         return "answers look like pixels, not 0-1000; set family qwen2.5-vl"
     if family == "molmo" and read.dropped:

@@ -277,6 +277,7 @@ def ask(src, clock, frame, n: int) -> None:
         ("my-finetune", '[{"point_2d": [504, 518], "label": "red box"}]', "Qwen's bbox_2d / point_2d [x, y]"),
         ("my-finetune", '<points coords="1 1 504 518">red box</points>', "Molmo2's <points coords"),
         (MODELS["qwen3-vl"], '[{"point_2d": [1290, 1243], "label": "red box"}]', "pixels, not 0-1000"),
+        (MODELS["qwen2.5-vl"], '[{"point_2d": [504, 518], "label": "red box"}]', "not pixels of the resized"),
         (MODELS["molmo"], '<points coords="1 1 504 518">red box</points>', "set family molmo2"),
         (MODELS["molmo"], '<point x="504" y="518" alt="red box">red box</point>', "not percent"),
     ],
