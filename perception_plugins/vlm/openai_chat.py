@@ -4,10 +4,10 @@
 One call is one ``POST {base_url}/chat/completions`` with a user message holding the prompt and the image
 as a ``data:image/jpeg;base64,…`` URL. Open models answer in the form they were trained on, so the model's
 family (``openai.family``, or its name: families.py) chooses the prompt and the reader; every reader ends
-in normalised ``[y, x]`` points, so the rest of the pipeline cannot tell the clients apart.
-A key is sent as a bearer token only when ``openai.api_key_env`` names a variable (local
-servers usually want none; a user's OPENAI_API_KEY is never sent to a server it was not meant for).
-Token counts come from the answer's ``usage``.
+in normalised ``[y, x]`` points, so the rest of the pipeline cannot tell the clients apart. A key is sent
+as a bearer token only when ``openai.api_key_env`` names a variable (local servers usually want none; a
+user's OPENAI_API_KEY is never sent to a server it was not meant for). Token counts come from the
+answer's ``usage``.
 """
 
 from __future__ import annotations

@@ -22,7 +22,6 @@ from mission.perception_plugins.vlm.families import QWEN_MAX_PIXELS, QWEN_MIN_PI
 GEMINI_MODEL = "gemini-robotics-er-2-preview"
 GEMINI_STREAMING_MODEL = "gemini-robotics-er-2-streaming-preview"
 SHUT_DOWN_MODELS: dict[str, tuple[str, str]] = {
-    "gemini-robotics-er-1.5-preview": ("2026-08-31", GEMINI_MODEL),
     "gemini-robotics-er-1.6-preview": ("2026-08-31", GEMINI_MODEL),
 }
 
@@ -75,7 +74,7 @@ class RemoteSettings(StrictModel):
 class GeminiSettings(StrictModel):
     """client gemini: Google's generateContent REST API (Gemini Robotics-ER)"""
 
-    model: str = Field(GEMINI_MODEL, min_length=1)  # Gemini Robotics-ER 2 (1.x was shut down on 2026-08-31)
+    model: str = Field(GEMINI_MODEL, min_length=1)  # Gemini Robotics-ER 2 (ER 1.6 was shut down on 2026-08-31)
     family: Family | None = None  # how it is asked and read; null: from the model's name (gemini-er)
     endpoint: str = GEMINI_ENDPOINT  # API root: requests go to {endpoint}/models/{model}:generateContent
     api_key_env: str = Field("GOOGLE_API_KEY", min_length=1)  # environment variable holding the API key
