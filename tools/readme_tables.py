@@ -55,6 +55,9 @@ def _submodel(annotation: Any) -> type[BaseModel] | None:
 def _type_name(annotation: Any) -> str:
     if typing.get_origin(annotation) is typing.Literal:
         return " \\| ".join(repr(a) for a in typing.get_args(annotation))
+    args = typing.get_args(annotation)
+    if any(typing.get_origin(a) is typing.Literal for a in args):  # an optional choice: its choices, then None
+        return " \\| ".join("None" if a is type(None) else _type_name(a) for a in args)
     text = getattr(annotation, "__name__", None) if not typing.get_args(annotation) else None
     text = text or str(annotation).replace("typing.", "")
     return re.sub(r"\b[\w.]+\.(\w+)", r"\1", text).replace("|", "\\|")

@@ -44,11 +44,13 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class VlmPoint:
-    """One answer of a VLM: a point [y, x] normalised to 0–1000, and the model's confidence in it."""
+    """One answer of a VLM: a point [y, x] normalised to 0–1000, and the model's confidence in it; `box`
+    (ymin, xmin, ymax, xmax in 0–1000) when the model answered with a box (the point is its centre)."""
 
     y: float
     x: float
     confidence: float
+    box: tuple[float, float, float, float] | None = None
 
     def to_pixel(self, width: int, height: int) -> tuple[float, float]:
         """(u, v) in pixels of an image of that size."""

@@ -139,8 +139,11 @@ def estimate_surface_pose(
     *,
     patch_radius_m: float = 0.05,
     mad_k: float = 2.5,
+    box: tuple[float, float, float, float] | None = None,
 ) -> SurfacePose | None:
-    """The pose of the surface at pixel (u, v), or None when the depth there is missing."""
+    """The pose of the surface at pixel (u, v), or None when the depth there is missing. A `box` (u0, v0,
+    u1, v1 px: the model's box around the object) bounds the depth patch, so the plane is fitted to the
+    object and not to what is beside it (kept at least 3 px a side)."""
     z0 = depth_at(depth, u, v)
     if z0 is None:
         return None
@@ -148,6 +151,11 @@ def estimate_surface_pose(
     r = int(np.clip(round(intr.fx * patch_radius_m / z0), 3, max(3, min(h, w) // 4)))
     u0, u1 = max(0, int(np.rint(u)) - r), min(w, int(np.rint(u)) + r + 1)
     v0, v1 = max(0, int(np.rint(v)) - r), min(h, int(np.rint(v)) + r + 1)
+    if box is not None:
+        bu0, bv0 = max(u0, int(np.ceil(box[0]))), max(v0, int(np.ceil(box[1])))
+        bu1, bv1 = min(u1, int(np.floor(box[2])) + 1), min(v1, int(np.floor(box[3])) + 1)
+        if bu1 - bu0 >= 3 and bv1 - bv0 >= 3:
+            u0, v0, u1, v1 = bu0, bv0, bu1, bv1
     patch = depth[v0:v1, u0:u1].astype(np.float64)
     vv, uu = np.mgrid[v0:v1, u0:u1]
     valid = np.isfinite(patch) & (patch > 0)

@@ -23,8 +23,9 @@ import numpy as np
 
 from mission.core.errors import ConfigError
 from mission.perception_plugins.vlm.client import RequestBudget, VlmPoint
-from mission.perception_plugins.vlm.pointing import prompt_for
-from mission.perception_plugins.vlm.remote import ErrorDetails, ModelCallError, RemoteCaller, jpeg_base64
+from mission.perception_plugins.vlm.families import PROMPTS, AnswerReader, resolve_family
+from mission.perception_plugins.vlm.pointing import ReadAnswer, prompt_for
+from mission.perception_plugins.vlm.remote import ErrorDetails, ModelCallError, RemoteCaller, jpeg_base64, sent_size
 from mission.perception_plugins.vlm.settings import GeminiSettings, RemoteSettings
 
 if TYPE_CHECKING:
@@ -48,7 +49,9 @@ class GeminiClient:
         self._key = api_key
         self._caller = RemoteCaller(remote, budget, secrets=[api_key], error_details=gemini_error_details, seed=seed)
         self.url = f"{settings.endpoint.rstrip('/')}/models/{settings.model}:generateContent"
+        self.family = resolve_family(settings.family, settings.model, key="gemini.family", fallback="gemini-er")
         self.last_note = ""  # what the last answer held (pointing.ReadAnswer.note), for status and logs
+        self.last_read: ReadAnswer | None = None
 
     @property
     def usage(self) -> Any:
@@ -58,11 +61,16 @@ class GeminiClient:
         """The generateContent request for one question (the documented REST shape)."""
         s = self.settings
         config: dict[str, Any] = {"temperature": s.temperature}
-        if s.response_schema is not None:
+        if s.response_schema is not None and self.family == "gemini-er":
             config["responseMimeType"] = "application/json"
             config["responseSchema"] = s.response_schema
+        thinking: dict[str, Any] = {}
         if s.thinking_budget is not None:
-            config["thinkingConfig"] = {"thinkingBudget": s.thinking_budget}
+            thinking["thinkingBudget"] = s.thinking_budget
+        if s.thinking_level is not None:
+            thinking["thinkingLevel"] = s.thinking_level
+        if thinking:
+            config["thinkingConfig"] = thinking
         data = jpeg_base64(image, max_side=self.remote.max_image_side_px, quality=self.remote.jpeg_quality)
         return {
             "contents": [
@@ -70,7 +78,7 @@ class GeminiClient:
                     "role": "user",
                     "parts": [
                         {"inline_data": {"mime_type": "image/jpeg", "data": data}},
-                        {"text": prompt_for(s.prompt, label)},
+                        {"text": prompt_for(s.prompt or PROMPTS[self.family], label)},
                     ],
                 }
             ],
@@ -88,8 +96,12 @@ class GeminiClient:
                 total_tokens=usage.get("totalTokenCount"),
                 thinking_tokens=usage.get("thoughtsTokenCount"),
             )
-        read = self._caller.read_answer(lambda: self._answer_text(answer))
+        h, w = image.shape[:2]
+        size = sent_size(w, h, self.remote.max_image_side_px)
+        reader = AnswerReader(self.family, self.remote.default_confidence, size)
+        read = self._caller.read_answer(lambda: self._answer_text(answer), reader)
         self.last_note = read.note
+        self.last_read = read
         return read.points
 
     def _answer_text(self, answer: dict[str, Any]) -> str:

@@ -2,11 +2,12 @@
 (vLLM, Ollama, llama.cpp's server, LM Studio) serve point-capable models such as Qwen2.5-VL or Molmo.
 
 One call is one ``POST {base_url}/chat/completions`` with a user message holding the prompt and the image
-as a ``data:image/jpeg;base64,…`` URL; the prompt asks for points in the same normalised ``[y, x]``
-0–1000 form as Gemini's (settings.py DEFAULT_PROMPT), so the rest of the pipeline cannot tell the
-clients apart. A key is sent as a bearer token only when ``openai.api_key_env`` names a variable (local
-servers usually want none; a user's OPENAI_API_KEY is never sent to a server it was not meant for).
-Token counts come from the answer's ``usage``.
+as a ``data:image/jpeg;base64,…`` URL. Open models answer in the form they were trained on, so the model's
+family (``openai.family``, or its name: families.py) chooses the prompt and the reader; every reader ends
+in normalised ``[y, x]`` points, so the rest of the pipeline cannot tell the clients apart. A key is sent
+as a bearer token only when ``openai.api_key_env`` names a variable (local servers usually want none; a
+user's OPENAI_API_KEY is never sent to a server it was not meant for). Token counts come from the
+answer's ``usage``.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import numpy as np
 
 from mission.core.errors import ConfigError
 from mission.perception_plugins.vlm.client import RequestBudget, VlmPoint
-from mission.perception_plugins.vlm.pointing import prompt_for
-from mission.perception_plugins.vlm.remote import ModelCallError, RemoteCaller, jpeg_base64
+from mission.perception_plugins.vlm.families import PROMPTS, AnswerReader, resolve_family
+from mission.perception_plugins.vlm.pointing import ReadAnswer, prompt_for
+from mission.perception_plugins.vlm.remote import ModelCallError, RemoteCaller, jpeg_base64, sent_size
 from mission.perception_plugins.vlm.settings import OpenAiSettings, RemoteSettings
 
 if TYPE_CHECKING:
@@ -27,8 +29,8 @@ if TYPE_CHECKING:
 
 
 class OpenAiChatClient:
-    """A VlmClient on an OpenAI-compatible ``/chat/completions``: the image and the prompt in, normalised
-    [y, x] points out."""
+    """A VlmClient on an OpenAI-compatible ``/chat/completions``: the image and the family's prompt in,
+    normalised [y, x] points out."""
 
     def __init__(
         self,
@@ -46,7 +48,9 @@ class OpenAiChatClient:
         self._key = api_key
         self._caller = RemoteCaller(remote, budget, secrets=[api_key] if api_key else [], seed=seed)
         self.url = f"{settings.base_url.rstrip('/')}/chat/completions"
+        self.family = resolve_family(settings.family, settings.model, key="openai.family")
         self.last_note = ""
+        self.last_read: ReadAnswer | None = None
 
     @property
     def usage(self) -> Any:
@@ -64,7 +68,7 @@ class OpenAiChatClient:
             {
                 "role": "user",
                 "content": [
-                    {"type": "text", "text": prompt_for(s.prompt, label)},
+                    {"type": "text", "text": prompt_for(s.prompt or PROMPTS[self.family], label)},
                     {"type": "image_url", "image_url": {"url": f"data:image/jpeg;base64,{data}"}},
                 ],
             }
@@ -91,8 +95,17 @@ class OpenAiChatClient:
                 output_tokens=usage.get("completion_tokens"),
                 total_tokens=usage.get("total_tokens"),
             )
-        read = self._caller.read_answer(lambda: self._answer_text(answer))
+        h, w = image.shape[:2]
+        reader = AnswerReader(
+            self.family,
+            self.remote.default_confidence,
+            sent_size(w, h, self.remote.max_image_side_px),
+            min_pixels=self.settings.min_pixels,
+            max_pixels=self.settings.max_pixels,
+        )
+        read = self._caller.read_answer(lambda: self._answer_text(answer), reader)
         self.last_note = read.note
+        self.last_read = read
         return read.points
 
     def _answer_text(self, answer: dict[str, Any]) -> str:

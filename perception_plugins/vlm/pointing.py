@@ -1,6 +1,8 @@
-"""Reading a model's answer to the pointing question (settings.py DEFAULT_PROMPT): text in, points out.
+"""Reading a Gemini-style answer to the pointing question (families.py GEMINI_PROMPT): text in, points out.
+The other families' readers (families.py) share its JSON finding and :func:`make_point`.
 
-Asked for ``[{"point": [y, x], "label": …}]`` with y and x in 0–1000, models answer in many wrappings:
+Asked for ``[{"point": [y, x], "label": …}]`` with y and x in 0–1000 (or ``box_2d`` [ymin, xmin, ymax,
+xmax]: the point is its centre), models answer in many wrappings:
 the JSON in a code fence, prose before and after it, an object holding the list (``{"points": […]}``),
 one object instead of a list, numbers as strings, a point a little past the edge, an answer cut off at
 the token limit. :func:`read_points` takes the points out of all of these and says what it set aside, so
@@ -24,10 +26,10 @@ from mission.perception_plugins.vlm.client import VlmPoint
 EDGE_SLACK = 50.0  # normalised units (of 1000): a point this far past the edge is clipped onto it
 MAX_TEXT = 100_000  # characters of an answer that are read (a runaway answer is cut, not scanned forever)
 _FENCE = re.compile(r"```[ \t]*[\w+-]*[ \t]*\n?(.*?)(?:```|\Z)", re.S)
-_NUMBER = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
+NUMBER = r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
 # a "point": [y, x] pair anywhere in the text: what can still be read of JSON that is not JSON (cut off
 # mid-way, or written with Python's single quotes)
-_POINT_PAIR = re.compile(r'["\']point["\']\s*:\s*\[\s*"?(' + _NUMBER + r')"?\s*,\s*"?(' + _NUMBER + r')"?\s*\]')
+_POINT_PAIR = re.compile(r'["\']point["\']\s*:\s*\[\s*"?(' + NUMBER + r')"?\s*,\s*"?(' + NUMBER + r')"?\s*\]')
 _LIST_KEYS = ("points", "objects", "detections", "items", "results", "answer", "answers", "predictions")
 _CONFIDENCE_KEYS = ("confidence", "score", "probability", "conf")
 
@@ -47,6 +49,7 @@ class ReadAnswer:
     found_json: bool
     dropped: int = 0
     salvaged: bool = False  # not valid JSON (cut off, single quotes): the points were read from its "point" pairs
+    hint: str = ""  # the answer looks like another family's convention: which, and what to set (families.py)
 
     @property
     def note(self) -> str:
@@ -58,6 +61,8 @@ class ReadAnswer:
             parts.append(f"{self.dropped} unusable item(s) dropped")
         if self.salvaged:
             parts.append("read from broken JSON")
+        if self.hint:
+            parts.append(self.hint)
         return ", ".join(parts)
 
 
@@ -66,11 +71,11 @@ def read_points(text: str, *, default_confidence: float) -> ReadAnswer:
     text = (text or "")[:MAX_TEXT]
     found = False
     dropped = 0
-    for chunk in _chunks(text):
+    for chunk in json_chunks(text):
         points: list[VlmPoint] = []
         unusable = 0
         answers = 0
-        for value in _json_values(chunk):  # several when broken JSON leaves its complete items readable
+        for value in json_values(chunk):  # several when broken JSON leaves its complete items readable
             items = _items(value)
             if items is None:
                 continue  # JSON, but not an answer (a number in the prose, an unrelated object)
@@ -83,14 +88,14 @@ def read_points(text: str, *, default_confidence: float) -> ReadAnswer:
             if points or unusable == 0:
                 return ReadAnswer(points, True, unusable)
             dropped = max(dropped, unusable)  # only unusable items here: the whole text may hold more
-    pairs = [_point(m.group(1), m.group(2), None, default_confidence) for m in _POINT_PAIR.finditer(text)]
+    pairs = [make_point(m.group(1), m.group(2), None, default_confidence) for m in _POINT_PAIR.finditer(text)]
     salvaged = [p for p in pairs if p is not None]
     if salvaged:
         return ReadAnswer(salvaged, True, len(pairs) - len(salvaged), salvaged=True)
     return ReadAnswer([], found, dropped)
 
 
-def _chunks(text: str) -> Iterator[str]:
+def json_chunks(text: str) -> Iterator[str]:
     """Code-fenced blocks first (the model's own marking of its JSON), then the whole text."""
     for m in _FENCE.finditer(text):
         if m.group(1).strip():
@@ -98,7 +103,7 @@ def _chunks(text: str) -> Iterator[str]:
     yield text
 
 
-def _json_values(text: str) -> Iterator[Any]:
+def json_values(text: str) -> Iterator[Any]:
     """Every JSON array or object in `text`, left to right, not descending into one already read."""
     decoder = json.JSONDecoder()
     i = 0
@@ -125,7 +130,7 @@ def _items(value: Any) -> list[Any] | None:
             return value
         return None
     if isinstance(value, dict):
-        if any(k in value for k in ("point", "y")):
+        if any(k in value for k in ("point", "box_2d", "y")):
             return [value]
         for key in _LIST_KEYS:
             inner = value.get(key)
@@ -139,16 +144,23 @@ def _points(items: list[Any], default_confidence: float) -> tuple[list[VlmPoint]
     for item in items:
         point: VlmPoint | None = None
         if isinstance(item, list) and len(item) == 2:
-            point = _point(item[0], item[1], None, default_confidence)
+            point = make_point(item[0], item[1], None, default_confidence)
         elif isinstance(item, dict):
             pair = item.get("point", item.get("point_yx"))
             conf = next((item[k] for k in _CONFIDENCE_KEYS if k in item), None)
             if isinstance(pair, str):
-                pair = re.findall(_NUMBER, pair)
+                pair = re.findall(NUMBER, pair)
             if isinstance(pair, list | tuple) and len(pair) == 2:
-                point = _point(pair[0], pair[1], conf, default_confidence)
+                point = make_point(pair[0], pair[1], conf, default_confidence)
             elif "y" in item and "x" in item:
-                point = _point(item["y"], item["x"], conf, default_confidence)
+                point = make_point(item["y"], item["x"], conf, default_confidence)
+            box = item.get("box_2d")
+            if isinstance(box, list | tuple) and len(box) == 4:  # Gemini's [ymin, xmin, ymax, xmax]
+                b = [_number(v) for v in box]
+                if all(v is not None for v in b):
+                    ymin, xmin, ymax, xmax = b  # type: ignore[misc]
+                    centre = (point.y, point.x) if point is not None else ((ymin + ymax) / 2, (xmin + xmax) / 2)
+                    point = make_point(*centre, conf, default_confidence, box=(ymin, xmin, ymax, xmax))
         if point is not None:
             out.append(point)
     return out, len(items) - len(out)
@@ -168,7 +180,12 @@ def _number(v: Any) -> float | None:
     return f if math.isfinite(f) else None
 
 
-def _point(y: Any, x: Any, confidence: Any, default_confidence: float) -> VlmPoint | None:
+def make_point(
+    y: Any, x: Any, confidence: Any, default_confidence: float, *, box: tuple[float, float, float, float] | None = None
+) -> VlmPoint | None:
+    """A point from [y, x] in 0–1000 (None when not a finite number or not in the image, beyond EDGE_SLACK);
+    a point a little past the edge is put on it. `box` (ymin, xmin, ymax, xmax in 0–1000) is clipped to the
+    image."""
     fy, fx = _number(y), _number(x)
     if fy is None or fx is None:
         return None
@@ -179,4 +196,6 @@ def _point(y: Any, x: Any, confidence: Any, default_confidence: float) -> VlmPoi
         c = default_confidence
     elif 1.0 < c <= 100.0:
         c /= 100.0  # a percentage
-    return VlmPoint(y=min(max(fy, 0.0), 1000.0), x=min(max(fx, 0.0), 1000.0), confidence=min(c, 1.0))
+    if box is not None:
+        box = tuple(min(max(float(b), 0.0), 1000.0) for b in box)  # type: ignore[assignment]
+    return VlmPoint(y=min(max(fy, 0.0), 1000.0), x=min(max(fx, 0.0), 1000.0), confidence=min(c, 1.0), box=box)

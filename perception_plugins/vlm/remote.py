@@ -40,7 +40,7 @@ import httpx
 import numpy as np
 
 from mission.perception_plugins.vlm.client import RequestBudget
-from mission.perception_plugins.vlm.pointing import ReadAnswer, read_points
+from mission.perception_plugins.vlm.pointing import MAX_TEXT, ReadAnswer, read_points
 from mission.perception_plugins.vlm.settings import RemoteSettings
 
 log = logging.getLogger(__name__)
@@ -92,7 +92,7 @@ class Usage:
     output_tokens: int | None = None
     total_tokens: int | None = None
     thinking_tokens: int | None = None  # Gemini's thoughtsTokenCount, where reported
-    unread_answers: int = 0  # answers with no readable JSON (prose only)
+    unread_answers: int = 0  # answers with nothing readable in the family's form (prose only)
     request_seconds: float = 0.0  # time spent waiting for the service
 
     def add_tokens(self, **counts: Any) -> None:
@@ -116,13 +116,21 @@ class Usage:
         }
 
 
+def sent_size(width: int, height: int, max_side: int) -> tuple[int, int]:
+    """(width, height) of the image :func:`jpeg_base64` sends for one of this size."""
+    scale = max_side / max(height, width)
+    if scale >= 1.0:
+        return width, height
+    return max(1, round(width * scale)), max(1, round(height * scale))
+
+
 def jpeg_base64(image: np.ndarray, *, max_side: int, quality: int) -> str:
     """The BGR `image` as a base64 JPEG, scaled down so its longer side is at most `max_side` (the model's
-    points are normalised, so they hold for the full-size image)."""
+    points are read as fractions of the image sent, so they hold for the full-size image)."""
     h, w = image.shape[:2]
-    scale = max_side / max(h, w)
-    if scale < 1.0:
-        image = cv2.resize(image, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+    size = sent_size(w, h, max_side)
+    if size != (w, h):
+        image = cv2.resize(image, size, interpolation=cv2.INTER_AREA)
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:
         raise ValueError("the image could not be encoded as JPEG")
@@ -186,16 +194,22 @@ class RemoteCaller:
         self._closed.set()
         self._http.close()
 
-    def read_answer(self, answer_text: Callable[[], str]) -> ReadAnswer:
-        """The points of an answer whose text `answer_text` takes out of the API's body, counted in the
-        usage: a body of the wrong shape is a failure of its kind (and raised), text with no JSON in it an
-        unread answer — the same for every API, whatever shape its body has."""
+    def read_answer(
+        self, answer_text: Callable[[], str], reader: Callable[[str], ReadAnswer] | None = None
+    ) -> ReadAnswer:
+        """The points of an answer whose text `answer_text` takes out of the API's body, read by `reader`
+        (the model family's; default: Gemini's form), counted in the usage: a body of the wrong shape is a
+        failure of its kind (and raised), text with nothing readable in it an unread answer — the same for
+        every API, whatever shape its body has."""
         try:
             text = answer_text()
         except ModelCallError as err:
             self.usage.failures[err.kind] += 1
             raise
-        read = read_points(text, default_confidence=self.settings.default_confidence)
+        if reader is None:
+            read = read_points(text, default_confidence=self.settings.default_confidence)
+        else:
+            read = reader(text[:MAX_TEXT] if text else "")
         if not read.found_json:
             self.usage.unread_answers += 1
         return read

@@ -12,21 +12,20 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from mission.core.config import StrictModel
+from mission.perception_plugins.vlm.families import QWEN_MAX_PIXELS, QWEN_MIN_PIXELS, Family
 
-#: The question asked of a model; ``{label}`` is replaced by the source's label (no other braces are
-#: special, so a prompt may show JSON). The points come back as the design notes' Gemini Robotics-ER
-#: gives them: [y, x] normalised to 0–1000.
-DEFAULT_PROMPT = (
-    "Point to the {label} in the image. Answer with JSON only, a list of at most 5 objects of the form "
-    '[{"point": [y, x], "label": "<what it is>"}], most likely first, where [y, x] is the centre of the '
-    "object with y and x normalised to 0-1000 (y down from the top edge, x right from the left edge). "
-    "Answer [] if there is no {label} in the image."
-)
+#: The Gemini Robotics-ER models the `gemini` client asks by default, and the ones it refuses (shut down:
+#: name → successor). The streaming variant is served over the Live API, not generateContent.
+GEMINI_MODEL = "gemini-robotics-er-2-preview"
+GEMINI_STREAMING_MODEL = "gemini-robotics-er-2-streaming-preview"
+SHUT_DOWN_MODELS: dict[str, tuple[str, str]] = {
+    "gemini-robotics-er-1.6-preview": ("2026-08-31", GEMINI_MODEL),
+}
 
-#: Gemini's structured output for DEFAULT_PROMPT (the API's OpenAPI-subset schema): a list of points.
+#: Gemini's structured output for its prompt (families.py GEMINI_PROMPT; the API's OpenAPI-subset schema).
 DEFAULT_RESPONSE_SCHEMA: dict[str, Any] = {
     "type": "ARRAY",
     "items": {
@@ -75,13 +74,27 @@ class RemoteSettings(StrictModel):
 class GeminiSettings(StrictModel):
     """client gemini: Google's generateContent REST API (Gemini Robotics-ER)"""
 
-    model: str = Field("gemini-robotics-er-1.6-preview", min_length=1)  # the design notes' model
+    model: str = Field(GEMINI_MODEL, min_length=1)  # Gemini Robotics-ER 2 (ER 1.6 was shut down on 2026-08-31)
+    family: Family | None = None  # how it is asked and read; null: from the model's name (gemini-er)
     endpoint: str = GEMINI_ENDPOINT  # API root: requests go to {endpoint}/models/{model}:generateContent
     api_key_env: str = Field("GOOGLE_API_KEY", min_length=1)  # environment variable holding the API key
-    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is the source's label; ask for [y, x] in 0–1000
-    response_schema: dict[str, Any] | None = Field(default_factory=_schema)  # JSON output schema; null: free text
+    prompt: str | None = Field(None, min_length=1)  # {label} is the source's label; null: the family's own
+    response_schema: dict[str, Any] | None = Field(default_factory=_schema)  # gemini-er's JSON schema; null: none
     temperature: float = Field(0.5, ge=0.0, le=2.0)  # generationConfig.temperature
     thinking_budget: int | None = None  # generationConfig.thinkingConfig.thinkingBudget; null: the model's default
+    thinking_level: str | None = Field(None, min_length=1)  # thinkingConfig.thinkingLevel (low, high); null: default
+
+    @field_validator("model")
+    @classmethod
+    def _model_served(cls, model: str) -> str:
+        if model in SHUT_DOWN_MODELS:
+            when, successor = SHUT_DOWN_MODELS[model]
+            raise ValueError(f"{model} was shut down on {when}; use its successor {successor}")
+        if model == GEMINI_STREAMING_MODEL:
+            raise ValueError(
+                f"{model} is served over the Live API only, not generateContent; use {GEMINI_MODEL}"
+            )
+        return model
 
     @model_validator(mode="before")
     @classmethod
@@ -94,8 +107,11 @@ class OpenAiSettings(StrictModel):
 
     base_url: str = "http://127.0.0.1:8000/v1"  # the server's /v1 (vLLM: port 8000, Ollama: 11434)
     model: str | None = None  # the served model's name (required with client: openai)
+    family: Family | None = None  # how it is asked and read; null: from the model's name, else generic
     api_key_env: str | None = None  # environment variable sent as a bearer token (vLLM --api-key); none: no key
-    prompt: str = Field(DEFAULT_PROMPT, min_length=1)  # {label} is the source's label; ask for [y, x] in 0–1000
+    prompt: str | None = Field(None, min_length=1)  # {label} is the source's label; null: the family's own
+    min_pixels: int = Field(QWEN_MIN_PIXELS, ge=1)  # family qwen2.5-vl: the server's processor min_pixels
+    max_pixels: int = Field(QWEN_MAX_PIXELS, ge=1)  # family qwen2.5-vl: the server's processor max_pixels
     system_prompt: str | None = None  # a system message before the question (none by default)
     max_tokens: int = Field(512, ge=16)  # of the answer
     temperature: float = Field(0.0, ge=0.0, le=2.0)  # of the answer

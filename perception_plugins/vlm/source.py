@@ -11,8 +11,12 @@ or an OpenAI-compatible local server, ``openai`` (openai_chat.py)):
   the quota; a remote client's retries ask the same budget first (quota.py); with ``clock: frame``
   (simulation) budget and latency run on frame stamps instead and nothing is persisted, so a seeded sim
   run repeats whatever the machine's speed;
-* each answer (a pixel) becomes a pose: back-projection with depth, MAD-filtered SVD plane (z axis),
-  Canny + PCA in-plane axis (x axis) — depth_pose.py;
+* the remote clients ask each model family in its trained form and read its answer in its own convention
+  (families.py); a point outside the image, or an answer at a depth the agreeing answers contradict, is
+  counted and dropped, and after :data:`MISREADS_BEFORE_CAUSE` misreads ``status()["misread_cause"]``
+  names the likely cause ("answers look like [x, y] …; set family");
+* each answer (a pixel; a box bounds its depth patch) becomes a pose: back-projection with depth,
+  MAD-filtered SVD plane (z axis), Canny + PCA in-plane axis (x axis) — depth_pose.py;
 * answers are repeated until ``min_consecutive_detections`` agree within ``latch_position_tolerance_m``
   in the anchor frame (``map_frame``); the pose is then latched there and re-emitted at
   ``republish_rate_hz`` as ``inv(T_anchor_camera_now) @ T_anchor_target`` with no further calls
@@ -127,6 +131,13 @@ class _Answer:
     pose: SurfacePose | None = None
     confidence: float = 0.0
     pixel: tuple[float, float] | None = None
+    dropped: int = 0  # points the client's reader set aside (outside the image, unreadable)
+    hint: str = ""  # the reader's guess that the answer is in another family's convention
+
+
+#: Misread answers (points outside the image, on a depth the other answers contradict, or in another
+#: family's form) before the source's status names the likely cause.
+MISREADS_BEFORE_CAUSE = 3
 
 
 def colour_image_problem(image: object) -> str | None:
@@ -208,6 +219,8 @@ class VlmSource:
         self.state = "idle"
         self.counters: Counter[str] = Counter()
         self.last_error = ""  # the last failed model call, one line (no secrets: the clients redact them)
+        self._misreads: Counter[str] = Counter()  # likely cause of each misread answer → count
+        self._inconsistent_candidate: Candidate | None = None  # the last answer dropped as off the run's depth
         self._logged: set[str] = set()
 
     # -- public controls ---------------------------------------------------------------------------
@@ -220,6 +233,8 @@ class VlmSource:
             self._next_attempt = -math.inf
             self.state = "idle"
             self._logged.discard("breaker")
+            self._misreads.clear()
+            self._inconsistent_candidate = None
 
     def wait_idle(self, timeout: float) -> bool:
         """Block until the model call in flight (if any) has answered; False on timeout.
@@ -254,10 +269,24 @@ class VlmSource:
                 "breaker_open": self.latch.breaker_open,
                 "breaker_reason": self.latch.breaker_reason,
                 "last_error": self.last_error,
+                "misread_cause": self.misread_cause(),
                 "in_flight": self._pending is not None,
                 "cost": self.cost(),
                 **{k: int(v) for k, v in self.counters.items()},
             }
+
+    def misread_cause(self) -> str:
+        """The likely cause once :data:`MISREADS_BEFORE_CAUSE` answers were misread ("" before): the most
+        frequent guess ("answers look like [x, y]; set family"), or that points keep missing the target."""
+        total = sum(self._misreads.values())
+        if total < MISREADS_BEFORE_CAUSE:
+            return ""
+        known = Counter({k: v for k, v in self._misreads.items() if k})
+        if known:
+            return known.most_common(1)[0][0]
+        family = getattr(self._client, "family", None)
+        return (f"{total} answers misread (points outside the image or off the other answers' depth); "
+                f"check the model's family{f' (now {family})' if family else ''}")
 
     def cost(self) -> dict[str, Any]:
         """What the model calls spent: the client's own accounting (requests, retries, tokens where the
@@ -375,18 +404,25 @@ class VlmSource:
     def _ask(self, req: _Request) -> _Answer:
         """Worker thread: the model call, then the geometry (kept off the tick too)."""
         p = self.params
-        points = [q for q in self._client.locate(req.image, p.label) if q.confidence >= p.confidence_threshold]
+        located = self._client.locate(req.image, p.label)
+        read = getattr(self._client, "last_read", None)  # what the reader set aside, and its hint
+        dropped, hint = (int(read.dropped), str(read.hint)) if read is not None else (0, "")
+        points = [q for q in located if q.confidence >= p.confidence_threshold]
         if not points:
-            return _Answer(req, "miss")
+            return _Answer(req, "miss", dropped=dropped, hint=hint)
         best = max(points, key=lambda q: q.confidence)
         h, w = req.image.shape[:2]
         u, v = best.to_pixel(w, h)
+        box = None
+        if best.box is not None:  # the box bounds the depth patch: (u0, v0, u1, v1) px
+            ymin, xmin, ymax, xmax = best.box
+            box = (xmin / 1000 * w, ymin / 1000 * h, xmax / 1000 * w, ymax / 1000 * h)
         pose = estimate_surface_pose(
-            req.image, req.depth, req.intrinsics, u, v, patch_radius_m=p.patch_radius_m, mad_k=p.mad_k
+            req.image, req.depth, req.intrinsics, u, v, patch_radius_m=p.patch_radius_m, mad_k=p.mad_k, box=box
         )
         if pose is None:
-            return _Answer(req, "no_depth", pixel=(u, v))
-        return _Answer(req, "ok", pose, best.confidence, (u, v))
+            return _Answer(req, "no_depth", pixel=(u, v), dropped=dropped, hint=hint)
+        return _Answer(req, "ok", pose, best.confidence, (u, v), dropped=dropped, hint=hint)
 
     @staticmethod
     def _depth_problem(frame: Frame) -> str | None:
@@ -425,6 +461,10 @@ class VlmSource:
             return
         self.state = "idle"  # until the next frame says what the source waits for
         self.latch.attempt_ok()  # the model answered (even with nothing): failures must be consecutive
+        if answer.dropped:
+            self.counters["points_dropped"] += answer.dropped
+        if answer.hint or (answer.dropped and answer.outcome == "miss"):
+            self._misread(answer.hint)
         if answer.outcome != "ok" or answer.pose is None:
             self.counters["misses" if answer.outcome == "miss" else "answers_without_depth"] += 1
             return
@@ -436,6 +476,8 @@ class VlmSource:
         assert req.T_anchor_camera is not None
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
                               req.stamp)
+        if self._off_the_runs_depth(candidate, answer):
+            return
         if self.latch.add(candidate):
             self.state = "latched"
             self.counters["latches"] += 1
@@ -444,6 +486,59 @@ class VlmSource:
             pos = self.latch.T_anchor_target[:3, 3]  # type: ignore[index]
             log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.label,
                      np.round(pos, 3).tolist(), self.params.map_frame, self.model_calls)
+
+    def _misread(self, cause: str) -> None:
+        self.counters["answers_misread"] += 1
+        self._misreads[cause] += 1
+        cause = self.misread_cause()
+        if cause:
+            self._log_once("misread", "answers are being misread: %s", cause)
+
+    def _off_the_runs_depth(self, candidate: Candidate, answer: _Answer) -> bool:
+        """True when the answer is dropped: it lies off the agreeing answers so far *and* at a depth they
+        contradict (seen from this image, the run's place is nearer or farther by more than
+        depth_tolerance_m) — a point read in the wrong convention lands on the wall or the floor. Two such
+        answers agreeing with each other are the target somewhere else: the consensus restarts with both.
+        Whether swapping x and y would have hit the run is the likely cause."""
+        p = self.params
+        run = self.latch.run
+        req = answer.request
+        if not run or req.T_anchor_camera is None or answer.pose is None:
+            return False
+        expected = np.mean([c.T_anchor_target[:3, 3] for c in run], axis=0)
+        here = candidate.T_anchor_target[:3, 3]
+        if float(np.linalg.norm(here - expected)) <= p.latch_position_tolerance_m:
+            self._inconsistent_candidate = None
+            return False
+        in_cam = se3.apply(se3.invert(req.T_anchor_camera), expected[None, :])[0]
+        seen = answer.pose.T_camera_target[:3, 3]
+        if abs(float(np.linalg.norm(seen)) - float(np.linalg.norm(in_cam))) <= p.depth_tolerance_m:
+            self._inconsistent_candidate = None
+            return False  # the same depth elsewhere: the target moved (the consensus restarts)
+        last = self._inconsistent_candidate
+        if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= p.latch_position_tolerance_m:
+            self._inconsistent_candidate = None
+            self.latch.add(last)  # twice there: the target is there, and the answer held back counts again
+            return False
+        self._inconsistent_candidate = candidate
+        self.counters["answers_off_depth"] += 1
+        self._misread(self._swap_cause(answer, in_cam))
+        return True
+
+    @staticmethod
+    def _swap_cause(answer: _Answer, run_in_cam: np.ndarray) -> str:
+        """"answers look like [x, y]; set family" when the answer's point with x and y swapped lands near
+        where the run's place appears in the image ("" when it does not)."""
+        req = answer.request
+        if answer.pixel is None or run_in_cam[2] <= 1e-3:
+            return ""
+        h, w = req.image.shape[:2]
+        u, v = answer.pixel
+        su, sv = v / h * w, u / w * h  # the same two numbers, read the other way round
+        eu, ev = req.intrinsics.project(run_in_cam[None, :])[0]
+        if abs(su - eu) <= 0.08 * w and abs(sv - ev) <= 0.08 * h:
+            return "answers look like [x, y], read as [y, x]; set family (qwen2.5-vl, qwen3-vl, molmo, molmo2)"
+        return ""
 
     def _call_failed(self, err: Exception) -> None:
         """A model call gave no answer: count it by kind and, unless the service only asked us to slow

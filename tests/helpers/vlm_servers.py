@@ -131,7 +131,7 @@ class FakeModelServer:
         assert api in ("gemini", "openai"), api
         self.api = api
         self.api_key = api_key
-        self.model = model or ("gemini-robotics-er-1.6-preview" if api == "gemini" else "qwen2.5-vl-7b")
+        self.model = model or ("gemini-robotics-er-2-preview" if api == "gemini" else "local-pointing-model")
         self.answerer: Answerer = answerer or (lambda image, prompt: "[]")
         self.on_request = on_request  # called as each well-formed request arrives, before it is answered
         self.received: list[Received] = []

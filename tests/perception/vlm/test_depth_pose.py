@@ -107,3 +107,21 @@ def test_missing_depth_at_the_pixel_gives_no_pose():
     img = np.zeros((48, 64, 3), np.uint8)
     depth = np.zeros((48, 64), np.float32)
     assert estimate_surface_pose(img, depth, intr, 30, 20) is None
+
+
+def test_the_models_box_bounds_the_depth_patch_so_the_plane_is_the_objects():
+    # A small panel in front of a near wall, a patch (radius 0.3 m) mostly on the wall: MAD alone keeps the
+    # wall (the majority); the box the model drew around the panel keeps the plane on the panel.
+    box = Box((2.0, 0.0, 0.3), (0.02, 0.16, 0.16), RED, yaw=0.4)
+    cam = camera_pose(0.0, 0.0, 0.0)
+    frame = render(Scene([box], wall_x=2.3, floor=False), cam)
+    face = box_front_face(box)
+    u, v = frame.intrinsics.project(se3.apply(se3.invert(cam), face[:3, 3]))[0]
+    red = (frame.image[:, :, 2] > 120) & (frame.image[:, :, 0] < 90)
+    vs, us = np.nonzero(red)
+    drawn = (float(us.min()), float(vs.min()), float(us.max()), float(vs.max()))
+    loose = estimate_surface_pose(frame.image, frame.depth, frame.intrinsics, u, v, patch_radius_m=0.3)
+    bounded = estimate_surface_pose(frame.image, frame.depth, frame.intrinsics, u, v, patch_radius_m=0.3, box=drawn)
+    assert loose is not None and bounded is not None
+    assert angle_deg((cam @ bounded.T_camera_target)[:3, 2], face[:3, 2]) < 3.0
+    assert angle_deg((cam @ loose.T_camera_target)[:3, 2], face[:3, 2]) > 10.0

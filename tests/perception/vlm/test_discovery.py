@@ -1,7 +1,9 @@
 """Hybrid discovery in the closed loop (scenario vlm_discovery, config sim_vlm.yaml): the VLM finds the red
 box across the room, where its tags are too small to read, the robot drives to it, and up close the tag
-source takes over. With the stub, and with the `openai` client against a loopback model server that
-answers from the simulation's ground truth with noise — the same config with only its client changed.
+source takes over. With the stub, and with the `openai` / `gemini` client against a loopback model server
+that answers from the simulation's ground truth with noise in a model family's native format (Gemini
+Robotics-ER, Qwen2.5-VL, Qwen3-VL, Molmo, Molmo2) — the same config with only its client changed. The
+first latched pose must lie within 5 % of the range of the target's true box.
 
 The harness records, for every frame the run perceives, where the target truly is in it (the sim's
 ground truth projected into the frame, hidden when the depth image shows something in front); the fake
@@ -24,7 +26,8 @@ from mission.app.sim_run import run_scenario, shipped_config
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.observers import RunObserver
-from tests.helpers.vlm_servers import FakeModelServer, Oracle, model_text
+from tests.helpers.vlm_formats import native_answer
+from tests.helpers.vlm_servers import FakeModelServer, Oracle
 
 DISCOVERY = "vlm_discovery"
 
@@ -38,6 +41,7 @@ class GroundTruthPixels(RunObserver):
         self.oracle = oracle
         self.first_follow_range: float | None = None
         self.seen_by: list[tuple[float, str]] = []  # (distance, "vlm" | "apriltag") per frame the target was seen
+        self.first_latch: tuple[float, float] | None = None  # (latched pose's distance to the true box, range)
 
     def on_perception(self, run: Any, perceived: Any) -> None:
         frame = perceived.frame
@@ -48,6 +52,13 @@ class GroundTruthPixels(RunObserver):
             self.oracle.record(frame.image, target_pixel(frame, gt, run.world.scenario.target.size))
         distance = math.hypot(gt.target.x - gt.robot.x, gt.target.y - gt.robot.y)
         labels = {d.source for d in perceived.detections if d.label == "red box"}
+        size = run.world.scenario.target.size
+        for d in perceived.detections:
+            if self.first_latch is None and d.source == "vlm" and d.extra.get("latched"):
+                box = se3.planar(gt.target.x, gt.target.y, gt.target.yaw, size[2] / 2)
+                q = se3.apply(se3.invert(box), np.asarray(d.extra["pose_anchor"][:3])[None, :])[0]
+                outside = np.maximum(np.abs(q) - np.asarray(size) / 2, 0.0)
+                self.first_latch = (float(np.linalg.norm(outside)), distance)
         if labels:
             self.seen_by.append((distance, "apriltag" if "apriltag" in labels else "vlm"))
 
@@ -80,20 +91,22 @@ def target_pixel(frame: Any, gt: Any, size: tuple[float, float, float]) -> tuple
     return float(u), float(v)
 
 
-def noisy_answerer(oracle: Oracle, sigma: float, seed: int = 0):
-    """The fake model: the true point with Gaussian noise (σ in 0–1000 units), in a format that varies as
-    real models' do (plain JSON, fenced with prose)."""
+def family_answerer(oracle: Oracle, family: str, sigma: float, seed: int = 0):
+    """The fake model of one family: the true point with Gaussian noise (σ in 0–1000 units), written in the
+    family's native format for the image it was sent; every third answer has prose around it, as real
+    models' answers vary."""
     rng = np.random.default_rng(seed)
     calls = [0]
 
     def answer(image: np.ndarray, prompt: str) -> str:
         calls[0] += 1
         yx = oracle.lookup(image)
+        h, w = image.shape[:2]
         if yx is None:
-            return "[]"
-        y, x = (float(c + rng.normal(0.0, sigma)) for c in yx)
-        text = model_text([(y, x)])
-        return text if calls[0] % 3 else f"Here is the red box:\n```json\n{text}\n```"
+            return native_answer(family, None, None, w, h)
+        y, x = (float(np.clip(c + rng.normal(0.0, sigma), 0.0, 1000.0)) / 1000.0 for c in yx)
+        text = native_answer(family, x, y, w, h)
+        return text if calls[0] % 3 else f"Here is the red box:\n{text}\nIt stands by the wall."
 
     return answer
 
@@ -118,19 +131,45 @@ def assert_discovered_far_and_handed_over(outcome: Any, watch: GroundTruthPixels
     assert outcome.perception_stats.get("coarse_dropped", 0) > 0
 
 
-def test_the_openai_client_against_a_loopback_model_finds_the_target_and_the_mission_succeeds(tmp_path):
+FAMILY_MODELS = {
+    "qwen2.5-vl": "Qwen/Qwen2.5-VL-7B-Instruct",
+    "gemini-er": "gemini-robotics-er-2-preview",
+    "qwen3-vl": "Qwen/Qwen3-VL-8B-Instruct",
+    "molmo": "allenai/Molmo-7B-D-0924",
+    "molmo2": "allenai/Molmo2-8B",
+}
+
+
+def run_with_family(family: str, tmp_path: Path, monkeypatch) -> None:
     oracle = Oracle()
-    model = "qwen2.5-vl-7b-instruct"
-    with FakeModelServer("openai", model=model, answerer=noisy_answerer(oracle, sigma=4.0)) as server:
-        config = vlm_config(tmp_path, client="openai", openai={"base_url": server.url, "model": model})
+    model = FAMILY_MODELS[family]
+    api = "gemini" if family == "gemini-er" else "openai"
+    monkeypatch.setenv("GOOGLE_API_KEY", "test-key-loopback-only")
+    with FakeModelServer(api, model=model, answerer=family_answerer(oracle, family, sigma=4.0)) as server:
+        section = {"gemini": {"endpoint": server.url}} if api == "gemini" else {
+            "openai": {"base_url": server.url, "model": model}}
+        config = vlm_config(tmp_path, client=api, **section)
         watch = GroundTruthPixels(oracle)
         outcome, _, _ = run_scenario(DISCOVERY, config_file=config, seed=0, max_duration=25.0, observers=[watch])
         assert server.problems == []
     assert_discovered_far_and_handed_over(outcome, watch)
     vlm = outcome.sources["vlm"]
-    assert vlm["client"] == "openai" and vlm["model_calls"] == len(server.received) == vlm["cost"]["requests"]
+    assert vlm["client"] == api and vlm["model_calls"] == len(server.received) == vlm["cost"]["requests"]
     assert vlm["cost"]["input_tokens"] == server.totals.input_tokens  # the run report's cost is what was charged
     assert json.dumps(outcome.to_json())  # report.json carries it
+    assert watch.first_latch is not None
+    off, distance = watch.first_latch
+    assert off <= 0.05 * distance, watch.first_latch  # the latched pose: within 5 % of the range of the true box
+
+
+def test_the_openai_client_with_qwen2_5_vl_answers_finds_the_target_and_the_mission_succeeds(tmp_path, monkeypatch):
+    run_with_family("qwen2.5-vl", tmp_path, monkeypatch)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", ["gemini-er", "qwen3-vl", "molmo", "molmo2"])
+def test_each_model_familys_native_answers_find_the_target_in_the_closed_loop(family, tmp_path, monkeypatch):
+    run_with_family(family, tmp_path, monkeypatch)
 
 
 @pytest.mark.slow

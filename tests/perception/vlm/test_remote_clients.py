@@ -110,7 +110,7 @@ def test_a_normal_answer_is_the_models_points_sent_in_the_apis_documented_format
     assert "red box" in req.prompt and "[y, x]" in req.prompt and "0-1000" in req.prompt
     assert KEY not in req.path  # the key travels in a header only
     if server.api == "gemini":
-        assert req.path == "/v1beta/models/gemini-robotics-er-1.6-preview:generateContent"
+        assert req.path == "/v1beta/models/gemini-robotics-er-2-preview:generateContent"
         assert req.headers["x-goog-api-key"] == KEY
         assert req.body["generationConfig"]["responseMimeType"] == "application/json"
         assert req.body["generationConfig"]["responseSchema"]["type"] == "ARRAY"
