@@ -133,7 +133,7 @@ def test_a_tree_the_config_names_that_does_not_exist_names_the_config_file_and_k
         ("run: {tick_hz: 5}\nrun: {tick_hz: 6}\n", "line 2: invalid YAML: duplicate key 'run' (first given at line 1)"),
         ("perception:\n  sources:\n    - plugin: arucoo\n",
          "perception.sources[0].plugin: unknown perception plugin 'arucoo'; "
-         "known plugins: apriltag, aruco, vlm, vlm_stub"),
+         "known plugins: apriltag, aruco, external_pose, vlm, vlm_stub"),
         ("tree: nowhere.xml\n", "tree: nowhere.xml: tree file not found"),
         ("perception:\n  targets:\n    target: {marker_id: 7, source: vlm}\n",
          "perception.targets.target.source: no perception source named 'vlm'"),

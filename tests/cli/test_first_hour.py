@@ -1,0 +1,77 @@
+"""Issue 36, a new user's first hour: no silent traps, and failures that say why.
+
+Each test is a scenario a new user meets, run for real (the `mission` command in a subprocess, a real
+simulation), and asserts on what the user sees: the result line, a warning, the exit status."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mission.app.sim_run import prepare_run
+
+MISSION = [sys.executable, "-m", "mission"]
+
+
+def mission(*argv: str, cwd: Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [*MISSION, *argv], capture_output=True, text=True, timeout=timeout, cwd=cwd, env=dict(os.environ)
+    )
+
+
+# -- 1. your own config does not blind the simulated robot ----------------------------------------------------
+
+
+def test_a_config_of_your_own_still_sees_the_simulated_markers(tmp_path):
+    """A user's config that only sets the tick rate docks in explore_dock, as the run without --config does."""
+    config = tmp_path / "mine.yaml"
+    config.write_text("run: {tick_hz: 15}\n")
+    result = mission("run", "--scenario", "explore_dock", "--config", str(config), "--quiet")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert result.stdout.startswith("SUCCESS: explore_dock seed 0: docked within tolerance"), result.stdout
+    assert "warning" not in result.stderr, result.stderr
+
+
+@pytest.mark.parametrize("text", ["", "run: {tick_hz: 15}\n", "perception: {policy: all}\n"])
+def test_an_empty_or_partial_config_perceives_what_the_default_run_perceives(tmp_path, text):
+    config = tmp_path / "mine.yaml"
+    config.write_text(text)
+    default = prepare_run("mission_full").config.perception
+    mine = prepare_run("mission_full", config_file=config).config.perception
+    assert mine.sources == default.sources and mine.targets == default.targets
+
+
+def test_a_source_named_like_the_sims_keeps_the_params_it_does_not_set(tmp_path):
+    config = tmp_path / "mine.yaml"
+    config.write_text("perception:\n  sources:\n    - plugin: aruco\n      params: {corner_refinement: none}\n")
+    (source,) = prepare_run("mission_full", config_file=config).config.perception.sources
+    assert source.params["dictionary"] == "DICT_APRILTAG_36h11"
+    assert source.params["marker_sizes"] == {0: 0.15, 7: 0.20}
+    assert source.params["corner_refinement"] == "none"
+
+
+def test_a_target_renamed_by_the_user_replaces_the_sims(tmp_path):
+    config = tmp_path / "mine.yaml"
+    config.write_text("perception:\n  targets:\n    box: {marker_id: 7}\n")
+    targets = prepare_run("mission_full", config_file=config).config.perception.targets
+    assert set(targets) == {"box", "dock"}
+
+
+def test_a_dictionary_that_cannot_read_the_sims_markers_is_one_warning_line(tmp_path):
+    config = tmp_path / "mine.yaml"
+    config.write_text("perception:\n  sources:\n    - plugin: aruco\n      params: {dictionary: DICT_4X4_50}\n")
+    result = mission("run", "--scenario", "explore_dock", "--config", str(config), "--quiet", "--max-duration", "1")
+    warnings = [line for line in result.stderr.splitlines() if "warning" in line]
+    assert len(warnings) == 1, result.stderr
+    assert str(config) in warnings[0] and "DICT_4X4_50" in warnings[0] and "DICT_APRILTAG_36h11" in warnings[0]
+    assert "never be seen" in warnings[0]
+
+
+def test_the_shipped_configs_agree_with_the_sim(tmp_path):
+    for name in ("sim_aruco.yaml", "sim_apriltag.yaml", "sim_vlm.yaml"):
+        path = Path(prepare_run("mission_full").config_path).parent / name
+        assert prepare_run("mission_full", config_file=path).warnings == [], name
