@@ -56,6 +56,24 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 SETUP_TIMEOUT_S = 30.0  # the tree's setup() (py_trees raises when a behaviour's setup takes longer)
 
 
+def failing_leaf(root: py_trees.behaviour.Behaviour) -> str:
+    """Which leaf made a failed tree fail, and what it said: the last failed node in tick order that has no
+    failed child (a Sequence's failing child; the last of a Fallback's), e.g.
+    ``leaf 'see it' (IsTargetVisible) failed: port target: blackboard entry {tgt} was never written``."""
+    failed = None
+    for node in root.iterate():
+        if node.status == py_trees.common.Status.FAILURE and not any(
+            c.status == py_trees.common.Status.FAILURE for c in node.children
+        ):
+            failed = node
+    if failed is None:
+        return ""
+    kind = "leaf" if not failed.children else "node"
+    tag = type(failed).__name__
+    said = str(getattr(failed, "feedback_message", "") or "").strip()
+    return f"{kind} {failed.name!r} ({tag}) failed" + (f": {said}" if said else "")
+
+
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
     """A tree named in config: relative to the config file if it exists there, else a shipped tree."""
     if config_file is not None:
@@ -135,6 +153,8 @@ class TreeRunner:
         self.observers: list[RunObserver] = list(observers)
         self.tree_path: Path | None = None
         self.tree: py_trees.trees.BehaviourTree | None = None
+        # the tree's first failure: which leaf failed and what it said ("" until the tree fails)
+        self.failure = ""
         self.perception: PerceptionStage | None = None
         # The node types tree files may use: the shipped behaviours and installed packages' (entry-point
         # group mission.behaviours); register your own before setup().
@@ -264,6 +284,8 @@ class TreeRunner:
         if self.tree is not None:
             self.tree.tick()
             self.status = self.tree.root.status
+            if self.status == py_trees.common.Status.FAILURE and not self.failure:
+                self.failure = failing_leaf(self.tree.root)
         self.world.act(self.bb)
         self.ticks += 1
         truth = getattr(self.world, "ground_truth", None)

@@ -229,6 +229,7 @@ def evaluate(
     *,
     min_tracking_fraction: float = MIN_TRACKING_FRACTION,
     give_up_within_s: float = GIVE_UP_WITHIN_S,
+    limit: str = "",
 ) -> tuple[bool, str]:
     """Did the mission succeed? The tree's verdict first, then the design notes' criteria on ground truth.
 
@@ -236,7 +237,8 @@ def evaluate(
     called LOST within 0.5 s, every loss re-acquired within 10 s (one that began in the last 10 s of the run
     may still be open), following at the end, and the target tracked — in FOLLOW and in view — for at least
     `min_tracking_fraction` of the follow phase (a run LOST or SEARCHing most of the time did not follow).
-    mission: both. give_up: the target leaves the map; the tree must fail — the search ending with its
+    mission: both; a run that ends while the tree is still docking never docked (`limit` names what ended it,
+    e.g. ``--max-duration 6``). give_up: the target leaves the map; the tree must fail — the search ending with its
     reason — within `give_up_within_s` of the target leaving, never searching on for ever.
     """
     if kind == "give_up":
@@ -249,6 +251,12 @@ def evaluate(
     if kind in ("dock", "mission"):
         if dock is None:
             return False, "never docked"
+        if not DockErrors(**dock).within() and status == py_trees.common.Status.RUNNING:
+            # the tree was still at it: the run ended before docking finished, not a dock out of tolerance
+            return False, (
+                f"never docked: {limit or 'the run'} ended it after {duration:.0f} s, still in state "
+                f"{final_state or '?'} ({dock['distance_m'] * 100:.0f} cm from the docked pose)"
+            )
         if not DockErrors(**dock).within():
             return False, (
                 f"docked out of tolerance: lateral {dock['lateral_m'] * 100:.1f} cm, "
@@ -284,6 +292,12 @@ def evaluate(
                 f"in FOLLOW with it in view {held:.0f} s of {phase:.0f} s"
             )
         in_view = "" if tracked is None else f", in view {100 * tracked:.0f} % of the follow phase"
+        if final_state != MissionState.FOLLOW:  # a loss in the last 10 s: not counted, but not hidden either
+            lost_for = duration - last_loss_t if last_loss_t is not None else 0.0
+            return True, (
+                f"followed the target{in_view}; ended {final_state}, {lost_for:.0f} s after losing it "
+                f"(a loss in the last {REACQUISITION_S:g} s is not counted)"
+            )
         return True, f"followed the target to the end{in_view}"
     if status == py_trees.common.Status.SUCCESS:
         return True, "tree succeeded"
@@ -420,7 +434,8 @@ def run_scenario(
         status = runner.run(until=until, pacer=pacer)
         if robot is not None:
             status = world.tree_status()
-        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0, criteria)
+        limit = f"--max-duration {max_duration:g}" if max_duration else ""
+        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0, criteria, limit)
         outcome.provenance = provenance
         runner.finish(outcome)
         return outcome, recorder, adapter
@@ -438,12 +453,17 @@ def _outcome(
     seed: int,
     wall0: float,
     criteria: dict[str, float],
+    limit: str = "",
 ) -> RunOutcome:
     final_state = runner.get(bbk.STATE, "")
     sim_time = runner.elapsed()
     recorder.finish(recorder.last_ground_truth, final_state, tree_failed=status == py_trees.common.Status.FAILURE)
     summary = recorder.summary(sim_time)
-    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time, **criteria)
+    ok, reason = evaluate(
+        kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time, **criteria, limit=limit
+    )
+    if not ok and runner.failure and reason == f"tree failed in state {final_state or '?'}":
+        reason = f"{reason}: {runner.failure}"  # the tree gave no reason: which leaf failed and what it said
     stats = dict(runner.get(bbk.PERCEPTION_STATS, {}) or {})
     signum = runner.stop_signal
     if signum is not None:

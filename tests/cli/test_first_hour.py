@@ -75,3 +75,44 @@ def test_the_shipped_configs_agree_with_the_sim(tmp_path):
     for name in ("sim_aruco.yaml", "sim_apriltag.yaml", "sim_vlm.yaml"):
         path = Path(prepare_run("mission_full").config_path).parent / name
         assert prepare_run("mission_full", config_file=path).warnings == [], name
+
+
+# -- 2. failures that say why ----------------------------------------------------------------------------------
+
+UNWRITTEN_ENTRY_TREE = """<?xml version="1.0" encoding="UTF-8"?>
+<root BTCPP_format="4" main_tree_to_execute="Main">
+  <BehaviorTree ID="Main">
+    <Sequence name="main">
+      <IsTargetVisible name="see it" target="{tgt}" max_misses="4"/>
+    </Sequence>
+  </BehaviorTree>
+</root>
+"""
+
+
+def test_a_tree_that_fails_names_the_leaf_and_why_in_the_result_line_and_the_report(tmp_path):
+    tree = tmp_path / "mine.xml"
+    tree.write_text(UNWRITTEN_ENTRY_TREE)
+    report = tmp_path / "report"
+    result = mission("run", "--scenario", "explore_dock", "--tree", str(tree), "--quiet", "--report", str(report))
+    assert result.returncode == 1
+    why = "leaf 'see it' (IsTargetVisible) failed: port target: blackboard entry {tgt} was never written"
+    assert why in result.stdout, result.stdout
+    assert why in (report / "report.json").read_text()
+    html = (report / "report.html").read_text()
+    assert "blackboard entry {tgt} was never written" in html and "IsTargetVisible" in html
+
+
+def test_a_run_cut_off_by_max_duration_before_docking_says_so():
+    result = mission("run", "--scenario", "mission_full", "--max-duration", "6", "--quiet")
+    assert result.returncode == 1
+    assert "never docked: --max-duration 6 ended it after 6 s, still in state DOCK" in result.stdout, result.stdout
+    assert "out of tolerance" not in result.stdout
+
+
+def test_a_follow_run_that_ends_lost_says_it_ended_lost():
+    """follow_occlusion seed 0 loses the target behind the wall at 16.6 s; cut off at 20 s it is still LOST.
+    A loss that recent is not counted against the run (it may yet be re-acquired), but it is not hidden."""
+    result = mission("run", "--scenario", "follow_occlusion", "--max-duration", "20", "--quiet")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "ended LOST" in result.stdout and "to the end" not in result.stdout, result.stdout
