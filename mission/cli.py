@@ -247,6 +247,10 @@ def _main(argv: Sequence[str] | None) -> int:
             return 2
         raise
     try:
+        if getattr(args, "config", None):  # a shipped config by name, as trees and scenarios are named
+            from mission.app.shipped import resolve_config
+
+            args.config = resolve_config(args.config)
         return int(module.main(args) or 0)
     except MissionError as err:
         for line in str(err).splitlines():  # several problems (a config file's): one line each, each prefixed

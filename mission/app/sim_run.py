@@ -13,7 +13,6 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,7 @@ from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner, checked_tree
+from mission.app.shipped import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, check_config, load_config, merge_mappings, read_yaml, validate_model
@@ -37,11 +37,6 @@ from mission.trees.factory import shipped_factory
 from mission.trees.loader import describe_tree
 
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
-
-
-def shipped_config(name: str) -> Path:
-    """A config file shipped in mission/configs/."""
-    return Path(str(resources.files("mission") / "configs" / name))
 
 
 def _source_name(source: Any) -> Any:

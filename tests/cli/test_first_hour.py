@@ -116,3 +116,23 @@ def test_a_follow_run_that_ends_lost_says_it_ended_lost():
     result = mission("run", "--scenario", "follow_occlusion", "--max-duration", "20", "--quiet")
     assert result.returncode == 0, result.stdout + result.stderr
     assert "ended LOST" in result.stdout and "to the end" not in result.stdout, result.stdout
+
+
+# -- 4. shipped configs are named as shipped trees and scenarios are -----------------------------------------
+
+
+@pytest.mark.parametrize("name", ["sim_apriltag.yaml", "sim_apriltag"])
+def test_a_shipped_config_can_be_named_from_any_directory(tmp_path, name):
+    result = mission(
+        "run", "--scenario", "explore_dock", "--config", name, "--quiet", "--max-duration", "1", cwd=tmp_path
+    )
+    assert result.returncode in (0, 1) and "error" not in result.stderr, result.stderr
+    assert result.stdout.startswith("FAILURE: explore_dock seed 0:"), result.stdout  # it ran: 1 s is too short
+
+
+def test_a_config_name_that_is_neither_a_file_nor_shipped_lists_the_shipped_ones(tmp_path):
+    result = mission("run", "--config", "sim_apriltg.yaml", "--quiet", cwd=tmp_path)
+    assert result.returncode == 2
+    [line] = result.stderr.strip().splitlines()
+    assert line.startswith("mission: error: sim_apriltg.yaml: file not found; expected a config file or a shipped")
+    assert "sim_apriltag.yaml" in line and "sim_aruco.yaml" in line
