@@ -150,3 +150,18 @@ def test_the_readmes_first_tree_of_your_own_runs_as_the_readme_says(tmp_path):
     )
     assert result.returncode == 0, result.stdout + result.stderr
     assert result.stdout.startswith("SUCCESS: follow_open seed 0: followed the target"), result.stdout
+
+
+# -- 5. which plugin ran, how well it docked ------------------------------------------------------------------
+
+
+def test_the_result_line_and_report_name_the_perception_plugin_and_the_dock_accuracy(tmp_path):
+    report = tmp_path / "report"
+    result = mission(
+        "run", "--scenario", "explore_dock", "--config", "sim_apriltag.yaml", "--quiet", "--report", str(report)
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "; perception apriltag)" in result.stdout, result.stdout
+    html = (report / "report.html").read_text()
+    assert "<td>perception</td><td>apriltag</td>" in html
+    assert "<td>dock accuracy</td><td>lateral " in html and " cm, distance " in html and "skew " in html
