@@ -186,8 +186,30 @@ def _add_nodes_model(p: argparse.ArgumentParser) -> None:
                 "`mission.behaviours` entry points")
 
 
+def _version() -> str:
+    """The installed distribution's version (``mission --version``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("mission")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+PATH_OPTIONS = ("config", "report", "log", "record", "record_bag", "btlog", "output", "into", "out", "calibration")
+
+
+def _no_empty_paths(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """An option that takes a path, given an empty one (``--report ''``), is a usage error: it was read as
+    "not given" and silently ignored."""
+    for name in PATH_OPTIONS:
+        if getattr(args, name, None) == "":
+            parser.error(f"argument --{name.replace('_', '-')}: expected a path, got an empty string")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
+    parser.add_argument("--version", action="version", version=f"mission {_version()}")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
               "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench, "plugins": lambda p: None,
@@ -232,6 +254,7 @@ def _module(verb: str) -> str:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    _no_empty_paths(parser, args)
     if args.verb in FORWARDING:
         args.forwarded, extra = extra, []
     if extra:

@@ -165,3 +165,38 @@ def test_the_result_line_and_report_name_the_perception_plugin_and_the_dock_accu
     html = (report / "report.html").read_text()
     assert "<td>perception</td><td>apriltag</td>" in html
     assert "<td>dock accuracy</td><td>lateral " in html and " cm, distance " in html and "skew " in html
+
+
+# -- 6. small traps ------------------------------------------------------------------------------------------
+
+
+def test_tick_hz_true_is_a_config_error_not_1_hz(tmp_path):
+    config = tmp_path / "mine.yaml"
+    config.write_text("run: {tick_hz: true}\n")
+    result = mission("run", "--config", str(config), "--quiet", "--max-duration", "1")
+    assert result.returncode == 2
+    [line] = result.stderr.strip().splitlines()
+    assert line.startswith(f"mission: error: {config}: run.tick_hz: ") and "expected a number, got True" in line
+
+
+@pytest.mark.parametrize("option", ["--report", "--log", "--record"])
+def test_an_empty_output_path_is_a_usage_error_not_ignored(option):
+    result = mission("run", "--scenario", "explore_dock", option, "", "--quiet", "--max-duration", "1")
+    assert result.returncode == 2 and result.stdout == ""
+    assert f"argument {option}: expected a path, got an empty string" in result.stderr.strip().splitlines()[-1]
+
+
+def test_viz_refuses_to_write_png_bytes_into_an_svg_name(tmp_path):
+    result = mission("viz", "mission.xml", "--format", "png", "-o", str(tmp_path / "x.svg"))
+    assert result.returncode == 2
+    [line] = result.stderr.strip().splitlines()
+    assert "x.svg: a .svg name, but --format png writes PNG" in line
+    assert not (tmp_path / "x.svg").exists()
+
+
+def test_mission_version_names_the_installed_version():
+    from importlib.metadata import version
+
+    result = mission("--version")
+    assert result.returncode == 0
+    assert result.stdout.strip() == f"mission {version('mission')}"
