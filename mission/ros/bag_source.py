@@ -536,8 +536,7 @@ def open_bag(path: str | Path) -> BagSource:
     if p.is_file() and p.name != "metadata.yaml" and p.suffix not in (".mcap", ".db3"):
         # not its neighbours: a file that is no bag must not replay the bag beside it
         raise MissionError(
-            f"{p}: not a bag: expected a ROS 1 .bag file, a rosbag2 directory, or its metadata.yaml, .mcap or "
-            ".db3 file"
+            f"{p}: not a bag: expected a ROS 1 .bag file, a rosbag2 directory, or its metadata.yaml, .mcap or .db3 file"
         )
     directory = p.parent if p.is_file() else p
     if p.is_file() and p.suffix in (".mcap", ".db3"):
