@@ -321,12 +321,21 @@ class TreeRunner:
                     break
                 if self.stop_signal is not None or done(self) or getattr(self.world, "exhausted", False):
                     break
-                self.world.advance(self.dt)
+                self.world.advance(self._step_towards(until))
                 if getattr(self.world, "exhausted", False):
                     break
                 if pacer is not None:
                     pacer.wait(float(self.world.now()))
         return self.status
+
+    def _step_towards(self, until: Until) -> float:
+        """The world time to advance: a tick, or less when a time limit falls inside it, so a tick slower than
+        the limit (``--max-duration 3`` at 0.2 Hz) ends the run at the limit, not a whole tick later. A limit
+        that a whole number of ticks reaches (up to rounding) keeps whole ticks, as it always did."""
+        if until is None or callable(until):
+            return self.dt
+        remaining = float(until) - self.elapsed()
+        return remaining if 1e-6 < remaining < self.dt - 1e-9 else self.dt
 
     def stop_requested(self) -> bool:
         return self.stop_signal is not None

@@ -200,3 +200,12 @@ def test_mission_version_names_the_installed_version():
     result = mission("--version")
     assert result.returncode == 0
     assert result.stdout.strip() == f"mission {version('mission')}"
+
+
+def test_max_duration_ends_a_run_at_the_limit_even_when_a_tick_is_longer(tmp_path):
+    """At 0.2 Hz a tick is 5 s: --max-duration 3 ran 5 s. The last step now lands on the limit."""
+    result = mission(
+        "run", "--scenario", "explore_dock", "--set", "run.tick_hz=0.2", "--max-duration", "3", "--quiet", cwd=tmp_path
+    )
+    assert result.returncode == 1
+    assert "(3.0 s simulated in " in result.stdout, result.stdout
