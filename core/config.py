@@ -14,7 +14,7 @@ from types import UnionType
 from typing import Annotated, Any, ClassVar, Literal, TypeVar, Union, get_args, get_origin
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
 from mission.core.errors import ConfigError
 
@@ -250,10 +250,20 @@ class PerceptionConfig(StrictModel):
     )
 
 
+def _not_a_bool(value: Any) -> Any:
+    """YAML's true/false where a number is expected: pydantic would read them as 1 and 0."""
+    if isinstance(value, bool):
+        raise ValueError("expected a number")
+    return value
+
+
+Number = Annotated[float, BeforeValidator(_not_a_bool)]  # a float that YAML's true/false is not
+
+
 class RunConfig(StrictModel):
     """How the tree is ticked."""
 
-    tick_hz: float = Field(15.0, gt=0, le=200)  # one perception pass per tick: match the camera rate
+    tick_hz: Number = Field(15.0, gt=0, le=200)  # one perception pass per tick: match the camera rate
 
 
 class TopicsConfig(StrictModel):

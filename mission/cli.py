@@ -227,8 +227,30 @@ def _add_nodes_model(p: argparse.ArgumentParser) -> None:
                 "`mission.behaviours` entry points")
 
 
+def _version() -> str:
+    """The installed distribution's version (``mission --version``)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("mission")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
+PATH_OPTIONS = ("config", "report", "log", "record", "record_bag", "btlog", "output", "into", "out", "calibration")
+
+
+def _no_empty_paths(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """An option that takes a path, given an empty one (``--report ''``), is a usage error: it was read as
+    "not given" and silently ignored."""
+    for name in PATH_OPTIONS:
+        if getattr(args, name, None) == "":
+            parser.error(f"argument --{name.replace('_', '-')}: expected a path, got an empty string")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
+    parser.add_argument("--version", action="version", version=f"mission {_version()}")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
               "task": _add_task, "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench,
@@ -273,6 +295,7 @@ def _module(verb: str) -> str:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
+    _no_empty_paths(parser, args)
     if args.verb in FORWARDING:
         args.forwarded, extra = extra, []
     if extra:
@@ -288,6 +311,10 @@ def _main(argv: Sequence[str] | None) -> int:
             return 2
         raise
     try:
+        if getattr(args, "config", None):  # a shipped config by name, as trees and scenarios are named
+            from mission.app.shipped import resolve_config
+
+            args.config = resolve_config(args.config)
         return int(module.main(args) or 0)
     except MissionError as err:
         for line in str(err).splitlines():  # several problems (a config file's): one line each, each prefixed

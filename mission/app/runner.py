@@ -56,6 +56,24 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 SETUP_TIMEOUT_S = 30.0  # the tree's setup() (py_trees raises when a behaviour's setup takes longer)
 
 
+def failing_leaf(root: py_trees.behaviour.Behaviour) -> str:
+    """Which leaf made a failed tree fail, and what it said: the last failed node in tick order that has no
+    failed child (a Sequence's failing child; the last of a Fallback's), e.g.
+    ``leaf 'see it' (IsTargetVisible) failed: port target: blackboard entry {tgt} was never written``."""
+    failed = None
+    for node in root.iterate():
+        if node.status == py_trees.common.Status.FAILURE and not any(
+            c.status == py_trees.common.Status.FAILURE for c in node.children
+        ):
+            failed = node
+    if failed is None:
+        return ""
+    kind = "leaf" if not failed.children else "node"
+    tag = type(failed).__name__
+    said = str(getattr(failed, "feedback_message", "") or "").strip()
+    return f"{kind} {failed.name!r} ({tag}) failed" + (f": {said}" if said else "")
+
+
 def resolve_tree(tree: str, config_file: str | Path | None = None) -> Path:
     """A tree named in config: relative to the config file if it exists there, else a shipped tree."""
     if config_file is not None:
@@ -135,6 +153,8 @@ class TreeRunner:
         self.observers: list[RunObserver] = list(observers)
         self.tree_path: Path | None = None
         self.tree: py_trees.trees.BehaviourTree | None = None
+        # the tree's first failure: which leaf failed and what it said ("" until the tree fails)
+        self.failure = ""
         self.perception: PerceptionStage | None = None
         # The node types tree files may use: the shipped behaviours and installed packages' (entry-point
         # group mission.behaviours); register your own before setup().
@@ -264,6 +284,8 @@ class TreeRunner:
         if self.tree is not None:
             self.tree.tick()
             self.status = self.tree.root.status
+            if self.status == py_trees.common.Status.FAILURE and not self.failure:
+                self.failure = failing_leaf(self.tree.root)
         self.world.act(self.bb)
         self.ticks += 1
         truth = getattr(self.world, "ground_truth", None)
@@ -299,12 +321,21 @@ class TreeRunner:
                     break
                 if self.stop_signal is not None or done(self) or getattr(self.world, "exhausted", False):
                     break
-                self.world.advance(self.dt)
+                self.world.advance(self._step_towards(until))
                 if getattr(self.world, "exhausted", False):
                     break
                 if pacer is not None:
                     pacer.wait(float(self.world.now()))
         return self.status
+
+    def _step_towards(self, until: Until) -> float:
+        """The world time to advance: a tick, or less when a time limit falls inside it, so a tick slower than
+        the limit (``--max-duration 3`` at 0.2 Hz) ends the run at the limit, not a whole tick later. A limit
+        that a whole number of ticks reaches (up to rounding) keeps whole ticks, as it always did."""
+        if until is None or callable(until):
+            return self.dt
+        remaining = float(until) - self.elapsed()
+        return remaining if 1e-6 < remaining < self.dt - 1e-9 else self.dt
 
     def stop_requested(self) -> bool:
         return self.stop_signal is not None

@@ -9,10 +9,10 @@ while this one steps the world, measures it against ground truth and scores it b
 from __future__ import annotations
 
 import signal
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -22,9 +22,10 @@ from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner, checked_tree
+from mission.app.shipped import shipped_config
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
-from mission.core.config import MissionConfig, load_config
+from mission.core.config import MissionConfig, check_config, load_config, merge_mappings, read_yaml, validate_model
 from mission.core.errors import ConfigError
 from mission.core.observers import RunObserver
 from mission.perception_plugins.pipeline import source_statuses
@@ -38,9 +39,137 @@ from mission.trees.loader import describe_tree
 DEFAULT_SIM_CONFIG = "sim_aruco.yaml"
 
 
-def shipped_config(name: str) -> Path:
-    """A config file shipped in mission/configs/."""
-    return Path(str(resources.files("mission") / "configs" / name))
+def _source_name(source: Any) -> Any:
+    return (source.get("name") or source.get("plugin")) if isinstance(source, dict) else None
+
+
+def layer_config(base: dict[str, Any], user: dict[str, Any]) -> dict[str, Any]:
+    """A user's config laid on the simulated world's (`base`, the shipped sim config), so what the world needs
+    — its markers' dictionary and sizes, its targets — is never lost by leaving it out.
+
+    Mappings merge key by key (``run``, ``sim``, a source's ``params``), scalars replace. Two lists have a rule:
+
+    * ``perception.sources``: the user's list, when given, decides which sources run and in what order; a source
+      with the same name (its ``name``, else its ``plugin``) as one of the sim config's gets that source's
+      params under its own (the user's win key by key). A source the sim config lacks is the user's alone.
+    * ``perception.targets``: each target the user names is theirs, whole; the sim config's other targets stay,
+      except one that looks exactly like a user's target (the user renamed it).
+    """
+    out = merge_mappings(base, {k: v for k, v in user.items() if k != "perception"})
+    user_perception = user.get("perception")
+    if not isinstance(user_perception, dict):  # absent (the sim's), or not a mapping (validation says so)
+        if "perception" in user:
+            out["perception"] = user_perception
+        return out
+    base_perception = dict(base.get("perception") or {})
+    perception = merge_mappings(
+        base_perception, {k: v for k, v in user_perception.items() if k not in ("sources", "targets")}
+    )
+    sources = user_perception.get("sources")
+    if isinstance(sources, list):
+        known = {_source_name(s): s for s in base_perception.get("sources") or []}
+        layered = []
+        for source in sources:
+            own = known.get(_source_name(source))
+            if own is not None and isinstance(source.get("params", {}), dict):
+                source = {**source, "params": merge_mappings(own.get("params") or {}, source.get("params") or {})}
+            layered.append(source)
+        perception["sources"] = layered
+    elif "sources" in user_perception:
+        perception["sources"] = sources
+    targets = user_perception.get("targets")
+    if isinstance(targets, dict):
+        theirs = list(targets.values())
+        kept = {n: t for n, t in (base_perception.get("targets") or {}).items() if n not in targets and t not in theirs}
+        perception["targets"] = {**kept, **targets}
+    elif "targets" in user_perception:
+        perception["targets"] = targets
+    out["perception"] = perception
+    return out
+
+
+def load_sim_config(config_file: str | Path | None) -> MissionConfig:
+    """The config of a simulated run: the shipped sim config, with a user's file laid on it (:func:`layer_config`).
+
+    Without a file, the shipped sim config exactly as before. Errors name the user's file."""
+    default = shipped_config(DEFAULT_SIM_CONFIG)
+    if config_file is None:
+        return load_config(default)
+    user = read_yaml(config_file)
+    if user is None:
+        user = {}
+    if not isinstance(user, dict):  # the loader's own error: expected a mapping
+        return load_config(config_file)
+    base = read_yaml(default) or {}
+    config = validate_model(MissionConfig, layer_config(base, user), file=str(config_file))
+    check_config(config, str(config_file))
+    # set: what either file names, except a tree only the user's file can name (choose_tree asks)
+    config.__pydantic_fields_set__ = {k for k in (*base, *user) if k in MissionConfig.model_fields} - (
+        set() if "tree" in user else {"tree"}
+    )
+    return config
+
+
+_APRILTAG_DICTIONARIES = {
+    "tag36h11": "DICT_APRILTAG_36h11",
+    "tag36h10": "DICT_APRILTAG_36h10",
+    "tag25h9": "DICT_APRILTAG_25h9",
+    "tag16h5": "DICT_APRILTAG_16h5",
+}
+
+
+def sim_mismatches(config: MissionConfig, scenario: Scenario, file: str) -> list[str]:
+    """Where the config and the simulated world disagree so that a fiducial source cannot read the world's
+    markers (another dictionary or family) or would misjudge their distance (another size): one line each."""
+    markers: dict[int, tuple[str, float, str]] = {}  # id → (dictionary, size, what carries it)
+    if scenario.target is not None:
+        for m in scenario.target.markers:
+            markers.setdefault(m.id, (m.dictionary, m.marker_size_m, "target"))
+    if scenario.dock is not None:
+        markers.setdefault(scenario.dock.id, (scenario.dock.dictionary, scenario.dock.marker_size_m, "dock"))
+    if not markers:
+        return []
+    dictionaries = sorted({d for d, _, _ in markers.values()})
+    lines = []
+    for i, source in enumerate(config.perception.sources):
+        params = source.params
+        if source.plugin == "aruco":
+            dictionary = str(params.get("dictionary", "DICT_4X4_250"))
+            key = "dictionary"
+        elif source.plugin == "apriltag":
+            family = str(params.get("family", "tag36h11"))
+            dictionary, key = _APRILTAG_DICTIONARIES.get(family, family), "family"
+        else:
+            continue
+        where = f"{file}: perception.sources[{i}] ({source.name or source.plugin})"
+        if dictionary not in dictionaries:
+            lines.append(
+                f"{where}: {key} {params.get(key, dictionary)!r} cannot read the simulated markers "
+                f"({', '.join(dictionaries)}, scenario {scenario.name}); the targets will never be seen"
+            )
+            continue
+        for marker_id, (_, size, what) in sorted(markers.items()):
+            configured = _configured_size(source.plugin, params, marker_id)
+            if configured is not None and abs(configured - size) > 1e-6:
+                lines.append(
+                    f"{where}: marker {marker_id} ({what}) is {size:g} m in scenario {scenario.name}, the config "
+                    f"says {configured:g} m; its distance will be misjudged"
+                )
+    return lines
+
+
+def _configured_size(plugin: str, params: dict[str, Any], marker_id: int) -> float | None:
+    try:
+        if plugin == "aruco":
+            sizes = params.get("marker_sizes") or {}
+            return float(sizes.get(marker_id, params.get("marker_size_m", 0.049)))
+        tags = params.get("tags") or {}
+        tag = tags.get(marker_id) or {}
+        if isinstance(tag, dict) and "marker_size_m" in tag:
+            return float(tag["marker_size_m"])
+        return float(params["marker_size_m"]) if "marker_size_m" in params else None
+    except (TypeError, ValueError, AttributeError):
+        return None  # the plugin's own validation says what is wrong
 
 
 @dataclass
@@ -95,6 +224,7 @@ def evaluate(
     *,
     min_tracking_fraction: float = MIN_TRACKING_FRACTION,
     give_up_within_s: float = GIVE_UP_WITHIN_S,
+    limit: str = "",
 ) -> tuple[bool, str]:
     """Did the mission succeed? The tree's verdict first, then the design notes' criteria on ground truth.
 
@@ -102,7 +232,8 @@ def evaluate(
     called LOST within 0.5 s, every loss re-acquired within 10 s (one that began in the last 10 s of the run
     may still be open), following at the end, and the target tracked — in FOLLOW and in view — for at least
     `min_tracking_fraction` of the follow phase (a run LOST or SEARCHing most of the time did not follow).
-    mission: both. give_up: the target leaves the map; the tree must fail — the search ending with its
+    mission: both; a run that ends while the tree is still docking never docked (`limit` names what ended it,
+    e.g. ``--max-duration 6``). give_up: the target leaves the map; the tree must fail — the search ending with its
     reason — within `give_up_within_s` of the target leaving, never searching on for ever.
     """
     if kind == "give_up":
@@ -115,6 +246,12 @@ def evaluate(
     if kind in ("dock", "mission"):
         if dock is None:
             return False, "never docked"
+        if not DockErrors(**dock).within() and status == py_trees.common.Status.RUNNING:
+            # the tree was still at it: the run ended before docking finished, not a dock out of tolerance
+            return False, (
+                f"never docked: {limit or 'the run'} ended it after {duration:.0f} s, still in state "
+                f"{final_state or '?'} ({dock['distance_m'] * 100:.0f} cm from the docked pose)"
+            )
         if not DockErrors(**dock).within():
             return False, (
                 f"docked out of tolerance: lateral {dock['lateral_m'] * 100:.1f} cm, "
@@ -150,6 +287,12 @@ def evaluate(
                 f"in FOLLOW with it in view {held:.0f} s of {phase:.0f} s"
             )
         in_view = "" if tracked is None else f", in view {100 * tracked:.0f} % of the follow phase"
+        if final_state != MissionState.FOLLOW:  # a loss in the last 10 s: not counted, but not hidden either
+            lost_for = duration - last_loss_t if last_loss_t is not None else 0.0
+            return True, (
+                f"followed the target{in_view}; ended {final_state}, {lost_for:.0f} s after losing it "
+                f"(a loss in the last {REACQUISITION_S:g} s is not counted)"
+            )
         return True, f"followed the target to the end{in_view}"
     if status == py_trees.common.Status.SUCCESS:
         return True, "tree succeeded"
@@ -186,6 +329,7 @@ class PreparedRun:
     scenario: Scenario
     tree: str  # as choose_tree picked it (a name or path; resolved by the runner)
     overrides: RunOverrides
+    warnings: list[str] = field(default_factory=list)  # where a user's config and the simulated world disagree
 
 
 def prepare_run(
@@ -201,10 +345,11 @@ def prepare_run(
     overrides = overrides or RunOverrides()
     scenario = load_scenario(scenario_name)
     config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
-    config = overrides.apply_to_config(load_config(config_path))
+    config = overrides.apply_to_config(load_sim_config(config_file))
     scenario = apply_overrides(scenario, config.sim, file=str(config_path))
     scenario = overrides.apply_to_scenario(scenario)
-    return PreparedRun(config, config_path, scenario, choose_tree(tree, config, scenario), overrides)
+    warnings = sim_mismatches(config, scenario, str(config_path)) if config_file else []
+    return PreparedRun(config, config_path, scenario, choose_tree(tree, config, scenario), overrides, warnings)
 
 
 def check_prepared(run: PreparedRun) -> set[str]:
@@ -247,6 +392,8 @@ def run_scenario(
     SIGINT/SIGTERM end the run early: the outcome covers what ran, with ``interrupted`` set."""
     prepared = prepare_run(scenario_name, config_file=config_file, tree=tree, overrides=overrides)
     config, config_path, scenario = prepared.config, prepared.config_path, prepared.scenario
+    for line in prepared.warnings:
+        print(f"mission: warning: {line}", file=sys.stderr, flush=True)
     adapter = SimAdapter(scenario, seed=seed)
     success_spec = getattr(scenario, "success", None)
     kind = str(getattr(success_spec, "kind", "tree"))
@@ -282,7 +429,8 @@ def run_scenario(
         status = runner.run(until=until, pacer=pacer)
         if robot is not None:
             status = world.tree_status()
-        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0, criteria)
+        limit = f"--max-duration {max_duration:g}" if max_duration else ""
+        outcome = _outcome(runner, adapter, recorder, kind, status, scenario.name, seed, wall0, criteria, limit)
         outcome.provenance = provenance
         runner.finish(outcome)
         return outcome, recorder, adapter
@@ -300,12 +448,17 @@ def _outcome(
     seed: int,
     wall0: float,
     criteria: dict[str, float],
+    limit: str = "",
 ) -> RunOutcome:
     final_state = runner.get(bbk.STATE, "")
     sim_time = runner.elapsed()
     recorder.finish(recorder.last_ground_truth, final_state, tree_failed=status == py_trees.common.Status.FAILURE)
     summary = recorder.summary(sim_time)
-    ok, reason = evaluate(kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time, **criteria)
+    ok, reason = evaluate(
+        kind, status, final_state, runner.get(bbk.REASON, ""), summary, sim_time, **criteria, limit=limit
+    )
+    if not ok and runner.failure and reason == f"tree failed in state {final_state or '?'}":
+        reason = f"{reason}: {runner.failure}"  # the tree gave no reason: which leaf failed and what it said
     stats = dict(runner.get(bbk.PERCEPTION_STATS, {}) or {})
     signum = runner.stop_signal
     if signum is not None:

@@ -13,6 +13,7 @@ from mission.app.sim_run import RunOutcome, check_prepared, prepare_run, run_sce
 from mission.core.errors import ConfigError, MissionError
 from mission.core.files import ensure_dir, unwritable
 from mission.core.observers import RunObserver
+from mission.viz.report_trees import perception_label
 from mission.viz.run_report import report_observers, verdict, write_report
 
 DEFAULT_SCENARIO = "mission_full"
@@ -104,13 +105,17 @@ def main(args: argparse.Namespace) -> int:
     return result_line(outcome, label, args.report)
 
 
-def result_line(outcome: RunOutcome, label: str, report: str | None) -> int:
-    """Print the one-line verdict of a simulated run; its exit code (0 success, 1 failure, 128 + signal)."""
+def result_line(outcome: RunOutcome, label: str, report: str | None, *, perception: bool = True) -> int:
+    """Print the one-line verdict of a simulated run; its exit code (0 success, 1 failure, 128 + signal).
+    `perception`: name the perception plugins that ran (not for sim-robot: its perception is the node's)."""
     m = outcome.metrics
+    plugins = perception_label(outcome.provenance) if perception else ""
     print(
         f"{verdict(outcome)}: {label}: {outcome.reason} "
         f"({outcome.sim_time_s:.1f} s simulated in {outcome.wall_time_s:.1f} s; "
-        f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']})"
+        f"losses {m['loss_events_recovered']}/{m['loss_events']} recovered; collisions {m['collisions']}"
+        + (f"; perception {plugins}" if plugins else "")
+        + ")"
         + (f"; report in {report}/" if report else "")
     )
     sys.stdout.flush()

@@ -37,4 +37,4 @@ def main(args: argparse.Namespace) -> int:
     )
     if args.report:
         write_report(args.report, outcome, recorder, adapter)
-    return result_line(outcome, label, args.report)
+    return result_line(outcome, label, args.report, perception=False)

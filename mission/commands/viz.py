@@ -23,13 +23,25 @@ from mission.viz.output import write_output
 FORMATS = ("unicode", "ascii", "dot", "svg", "png", "html")
 
 
+EXTENSIONS = {"svg": "svg", "png": "png", "html": "html", "htm": "html", "dot": "dot", "gv": "dot"}  # → format
+
+
 def _format(args: argparse.Namespace) -> str:
-    """--format, or the -o file's extension when --format was left at its default (unicode)."""
+    """--format, or the -o file's extension when --format was left at its default (unicode). A file whose
+    extension names another picture format than --format (``--format png -o x.svg``) is a usage error: the
+    file would hold bytes its name says it does not."""
     fmt = args.format or "unicode"
-    if args.output and fmt == "unicode":
-        ext = Path(args.output).suffix.lower().lstrip(".")
-        if ext in ("svg", "png", "html", "dot", "gv"):
-            fmt = "dot" if ext == "gv" else ext
+    if args.output is not None and not args.output:
+        raise MissionError("-o: expected a file name, got an empty string")
+    ext = Path(args.output).suffix.lower().lstrip(".") if args.output else ""
+    named = EXTENSIONS.get(ext)
+    if named is not None and fmt == "unicode":
+        return named
+    if named is not None and named != fmt:
+        raise MissionError(
+            f"-o {args.output}: a .{ext} name, but --format {fmt} writes {fmt.upper()}; "
+            f"use --format {named}, or an output name for {fmt}"
+        )
     return fmt
 
 

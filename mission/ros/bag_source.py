@@ -533,6 +533,11 @@ def open_bag(path: str | Path) -> BagSource:
             return _AnyReaderBag(p, reader, "rosbag1")
         except Exception as err:  # unindexed (never closed) or cut off: scan it
             return _Ros1Scan(p, " ".join(str(err).split()) or "no index")
+    if p.is_file() and p.name != "metadata.yaml" and p.suffix not in (".mcap", ".db3"):
+        # not its neighbours: a file that is no bag must not replay the bag beside it
+        raise MissionError(
+            f"{p}: not a bag: expected a ROS 1 .bag file, a rosbag2 directory, or its metadata.yaml, .mcap or .db3 file"
+        )
     directory = p.parent if p.is_file() else p
     if p.is_file() and p.suffix in (".mcap", ".db3"):
         if (directory / "metadata.yaml").exists():

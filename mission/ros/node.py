@@ -41,6 +41,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from mission.app.shipped import resolve_config
 from mission.core import blackboard as bbk
 from mission.core.config import MissionConfig, SourceConfig, TargetSpec, load_config
 from mission.core.errors import ConfigError, MissionError
@@ -183,6 +184,7 @@ def build_config(params: dict[str, Any]) -> tuple[MissionConfig, str | None]:
     """The mission config: the YAML file when `config` is set, else an ArUco source from the ROS params."""
     config_file = params["config"] or None
     if config_file:
+        config_file = resolve_config(config_file)  # a shipped config by name, as `mission run --config` takes
         config = load_config(config_file)
     else:
         source = SourceConfig(

@@ -22,6 +22,16 @@ from mission.viz.svg import render_svg
 MAX_MOMENTS = 40  # a flapping state keeps the first ones and the final tick
 
 
+def perception_label(provenance: dict[str, Any] | None) -> str:
+    """The perception plugins a run used, as its result line and report name them: ``aruco``, or
+    ``vlm + apriltag``; an instance named otherwise shows its plugin (``front (aruco)``)."""
+    names = []
+    for p in (provenance or {}).get("perception_plugins") or []:
+        name, plugin = p.get("name"), p.get("plugin")
+        names.append(str(name) if name == plugin or not plugin else f"{name} ({plugin})")
+    return " + ".join(names)
+
+
 class TransitionTrees(RunObserver):
     """A run observer that keeps the tree at each state transition and writes them at the end.
 
@@ -110,7 +120,17 @@ class TransitionTrees(RunObserver):
             ("wall time", f"{out.get('wall_time_s', 0):.1f} s" if "wall_time_s" in out else None),
             ("ticks", out.get("ticks")),
         ]
+        facts.append(("perception", perception_label(out.get("provenance"))))
         metrics = out.get("metrics") or {}
+        dock = metrics.get("dock")
+        if dock:
+            facts.append(
+                (
+                    "dock accuracy",
+                    f"lateral {dock['lateral_m'] * 100:.1f} cm, distance {dock['distance_m'] * 100:.1f} cm, "
+                    f"skew {dock['skew_deg']:.1f}° (stand-off {dock['standoff_m'] * 100:.0f} cm)",
+                )
+            )
         for key in ("loss_events", "loss_events_recovered", "collisions"):
             if key in metrics:
                 facts.append((key.replace("_", " "), metrics[key]))

@@ -215,3 +215,21 @@ def test_replay_rejects_a_path_that_is_not_a_bag(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.startswith("mission: error: ") and "not a readable rosbag2" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_replay_of_a_file_that_is_no_bag_is_one_error_naming_it_not_the_bag_beside_it(recording, tmp_path):
+    """`mission replay notes.txt` where notes.txt sits in a bag's directory replayed that bag, said it had
+    replayed notes.txt and exited 0 (issue 36)."""
+    import shutil
+
+    bag = tmp_path / "run"
+    shutil.copytree(recording[1], bag)
+    notes = bag / "notes.txt"
+    notes.write_text("the robot was fine today\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "mission", "replay", str(notes)], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stdout == ""
+    [line] = proc.stderr.strip().splitlines()
+    assert line.startswith(f"mission: error: {notes}: not a bag: expected a ROS 1 .bag file, a rosbag2 directory")
