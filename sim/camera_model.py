@@ -17,6 +17,10 @@ default, so an ``ideal`` world stays exactly what it was.
   2 % at 2 m for common models), and it has no depth where the scene jumps (``depth_edge_holes_m``).
 * **Latency.** A frame reaches the robot ``latency_s`` (+ up to ``latency_jitter_s``) after its exposure and
   keeps the exposure's stamp, as a driver stamps it.
+* **Light.** ``scene_brightness`` dims the scene and the gain lifts it back, noise included; with
+  ``light_variation`` the scene is brighter facing the light, and the auto-exposure follows with
+  ``auto_exposure_s`` of lag, so a fast turn toward the light over-exposes for a moment. ``jpeg_quality``
+  compresses the image as a compressed topic delivers it.
 * **Motion blur.** The image is averaged over the exposure along the smear the camera's own rotation makes:
   a yaw rate ω moves the image sideways by ω · t · fx pixels at the centre. The kernel is that line, with
   sub-pixel ends, so a 10 px smear looks like one; the render is the middle of the exposure (the frame's
@@ -50,6 +54,9 @@ def has_effects(cam: CameraSpec) -> bool:
         or cam.latency_jitter_s > 0
         or cam.depth_noise_pct_at_2m > 0
         or cam.depth_edge_holes_m > 0
+        or cam.scene_brightness != 1.0
+        or cam.light_variation > 0
+        or cam.jpeg_quality > 0
     )
 
 
@@ -79,6 +86,9 @@ class CameraModel:
         rng = np.random.default_rng(np.random.SeedSequence([int(seed), 33]))
         self.told = self._told(rng)
         self._rng = rng  # per frame: depth noise, latency jitter (after the calibration's draws)
+        self.gain = 1.0  # the auto-exposure's gain now: it multiplies the sensor noise too
+        self._ae_light: float | None = None  # the light level the auto-exposure has adapted to
+        self._ae_t = 0.0
 
     # -- set-up ----------------------------------------------------------------------------------------
     def _border_pixels(self) -> np.ndarray:
@@ -174,6 +184,36 @@ class CameraModel:
         c = self.cam
         jitter = float(self._rng.uniform(0.0, c.latency_jitter_s)) if c.latency_jitter_s > 0 else 0.0
         return c.latency_s + jitter
+
+    def light_level(self, heading: float, light_direction: tuple[float, float, float]) -> float:
+        """The scene's brightness for a camera facing `heading` (map yaw): brighter toward the light."""
+        lx, ly = light_direction[0], light_direction[1]
+        toward = math.cos(heading - math.atan2(ly, lx)) if (lx or ly) else 0.0
+        return self.cam.scene_brightness * (1.0 + self.cam.light_variation * toward)
+
+    def expose(self, image: np.ndarray, light: float, t: float) -> np.ndarray:
+        """The picture at the gain the auto-exposure has reached: a camera that turns toward the light is
+        over-exposed for a moment, a dim scene is lifted by gain (and its noise with it, :attr:`gain`)."""
+        c = self.cam
+        if self._ae_light is None or c.auto_exposure_s <= 0:
+            self._ae_light = light
+        else:
+            alpha = 1.0 - math.exp(-max(0.0, t - self._ae_t) / c.auto_exposure_s)
+            self._ae_light += alpha * (light - self._ae_light)
+        self._ae_t = t
+        # the auto-exposure aims the scene at mid-grey: gain 1 / (what it adapted to), capped as a sensor's is
+        self.gain = min(8.0, 1.0 / max(self._ae_light, 1e-3))
+        scale = light * self.gain
+        if abs(scale - 1.0) < 1e-6:
+            return image
+        return cv2.convertScaleAbs(image, alpha=scale)
+
+    def compress(self, image: np.ndarray) -> np.ndarray:
+        """JPEG at the camera's quality, as a compressed image topic delivers it."""
+        if self.cam.jpeg_quality <= 0:
+            return image
+        ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, int(self.cam.jpeg_quality)])
+        return cv2.imdecode(buf, cv2.IMREAD_UNCHANGED) if ok else image
 
     def smear_px(self, yaw_rate: float) -> float:
         """How far the image moves during one exposure when the camera turns at `yaw_rate` (rad/s)."""

@@ -201,6 +201,10 @@ class CameraSpec(StrictModel):
     latency_jitter_s: float = Field(0.0, ge=0, le=1)  # plus up to this much more, uniform, seeded
     depth_noise_pct_at_2m: float = Field(0.0, ge=0, le=20)  # stereo depth σ at 2 m (% of range), ∝ distance²
     depth_edge_holes_m: float = Field(0.0, ge=0)  # no depth where neighbours differ by more than this; 0: off
+    scene_brightness: float = Field(1.0, gt=0, le=2)  # the light: 1 well lit; 0.3 dim (gain up, noise with it)
+    light_variation: float = Field(0.0, ge=0, lt=1)  # brighter facing the light, darker away: ± this fraction
+    auto_exposure_s: float = Field(0.0, ge=0, le=10)  # the gain follows the light with this time constant; 0: at once
+    jpeg_quality: int = Field(0, ge=0, le=100)  # images as a compressed topic delivers them (1–100); 0: raw
 
 
 class LidarSpec(StrictModel):

@@ -286,10 +286,16 @@ class SimAdapter:
                                        depth=cam.depth)
         if model is not None:
             img, depth = model.apply(img, depth, self.base.state.w if self.base is not None else 0.0)
+            light = model.light_level(self.robot_pose.yaw, self.scenario.lighting.direction)  # camera looks ahead
+            img = model.expose(img, light, self.t)
         sigma = self.scenario.lighting.image_noise_sigma
         if sigma > 0:
             plus, minus = self._noise_image(sigma)
+            if model is not None and model.gain != 1.0:  # the gain that lifts a dim scene lifts its noise too
+                plus, minus = cv2.multiply(plus, model.gain), cv2.multiply(minus, model.gain)
             img = cv2.subtract(cv2.add(img, plus), minus)  # saturating uint8 img + noise
+        if model is not None:
+            img = model.compress(img)
         self.frames_rendered += 1
         return Frame(
             image=img,

@@ -136,3 +136,31 @@ def test_a_frame_arrives_latency_after_its_exposure_with_the_exposures_stamp():
     ages = [t - stamp for t, stamp in delivered]
     assert len(delivered) >= 12  # 15 Hz for a second, the first ones still in flight
     assert all(0.08 - 1e-6 <= age < 0.08 + 1.0 / 30.0 + 1e-6 for age in ages), ages
+
+
+def test_a_dim_scene_is_lifted_by_gain_and_its_noise_with_it():
+    m = model(scene_brightness=0.25)
+    grey = np.full((10, 10), 100, np.uint8)
+    out = m.expose(grey, m.light_level(0.0, (0.4, -0.3, 1.0)), t=0.0)
+    assert int(out[0, 0]) == 100  # the auto-exposure brings the picture back to its level…
+    assert m.gain == pytest.approx(4.0)  # …with a gain of 4, which multiplies the sensor noise (sim_adapter)
+
+
+def test_turning_toward_the_light_over_exposes_until_the_auto_exposure_catches_up():
+    m = model(light_variation=0.4, auto_exposure_s=0.5)
+    light = (1.0, 0.0, 1.0)  # the light is toward +x
+    grey = np.full((4, 4), 100, np.uint8)
+    away = m.expose(grey, m.light_level(math.pi, light), t=0.0)  # facing away: adapted, mid-grey
+    assert int(away[0, 0]) == 100
+    toward = m.light_level(0.0, light)
+    first = int(m.expose(grey, toward, t=0.1)[0, 0])  # turned toward it: the gain is still the old one
+    later = int(m.expose(grey, toward, t=3.0)[0, 0])
+    assert first > 150 and later == pytest.approx(100, abs=2)
+
+
+def test_jpeg_at_low_quality_changes_the_picture_as_a_compressed_topic_would():
+    m = model(jpeg_quality=20)
+    img = np.random.default_rng(0).integers(0, 255, (64, 64, 3), dtype=np.uint8)
+    out = m.compress(img)
+    assert out.shape == img.shape and not np.array_equal(out, img)
+    assert np.array_equal(model().compress(img), img)  # 0: raw
