@@ -338,6 +338,9 @@ class ExternalDetector(StrictModel):
 
 class Scenario(StrictModel):
     name: str  # shown in reports
+    # how real the robot's senses are (sim/realism.py): a profile of camera and localization keys laid under
+    # the scenario's own, which win
+    realism: Literal["ideal", "typical", "harsh"] = "ideal"
     description: str = ""  # one line for people reading the file
     duration_s: float = Field(60.0, gt=0)  # simulated seconds of the run
     tree: str = "mission.xml"  # tree file (trees/ name or path) when the config does not choose one

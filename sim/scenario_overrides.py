@@ -31,7 +31,9 @@ def apply_overrides(
         return scenario
     if not isinstance(overrides, dict):
         raise ConfigError(f"expected a mapping, got {type(overrides).__name__}", file=file, key=within or None)
-    data = merge_mappings(scenario.model_dump(mode="python"), overrides)
+    # exclude_unset: what the scenario did not set stays unset, so a realism profile (sim/realism.py) still
+    # fills it; the scenario validates the same either way (tests/sim/test_realism.py)
+    data = merge_mappings(scenario.model_dump(mode="python", exclude_unset=True), overrides)
     try:
         merged = scenario_from_dict(data, file=file)
     except ConfigError as err:

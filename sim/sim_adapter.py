@@ -42,6 +42,7 @@ from mission.sim.ground_truth import GroundTruth
 from mission.sim.localization import Localization
 from mission.sim.localization import has_effects as localization_effects
 from mission.sim.navigator import Navigator
+from mission.sim.realism import effective
 from mission.sim.robot import DiffDriveBase
 from mission.sim.scenario import MovingObstacle, Scenario
 from mission.sim.scene import World, intrinsics_for, static_footprints, unknown_footprints
@@ -74,6 +75,7 @@ class SimAdapter:
     """A scenario in pybullet behind the WorldAdapter protocol (mission.core.world)."""
 
     def __init__(self, scenario: Scenario, seed: int = 0, renderer: str | None = None) -> None:
+        scenario = effective(scenario)  # its realism profile under its own keys (sim/realism.py)
         self.scenario = scenario
         self.seed = int(seed)
         self.renderer = renderer or scenario.camera.renderer
