@@ -315,7 +315,7 @@ class MissionNode:
         if int(p["serve_port"]) > 0:
             from mission.viz.web import LiveView
 
-            self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True)
+            self.live_view = LiveView(int(p["serve_port"]), close_at_end=False, quiet=True, option="-p serve_port")
             observers.append(self.live_view)
             self.log.info(f"live view at {self.live_view.url}")
         if int(p["groot_port"]) > 0:

@@ -67,6 +67,7 @@ class LiveView(RunObserver):
         hold: bool = False,
         close_at_end: bool = True,
         quiet: bool = False,
+        option: str = "--port",
     ) -> None:
         self.close_at_end = close_at_end
         self.hold = hold
@@ -80,7 +81,7 @@ class LiveView(RunObserver):
         self._ended = False
         self._closing = False
         self._probe: TickProbe | None = None  # the probe of the tree shown, while that tree runs
-        self.server = _bind(port, self)
+        self.server = _bind(port, self, option)
         self.port = int(self.server.server_address[1])
         self.url = f"http://{HOST}:{self.port}/"
         self._thread = threading.Thread(target=self.server.serve_forever, name="mission-live-view", daemon=True)
@@ -340,15 +341,19 @@ class _Server(ThreadingHTTPServer):
     allow_reuse_address = True
 
 
-def _bind(port: int, view: LiveView) -> _Server:
+def _bind(port: int, view: LiveView, option: str = "--port") -> _Server:
+    """The live view's server on 127.0.0.1:`port`; errors name the option that chose the port, as the user
+    gave it (`--port` for `mission run`, `-p serve_port` for the ROS node)."""
+    name = f"{option} {port}" if option.startswith("--") else f"{option}:={port}"
+    advice = f"{option} N, or {option} 0" if option.startswith("--") else f"{option}:=N, or {option}:=0"
     try:
         server = _Server((HOST, int(port)), _Handler)
     except OSError as err:
         if err.errno == errno.EADDRINUSE:
             raise MissionError(
-                f"--port {port}: {HOST}:{port} is already in use (another `mission run --serve`?); "
-                "choose another with --port N, or --port 0 for any free port"
+                f"{name}: {HOST}:{port} is already in use (another live view?); "
+                f"choose another with {advice} for any free port"
             ) from None
-        raise MissionError(f"--port {port}: cannot serve on {HOST}:{port} ({err.strerror or err})") from None
+        raise MissionError(f"{name}: cannot serve on {HOST}:{port} ({err.strerror or err})") from None
     server.view = view  # type: ignore[attr-defined]
     return server

@@ -284,6 +284,27 @@ def test_mission_tree_with_a_bad_parameter_exits_2_with_one_line(args, line):
     assert len(errors) == 1 and errors[0].startswith(line), proc.stderr
 
 
+def test_a_busy_serve_port_is_named_as_the_node_parameter_that_chose_it():
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = subprocess.run(
+            [sys.executable, "-m", "mission", "tree", "--tree", "none", "--ros-args", "-p", f"serve_port:={port}"],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            cwd=ROOT,
+        )
+    assert proc.returncode == 2, proc.stderr
+    assert (
+        f"mission_tree: error: -p serve_port:={port}: 127.0.0.1:{port} is already in use (another live view?); "
+        "choose another with -p serve_port:=N, or -p serve_port:=0 for any free port"
+    ) in proc.stderr
+
+
 BAD_DOCK = """/**:
   ros__parameters:
     dock_plugins: ["tag_dock"]
