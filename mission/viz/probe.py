@@ -163,7 +163,7 @@ class TickProbe:
         tt = self.last or _TreeTick(nodes=[["INVALID", "", None] for _ in self.nodes])
         rec: dict[str, Any] = {
             "tick": int(getattr(runner, "ticks", 0)),
-            "t": _num(runner.get(bbk.CLOCK, 0.0) or 0.0),
+            "t": _num(_run_time(runner)),
             "state": runner.get(bbk.STATE, "") or "",
             "reason": runner.get(bbk.REASON, "") or "",
             "status": tt.status,
@@ -268,3 +268,11 @@ def release_probe(probe: TickProbe) -> None:
         if _PROBES.get(probe.tree) is probe:
             del _PROBES[probe.tree]
         probe.close()
+
+
+def _run_time(runner: Any) -> float:
+    """Seconds since the run's first step: the sim's clock starts at 0 anyway; ROS time counts from 1970."""
+    elapsed = getattr(runner, "elapsed", None)
+    if callable(elapsed):
+        return float(elapsed())
+    return float(runner.get(bbk.CLOCK, 0.0) or 0.0)

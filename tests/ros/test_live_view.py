@@ -58,6 +58,9 @@ def test_the_node_serves_the_live_tree_on_loopback_and_its_ticks_advance(tmp_pat
 
             first = wait_for(lambda: last_tick() + 1, 10, "ticks in the live history") - 1
             wait_for(lambda: last_tick() >= first + 10, 10, "ten more ticks")
+            # TIME on the page is the run's own time (ROS time is seconds since 1970: not what anyone reads)
+            records = json.loads(_get(f"{base}/api/history") or b"[]")
+            assert 0.0 <= records[-1]["t"] < 120.0, records[-1]["t"]
             bound = [addr for proto, addr in inet_sockets(node.pid) if proto.startswith("tcp")]
             assert bound and all(addr.startswith("127.0.0.1:") for addr in bound), bound
         except BaseException:
