@@ -106,6 +106,11 @@ def _from_log(args: argparse.Namespace, fmt: str) -> int:
         from mission.viz.btlog_view import read_btlog_ticks
 
         log = read_btlog_ticks(args.log)
+    elif str(args.log).endswith(".btlog") and Path(args.log).is_file():
+        raise MissionError(
+            f"{args.log}: not a Groot2 .btlog (it does not start with the log's header); expected a log written by "
+            "`mission run --btlog` or BT.CPP's Groot2 file logger"
+        )
     else:
         from mission.viz.tick_log import read_log
 

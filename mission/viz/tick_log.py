@@ -184,8 +184,13 @@ def read_log(path: str | Path) -> TickLogData:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise MissionError(f"{path}: no such tick log (write one with `mission run --log {path}`)") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise MissionError(f"{path}: cannot read tick log ({err})") from err
+    except UnicodeDecodeError as err:
+        raise MissionError(
+            f"{path}: not a tick log (binary data at byte {err.start}); expected the JSON lines `mission run --log` "
+            "writes, or a Groot2 .btlog"
+        ) from None
+    except OSError as err:
+        raise MissionError(f"{path}: cannot read tick log ({err.strerror or err})") from err
     lines = text.splitlines()
     data: TickLogData | None = None
     torn: int | None = None

@@ -102,6 +102,21 @@ def test_a_cut_off_log_is_read_up_to_its_last_whole_line_and_a_bad_line_is_named
         read_log(bad)
 
 
+def test_garbage_given_as_a_log_says_what_it_is_not_and_what_was_expected(tmp_path, capsys):
+    garbage = bytes(range(128, 256)) * 3
+    (tmp_path / "x.btlog").write_bytes(garbage)
+    (tmp_path / "x.jsonl").write_bytes(garbage)
+    assert main(["viz", "--log", str(tmp_path / "x.btlog")]) == 2
+    assert main(["viz", "--log", str(tmp_path / "x.jsonl")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"mission: error: {tmp_path / 'x.btlog'}: not a Groot2 .btlog (it does not start with the log's header); "
+        "expected a log written by `mission run --btlog` or BT.CPP's Groot2 file logger",
+        f"mission: error: {tmp_path / 'x.jsonl'}: not a tick log (binary data at byte 0); expected the JSON lines "
+        "`mission run --log` writes, or a Groot2 .btlog",
+    ]
+
+
 def test_report_has_the_tree_at_each_state_transition(recorded):
     report = recorded / "report"
     svgs = sorted(p.name for p in (report / "trees").glob("*.svg"))
