@@ -269,6 +269,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
     except BrokenPipeError:
         return _output_closed()
+    except KeyboardInterrupt:  # Ctrl-C before a verb has its own handling (imports, set-up): no traceback
+        print("mission: interrupted", file=sys.stderr)
+        return 128 + signal.SIGINT
 
 
 def _output_closed() -> int:

@@ -209,3 +209,21 @@ def test_max_duration_ends_a_run_at_the_limit_even_when_a_tick_is_longer(tmp_pat
     )
     assert result.returncode == 1
     assert "(3.0 s simulated in " in result.stdout, result.stdout
+
+
+@pytest.mark.parametrize("delay_s", [0.2, 0.5])
+def test_ctrl_c_in_the_first_second_stops_with_130_and_no_traceback(delay_s):
+    import signal
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mission", "run", "--scenario", "follow_open", "--max-duration", "5"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(delay_s)
+    proc.send_signal(signal.SIGINT)
+    _out, err = proc.communicate(timeout=120)
+    assert "Traceback" not in err, err
+    assert proc.returncode == 130, err
