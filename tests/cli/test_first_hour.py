@@ -110,6 +110,7 @@ def test_a_run_cut_off_by_max_duration_before_docking_says_so():
     assert "out of tolerance" not in result.stdout
 
 
+@pytest.mark.slow  # a long sim run; the fast suite keeps the other first-hour cases
 def test_a_follow_run_that_ends_lost_says_it_ended_lost():
     """follow_occlusion seed 0 loses the target behind the wall at 16.6 s; cut off at 20 s it is still LOST.
     A loss that recent is not counted against the run (it may yet be re-acquired), but it is not hidden."""
@@ -155,6 +156,7 @@ def test_the_readmes_first_tree_of_your_own_runs_as_the_readme_says(tmp_path):
 # -- 5. which plugin ran, how well it docked ------------------------------------------------------------------
 
 
+@pytest.mark.slow  # a long sim run; the fast suite keeps the other first-hour cases
 def test_the_result_line_and_report_name_the_perception_plugin_and_the_dock_accuracy(tmp_path):
     report = tmp_path / "report"
     result = mission(
