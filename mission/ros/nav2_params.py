@@ -144,6 +144,23 @@ def _wrap(angle: float) -> float:
 # --- the params file ------------------------------------------------------------------------------------
 
 
+PARAMS_DIR = Path(__file__).resolve().parent / "params"  # the params files shipped with the node
+
+
+def resolve_params_file(name_or_path: str) -> str:
+    """A ``--params-file`` value as a file: a path that exists (or looks like a path), else the name of a params
+    file shipped in mission/ros/params/ (``explore_dock`` or ``explore_dock.yaml``), so the README's examples
+    work from any directory after ``pip install``. Anything else is left to :func:`read_params_file`, whose
+    error names it."""
+    if Path(name_or_path).exists() or "/" in name_or_path or "\\" in name_or_path:
+        return name_or_path
+    for candidate in (name_or_path, f"{name_or_path}.yaml"):
+        shipped = PARAMS_DIR / candidate
+        if shipped.is_file():
+            return str(shipped)
+    return name_or_path
+
+
 def read_params_file(path: str | Path, *node_names: str) -> dict[str, Any]:
     """The parameters a node gets from a ROS 2 params file, flattened as rcl does (``home_dock: {pose: […]}``
     → ``home_dock.pose``): the ``/**`` section, then each of `node_names` in order, a later one winning.

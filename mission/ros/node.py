@@ -49,7 +49,7 @@ from mission.core.perception import PerceptionSource
 from mission.perception_plugins.aruco import ArucoParams
 from mission.perception_plugins.pipeline import source_statuses
 from mission.ros import dds
-from mission.ros.nav2_params import read_params_file
+from mission.ros.nav2_params import read_params_file, resolve_params_file
 
 NODE_NAME = "mission_tree"
 
@@ -219,7 +219,7 @@ class MissionNode:
             self.node.declare_parameter(name, default, ParameterDescriptor(description=doc, dynamic_typing=True))
         self.params = {name: self.node.get_parameter(name).value for name in PARAMETERS}
         self.given = given_params(argv)
-        self.params_files = [*params_files, *ros_params_files(argv)]
+        self.params_files = [resolve_params_file(f) for f in (*params_files, *ros_params_files(argv))]
         if cli_config:
             self.params["config"] = cli_config
         if cli_tree:

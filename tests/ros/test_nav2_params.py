@@ -188,3 +188,16 @@ def test_a_params_file_that_is_not_one_says_why(tmp_path, text, message):
     with pytest.raises(ConfigError) as err:
         read_params_file(path, "docking_server")
     assert str(err.value).startswith(f"{path}: {message}")
+
+
+def test_a_shipped_params_file_is_found_by_name_from_any_directory(tmp_path, monkeypatch):
+    from mission.ros.nav2_params import PARAMS_DIR, resolve_params_file
+
+    monkeypatch.chdir(tmp_path)
+    assert resolve_params_file("explore_dock") == str(PARAMS_DIR / "explore_dock.yaml")
+    assert resolve_params_file("explore_dock.yaml") == str(PARAMS_DIR / "explore_dock.yaml")
+    (tmp_path / "explore_dock.yaml").write_text("/**: {ros__parameters: {}}\n")
+    assert resolve_params_file("explore_dock.yaml") == "explore_dock.yaml"  # a file here wins
+    assert resolve_params_file("nowhere.yaml") == "nowhere.yaml"  # left to read_params_file's error
+    docking = docking_params(read_params_file(resolve_params_file("explore_dock"), "docking_server"))
+    assert list(docking.docks) == ["home_dock"]
