@@ -46,7 +46,7 @@ import yaml
 
 from bench.common import Figure, progress, ratio
 from bench.ros_feed import ROOT, TREE_EXE, Subprocess, build_ros, ros_env
-from bench.ros_missions import ros_env_overrides
+from bench.ros_missions import _finished_rows, _median, ros_env_overrides
 
 CONFIG = ROOT / "mission" / "configs" / "sim_aruco.yaml"
 PARAMS = ROOT / "mission" / "ros" / "params" / "explore_dock.yaml"
@@ -241,24 +241,9 @@ def _follow_actions(seed: int, env: dict[str, str], work: Path) -> dict[str, Any
 # --- the bench ------------------------------------------------------------------------------------------
 
 
-def _median(rows: list[dict[str, Any]], key: str) -> float | None:
-    vals = [r[key] for r in rows if r.get(key) is not None]
-    return round(float(np.median(vals)), 4) if vals else None
-
-
 def _p95(rows: list[dict[str, Any]], key: str) -> float | None:
     vals = [r[key] for r in rows if r.get(key) is not None]
     return round(float(np.percentile(vals, 95)), 4) if vals else None
-
-
-def _rows(path: Path) -> list[dict[str, Any]]:
-    rows = []
-    for line in path.read_text().splitlines() if path.is_file() else []:
-        try:
-            rows.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return rows
 
 
 def run(quick: bool, out: Path) -> dict[str, Any]:
@@ -268,7 +253,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     env = ros_env()
     out.mkdir(parents=True, exist_ok=True)
     runs_path = out / "nav2_actions_runs.jsonl"
-    rows = _rows(runs_path) if os.environ.get("MISSION_NAV2_BENCH_RESUME") == "1" else []
+    rows = _finished_rows(runs_path) if os.environ.get("MISSION_NAV2_BENCH_RESUME") == "1" else []
     runs_path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     done = {(r["task"], r["seed"], r["world"]) for r in rows}
     work = Path(tempfile.mkdtemp(prefix="nav2_actions_"))

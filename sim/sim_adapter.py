@@ -128,6 +128,7 @@ class SimAdapter:
         self._sightings: list[Sighting] = []
         self._in_flight: list[tuple[float, Frame]] = []  # frames exposed, not yet delivered (camera latency)
         self.localization: Localization | None = None  # what the robot believes, when the scenario asks
+        self._truth: GroundTruth | None = None  # this step's, computed on first ask
 
     # -- WorldAdapter --------------------------------------------------------------------------------
     def setup(self) -> None:
@@ -233,6 +234,7 @@ class SimAdapter:
 
     def advance(self, dt: float) -> None:
         assert self.base is not None and self.navigator is not None, "call setup() first"
+        self._truth = None  # the world moves: the next ask computes it again
         if dt <= 0:
             return
         n = max(1, math.ceil(dt / SUBSTEP_S - 1e-9))
@@ -474,7 +476,16 @@ class SimAdapter:
         return los, fov
 
     def ground_truth(self) -> GroundTruth:
-        """The true state now (poses in the map frame, visibility of the target marker and the dock)."""
+        """The true state now (poses in the map frame, visibility of the target marker and the dock).
+
+        Once per step: the world only moves in advance(), and the step asks more than once (the external
+        detector, the sim-robot's /sim/ground_truth, the runner's observers); its line-of-sight rays cost."""
+        if self._truth is not None and self._truth.stamp == self.t:
+            return self._truth
+        self._truth = self._ground_truth()
+        return self._truth
+
+    def _ground_truth(self) -> GroundTruth:
         assert self.base is not None and self.world is not None and self.navigator is not None
         T_opt = self.T_map_optical()
         target = None

@@ -186,7 +186,7 @@ class TaskServers(RunObserver):
             self.counts["rejected"] += 1
             self.log.warning(f"{spec.action} {what}: {rejected.error}: {rejected.message}")
             handle.abort()
-            return self._result(action, False, rejected.error, rejected.message)
+            return self._result(action.Result, False, rejected.error, rejected.message)
         if self.active is not None:
             self._end(self.active, "abort", "UNKNOWN", "preempted by a newer goal", stop=False)
         for name, target in plan.retarget.items():
@@ -201,7 +201,7 @@ class TaskServers(RunObserver):
         except MissionError as err:  # a user's tree that does not load: the goal fails, the node goes on
             self.log.error(f"{spec.action}: the tree {plan.tree} cannot run: {err}")
             handle.abort()
-            return self._result(action, False, "UNKNOWN", f"the tree {plan.tree} cannot run: {err}")
+            return self._result(action.Result, False, "UNKNOWN", f"the tree {plan.tree} cannot run: {err}")
         watch = tasks.PhaseWatch(spec)
         self.runner.tree.visitors.append(watch)
         future = Future()
@@ -318,8 +318,6 @@ class TaskServers(RunObserver):
         active.future.set_result(result)
 
     def _result(self, result_type: Any, success: bool, error: str, message: str, retries: int = 0) -> Any:
-        if hasattr(result_type, "Result"):  # an action type was passed
-            result_type = result_type.Result
         result = result_type()
         if hasattr(result, "success"):
             result.success = success

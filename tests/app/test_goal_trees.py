@@ -16,17 +16,9 @@ from mission.core import se3
 from mission.core.observers import RunObserver
 from mission.core.types import Pose2D, Twist
 from mission.sim.sim_adapter import SimAdapter
+from tests.helpers.goal_runs import GOAL
 
 S = py_trees.common.Status
-# explore_dock's tag hangs at (0, 4) facing +x: docked, the robot faces it, 0.7 m further back is staging
-GOAL = {
-    "staging_pose": Pose2D(1.05, 4.0, math.pi),
-    "navigate_to_staging_pose": True,
-    "max_staging_time": 60.0,
-    "num_attempts": 4,
-    "initial_perception_timeout": 5.0,
-    "dock_approach_timeout": 30.0,
-}
 
 
 def undock_goal(robot: Pose2D, *, backward: bool = True, offset_m: float = -0.7, max_time: float = 30.0) -> dict:

@@ -170,3 +170,4 @@ class FakeNav2Servers:
             handle.abort()
             seen.end = "aborted"
         return action_type.Result(**script.result)
+

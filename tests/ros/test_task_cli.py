@@ -17,28 +17,13 @@ import time
 import pytest
 from builtin_interfaces.msg import Duration
 
-from mission.ros.tf_support import load_nav2
-from tests.helpers.nav2_servers import FakeNav2Servers, Script
-from tests.helpers.ros_env import build_ros
+from tests.helpers.nav2_servers import Script
 
 pytestmark = pytest.mark.ros
 
 DISCOVERY = ["--server-timeout", "10"]  # discovery over shared memory can take 2–3 s on a busy machine
 
 
-@pytest.fixture(scope="module")
-def nav2():
-    build_ros()
-    interfaces = load_nav2()
-    assert interfaces.ok, interfaces.detail
-    return interfaces
-
-
-@pytest.fixture(scope="module")
-def fake(nav2):
-    servers = FakeNav2Servers(nav2)
-    yield servers
-    servers.close()
 
 
 @pytest.fixture

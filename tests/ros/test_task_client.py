@@ -17,26 +17,12 @@ from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import PoseStamped
 
 from mission.ros.task_client import RunningTask, ServerUnavailable, TaskClient, TaskResult
-from mission.ros.tf_support import load_nav2
 from tests.helpers.nav2_servers import FakeNav2Servers, Script
-from tests.helpers.ros_env import build_ros, wait_for
+from tests.helpers.ros_env import wait_for
 
 pytestmark = pytest.mark.ros
 
 
-@pytest.fixture(scope="module")
-def nav2():
-    build_ros()
-    interfaces = load_nav2()
-    assert interfaces.ok, interfaces.detail
-    return interfaces
-
-
-@pytest.fixture(scope="module")
-def servers(nav2):
-    fake = FakeNav2Servers(nav2)
-    yield fake
-    fake.close()
 
 
 @pytest.fixture(scope="module")
@@ -65,6 +51,11 @@ def feedback(nav):
 @pytest.fixture
 def types(nav2):
     return {name: nav2.get("action", name) for name in ("DockRobot", "UndockRobot", "FollowObject")}
+
+
+@pytest.fixture(scope="module")
+def servers(fake):
+    return fake
 
 
 def complete(nav: TaskClient, timeout: float = 5.0) -> TaskResult:
