@@ -29,7 +29,7 @@ import rclpy
 from action_msgs.msg import GoalStatus
 from nav2_msgs.action import DockRobot, FollowObject, UndockRobot
 from rclpy.action import ActionClient
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from std_msgs.msg import String
 
 STATUS = {
@@ -67,7 +67,7 @@ class Client:
         while self.running and rclpy.ok():
             try:
                 self.executor.spin_once(timeout_sec=0.05)
-            except Exception:
+            except ExternalShutdownException:  # rclpy shut down under us (Ctrl-C): nothing more to hear
                 return
 
     def _on_truth(self, msg: String) -> None:
