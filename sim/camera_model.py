@@ -24,8 +24,10 @@ default, so an ``ideal`` world stays exactly what it was.
 * **Motion blur.** The image is averaged over the exposure along the smear the camera's own rotation makes:
   a yaw rate ω moves the image sideways by ω · t · fx pixels at the centre. The kernel is that line, with
   sub-pixel ends, so a 10 px smear looks like one; the render is the middle of the exposure (the frame's
-  stamp), so the smear is centred on it. (The target's own motion and the robot's translation are
-  smaller at the ranges the missions work at, and are not modelled yet.)
+  stamp), so the smear is centred on it. A marker also moves in the picture as the robot drives and the
+  target walks: its neighbourhood is smeared along its own image motion (sim/marker_optics.py).
+* **Glare.** With ``lighting.gloss`` the printed markers mirror the light where its reflection points at
+  the camera (sim/marker_optics.py).
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ import cv2
 import numpy as np
 
 from mission.core.types import CameraIntrinsics
+from mission.sim.marker_optics import Exposure, MarkerOptics
 from mission.sim.scenario import CameraSpec
 
 BORDER_MARGIN = 1.02  # the wider render's field of view, beyond what the distorted corners need
@@ -89,6 +92,7 @@ class CameraModel:
         self.gain = 1.0  # the auto-exposure's gain now: it multiplies the sensor noise too
         self._ae_light: float | None = None  # the light level the auto-exposure has adapted to
         self._ae_t = 0.0
+        self.optics = MarkerOptics(self.K, self.distortion, cam.width, cam.height)
 
     # -- set-up ----------------------------------------------------------------------------------------
     def _border_pixels(self) -> np.ndarray:
@@ -141,9 +145,10 @@ class CameraModel:
 
     # -- every frame ---------------------------------------------------------------------------------
     def apply(
-        self, image: np.ndarray, depth: np.ndarray | None, yaw_rate: float
+        self, image: np.ndarray, depth: np.ndarray | None, yaw_rate: float, exposure: Exposure | None = None
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """The lens's picture of an ideal render (made with :attr:`render_spec`), blurred by the rotation."""
+        """The lens's picture of an ideal render (made with :attr:`render_spec`): glare on glossy markers,
+        blurred by the rotation, each marker by its own motion over the `exposure` too."""
         if self._maps is not None:
             map_x, map_y = self._maps
             image = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
@@ -151,11 +156,18 @@ class CameraModel:
                 depth = cv2.remap(depth, map_x, map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
         if depth is not None:
             depth = self.depth_errors(depth)
+        if exposure is not None:
+            self.optics.glare(image, exposure)
+        sharp = image
         length = self.smear_px(yaw_rate)
         if length > 0.5:
             kernel = smear_kernel(length)
             centre = round(float((kernel[0] * np.arange(kernel.shape[1])).sum()))  # centred within ½ px
             image = cv2.filter2D(image, -1, kernel, anchor=(centre, 0), borderType=cv2.BORDER_REPLICATE)
+        if exposure is not None and self.cam.exposure_s > 0:
+            if image is sharp:
+                image = sharp.copy()
+            self.optics.smear(sharp, image, exposure, length)
         return image, depth
 
     def depth_errors(self, depth: np.ndarray) -> np.ndarray:

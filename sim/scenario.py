@@ -169,6 +169,7 @@ class Lighting(StrictModel):
     diffuse: float = Field(0.4, ge=0, le=1)  # pybullet diffuse coefficient
     specular: float = Field(0.05, ge=0, le=1)  # pybullet specular coefficient
     image_noise_sigma: float = Field(2.0, ge=0)  # Gaussian noise (grey levels) added to every image
+    gloss: float = Field(0.0, ge=0, le=1)  # printed markers mirror the light: glare up to this × 255 (issue 33)
 
 
 class Mount(StrictModel):

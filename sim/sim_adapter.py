@@ -41,6 +41,8 @@ from mission.sim.geometry import Footprint, clearance
 from mission.sim.ground_truth import GroundTruth
 from mission.sim.localization import Localization
 from mission.sim.localization import has_effects as localization_effects
+from mission.sim.marker_optics import Exposure, PrintedQuad
+from mission.sim.markers import quad_side
 from mission.sim.navigator import Navigator
 from mission.sim.realism import effective
 from mission.sim.robot import DiffDriveBase
@@ -86,7 +88,7 @@ class SimAdapter:
         # a real camera's lens, calibration and exposure (sim/camera_model.py), when the scenario asks for one
         self.camera_model = (
             CameraModel(cam, self.intrinsics, self.seed, lambda spec: intrinsics_for(spec, self.renderer))
-            if has_effects(cam)
+            if has_effects(cam) or scenario.lighting.gloss > 0
             else None
         )
         m = cam.mount
@@ -106,6 +108,7 @@ class SimAdapter:
         self.t = 0.0
         self._tau = 0.0  # the target's own progress clock (stops while the robot is in its way)
         self._target_pose = (0.0, 0.0, 0.0)
+        self._target_velocity = (0.0, 0.0, 0.0)  # map frame (m/s, m/s, rad/s) over the last substep
         self._target_blocked = False  # waiting because the robot stands in its way
         self.target_gone_at: float | None = None  # when the target left the map (target.leave_at_end)
         self.movers: list[Mover] = []
@@ -289,7 +292,8 @@ class SimAdapter:
         img, depth = self.world.render(T, cam if model is None else model.render_spec, self.scenario.lighting,
                                        depth=cam.depth)
         if model is not None:
-            img, depth = model.apply(img, depth, self.base.state.w if self.base is not None else 0.0)
+            w = self.base.state.w if self.base is not None else 0.0
+            img, depth = model.apply(img, depth, w, self._exposure(T))
             light = model.light_level(self.robot_pose.yaw, self.scenario.lighting.direction)  # camera looks ahead
             img = model.expose(img, light, self.t)
         sigma = self.scenario.lighting.image_noise_sigma
@@ -310,6 +314,36 @@ class SimAdapter:
             T_anchor_camera=T if self.localization is None else self._believed_T_map_optical(),
             anchor_frame="map",
         )
+
+    def _exposure(self, T_mid: np.ndarray) -> Exposure | None:
+        """Where the camera and the printed markers were over this frame's exposure (for the markers' own
+        smear and glare, sim/marker_optics.py); None when neither is asked for."""
+        sc = self.scenario
+        half = sc.camera.exposure_s / 2.0
+        if (half <= 0 and sc.lighting.gloss <= 0) or self.world is None or self.base is None:
+            return None
+        s = self.base.state
+
+        def camera_at(dt: float) -> np.ndarray:
+            yaw = s.yaw + s.w * dt
+            mid = s.yaw + s.w * dt / 2.0
+            x, y = s.x + s.v * math.cos(mid) * dt, s.y + s.v * math.sin(mid) * dt
+            return se3.planar(x, y, yaw) @ self.T_base_optical
+
+        quads: list[PrintedQuad] = []
+        if self.target_path is not None and not self.target_gone and sc.target is not None:
+            x, y, yaw = self._target_pose
+            vx, vy, wz = self._target_velocity
+            start = self.world.T_map_target(x - vx * half, y - vy * half, yaw - wz * half)
+            end = self.world.T_map_target(x + vx * half, y + vy * half, yaw + wz * half)
+            for mount, spec in zip(self.world.markers, sc.target.markers, strict=True):
+                side = quad_side(spec.dictionary, spec.printed_size_m, spec.quiet_cells)
+                quads.append(PrintedQuad(side, start @ mount.T_body_marker, end @ mount.T_body_marker))
+        if self.world.T_map_dock is not None and sc.dock is not None:
+            d = sc.dock
+            quads.append(PrintedQuad(quad_side(d.dictionary, d.printed_size_m, d.quiet_cells),
+                                     self.world.T_map_dock, self.world.T_map_dock))
+        return Exposure(camera_at(-half), T_mid, camera_at(half), quads, sc.lighting.direction, sc.lighting.gloss)
 
     def _believed_T_map_optical(self) -> np.ndarray:
         """Where the robot believes its camera is: a frame is placed by the localization, not the truth."""
@@ -404,9 +438,13 @@ class SimAdapter:
             self._target_footprint(*self._target_pose), self._target_footprint(*pose)
         ):
             self._target_blocked = True
+            self._target_velocity = (0.0, 0.0, 0.0)
             return
         self._target_blocked = False
         self._tau += h
+        old = self._target_pose
+        dyaw = math.atan2(math.sin(pose[2] - old[2]), math.cos(pose[2] - old[2]))
+        self._target_velocity = ((pose[0] - old[0]) / h, (pose[1] - old[1]) / h, dyaw / h)
         self._target_pose = pose
 
     def _inject_events(self) -> None:
