@@ -70,6 +70,9 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),
     Benchmark("search", "search_bench", "finding the target again: the search ladder vs the in-place sweep vs a ±90° "
               "rotation, same scenarios and seeds (only with --only search)", in_quick=False, in_full=False),
+    Benchmark("robustness", "robustness", "missions under a real robot's senses: every scenario × ideal / typical / "
+              "harsh, then one factor at a time at three levels (only with --only robustness)",
+              in_quick=False, in_full=False),
     Benchmark("sweep", "sweep_scaling", "mission sweep: 1 vs 2 workers, per-run overhead vs mission run, 1,000 seeds",
               in_quick=False),  # quick figures would be start-up costs only; `--quick --only sweep` smoke-tests it
     Benchmark("ros", "ros_transport", "image → /detected_aruco_pose latency over shared-memory DDS at 30 Hz"),

@@ -11,8 +11,9 @@ default, so an ``ideal`` world stays exactly what it was.
   ideal image is rendered with a wider field of view (and the same size), wide enough that every distorted
   pixel has a source; one ``remap`` then makes the lens's picture. Depth is remapped the same way, nearest.
 * **Calibration.** The frame carries the intrinsics and distortion the detector is *told*: the true ones
-  with a seeded error (``calibration_focal_pct``, ``calibration_center_px``, ``calibration_k1``). The
-  ground truth keeps the true camera.
+  with a seeded error (``calibration_focal_pct``, ``calibration_center_px``, ``calibration_k1``), or no
+  distortion at all for a lens nobody calibrated (``lens_calibrated: false``). The ground truth keeps the
+  true camera.
 * **Depth.** A stereo camera's error grows with the square of the distance (``depth_noise_pct_at_2m``: about
   2 % at 2 m for common models), and it has no depth where the scene jumps (``depth_edge_holes_m``).
 * **Latency.** A frame reaches the robot ``latency_s`` (+ up to ``latency_jitter_s``) after its exposure and
@@ -130,7 +131,7 @@ class CameraModel:
         c, k = self.cam, self.true_k
         focal = 1.0 + rng.normal(0.0, c.calibration_focal_pct / 100.0) if c.calibration_focal_pct > 0 else 1.0
         dcx, dcy = rng.normal(0.0, c.calibration_center_px, 2) if c.calibration_center_px > 0 else (0.0, 0.0)
-        dist = self.distortion.copy()
+        dist = self.distortion.copy() if c.lens_calibrated else np.zeros(5)  # uncorrected: told a pinhole
         if c.calibration_k1 > 0:
             dist[0] += rng.normal(0.0, c.calibration_k1)
         return CameraIntrinsics(

@@ -29,6 +29,8 @@ import numpy as np
 GLOSS_SHININESS = 40.0  # a laminated print: the highlight covers a few degrees of viewing angle
 FEATHER_PX = 2  # the smeared neighbourhood blends into the picture over this many pixels
 MIN_EXTRA_SMEAR_PX = 0.5  # a marker's own motion below this adds nothing the rotation blur has not
+MAX_SMEAR_PX = 120.0  # a longer smear leaves nothing of a marker to read: not worth the kernel
+FIELD_MARGIN = 1.5  # sheets are projected up to this far beyond the field of view's edge (normalized coords)
 
 
 @dataclass(frozen=True)
@@ -66,12 +68,19 @@ class MarkerOptics:
         self.distortion = distortion
         self.width = width
         self.height = height
+        corners = np.array([[0.0, 0.0], [width - 1.0, 0.0], [0.0, height - 1.0], [width - 1.0, height - 1.0]])
+        rays = cv2.undistortPoints(corners.reshape(-1, 1, 2), K, distortion).reshape(-1, 2)
+        # how far off the axis the lens sees (x/z, y/z), with a margin: beyond it the polynomial means nothing
+        self.reach = np.abs(rays).max(axis=0) * FIELD_MARGIN
 
     def project(self, points_map: np.ndarray, T_map_opt: np.ndarray) -> np.ndarray | None:
-        """Pixels of map points seen from `T_map_opt`, or None if any is behind the camera."""
+        """Pixels of map points seen from `T_map_opt`, or None if any is behind the camera or well outside
+        its field of view (where the lens model's polynomial is meaningless)."""
         T = np.linalg.inv(T_map_opt)
         cam = points_map @ T[:3, :3].T + T[:3, 3]
         if np.any(cam[:, 2] <= 0.05):
+            return None
+        if np.any(np.abs(cam[:, :2] / cam[:, 2:3]) > self.reach):
             return None
         px, _ = cv2.projectPoints(cam, np.zeros(3), np.zeros(3), self.K, self.distortion)
         return px.reshape(-1, 2)
@@ -105,6 +114,9 @@ class MarkerOptics:
             length = float(np.hypot(*flow))
             if abs(length - rotation_px) < MIN_EXTRA_SMEAR_PX and abs(flow[1]) < MIN_EXTRA_SMEAR_PX:
                 continue
+            if length > MAX_SMEAR_PX:
+                flow = flow * (MAX_SMEAR_PX / length)
+                length = MAX_SMEAR_PX
             hull = np.vstack([a, b])
             roi = self._roi(hull, length + 2 * FEATHER_PX + 2)
             if roi is None:

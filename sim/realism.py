@@ -53,7 +53,8 @@ PROFILES: dict[str, dict[str, Any]] = {
     },
     "harsh": {
         "camera": {
-            "distortion": (-0.30, 0.08, 0.0, 0.0, 0.0),  # an uncorrected wide lens [I33]
+            "distortion": (-0.30, 0.08, 0.0, 0.0, 0.0),  # a wide lens [I33] ...
+            "lens_calibrated": False,  # ... that nobody calibrated: the detector is told a pinhole [I33]
             "calibration_focal_pct": 2.0,  # intrinsics off by up to 2 % [I33]
             "calibration_center_px": 8.0,
             "calibration_k1": 0.05,

@@ -194,6 +194,7 @@ class CameraSpec(StrictModel):
     mount: Mount = Field(default_factory=Mount)
     # a real camera (sim/camera_model.py); all off: the ideal pinhole
     distortion: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)  # the lens: k1 k2 p1 p2 k3
+    lens_calibrated: bool = True  # the detector is told the lens's distortion; false: told none (uncorrected)
     exposure_s: float = Field(0.0, ge=0, le=0.2)  # motion blur over this exposure (s); 0: rendered at an instant
     calibration_focal_pct: float = Field(0.0, ge=0, le=20)  # σ of the told focal length's error (%)
     calibration_center_px: float = Field(0.0, ge=0, le=50)  # σ of the told principal point's error (px)

@@ -82,6 +82,16 @@ def test_the_calibration_the_detector_is_told_is_off_by_a_seeded_error():
     assert model().told == true  # no error asked: the truth
 
 
+def test_an_uncorrected_lens_is_told_to_the_detector_as_a_pinhole():
+    calibrated = model(distortion=WIDE_LENS)
+    uncorrected = model(distortion=WIDE_LENS, lens_calibrated=False)
+    assert calibrated.told.distortion == WIDE_LENS
+    assert uncorrected.told.distortion == ()  # what a driver publishes when nobody calibrated the lens
+    image = np.full((480, 640, 3), 90, np.uint8)
+    image[200:280, 300:340] = 255
+    assert np.array_equal(calibrated.apply(image, None, 0.0)[0], uncorrected.apply(image, None, 0.0)[0])  # same lens
+
+
 def test_a_simulated_frame_carries_the_lens_in_its_calibration_and_camera_info():
     scenario = load_scenario("explore_dock")
     scenario = scenario.model_copy(update={"camera": scenario.camera.model_copy(update={"distortion": WIDE_LENS})})

@@ -130,3 +130,14 @@ def test_the_simulation_moves_the_targets_marker_by_its_velocity_over_the_exposu
         assert moved[:2] == pytest.approx(np.array([vx, vy]) * 0.03, abs=1e-3)
     finally:
         sim.close()
+
+
+def test_a_sheet_beside_the_camera_is_left_alone_not_projected_through_the_lens_polynomial():
+    cam = CameraSpec(exposure_s=0.03, distortion=(-0.3, 0.08, 0.0, 0.0, 0.0))
+    model = CameraModel(cam, intrinsics_for(cam, "tiny"), seed=0, render_k=lambda spec: intrinsics_for(spec, "tiny"))
+    beside = PrintedQuad(SIDE, sheet_at(1.0, 0.2), sheet_at(1.3, 0.2))  # 79° off the axis, moving fast
+    image = np.full((480, 640, 3), 128, np.uint8)
+    out = image.copy()
+    model.optics.smear(image, out, exposure(beside), rotation_px=0.0)
+    model.optics.glare(out, exposure(beside, light=(0.0, 0.0, -1.0), gloss=1.0))
+    assert np.array_equal(out, image)
