@@ -6,6 +6,8 @@ step's true motion with a seeded scale error on distance and on rotation (a whee
 slippery floor), so the error grows with the distance driven. A localizer in the map — AMCL in Nav2 —
 corrects it, but only after the robot has moved ``update_min_d`` (0.25 m) or turned ``update_min_a``
 (0.2 rad) since its last update (Nav2's amcl defaults), and then with its own noise: the estimate jumps.
+Now and then (``relocalize_every_m``) an update lands well off — a particle cloud converging on the wrong
+spot for a while — and the next one brings it back: the jump a LOST target's last-seen point must survive.
 
 What the robot believes — ``map → odom`` from the corrector, ``odom → base`` from odometry — is what the tree,
 the goals and the simulated navigator see; the ground truth, and so every metric, keeps the true pose.
@@ -62,6 +64,7 @@ class Localization:
         self._last_true = start
         self._at_update = start  # the odometry pose at the corrector's last update
         self.updates = 0
+        self.relocalizations = 0  # updates that landed off by relocalize_sigma (LocalizationSpec)
         self.distance_m = 0.0
 
     @property
@@ -93,10 +96,16 @@ class Localization:
             return
         self._at_update = self.odom
         self.updates += 1
+        sigma_m, sigma_rad = s.amcl_sigma_m, s.amcl_sigma_rad
+        if s.relocalize_every_m > 0:  # a particle cloud now and then converges off: a bigger jump, undone later
+            travelled = math.hypot(moved.x, moved.y)
+            if float(self.rng.uniform()) < travelled / s.relocalize_every_m:
+                sigma_m, sigma_rad = s.relocalize_sigma_m, s.relocalize_sigma_rad
+                self.relocalizations += 1
         # AMCL's estimate: the truth, with its own error
         believed = Pose2D(
-            true_pose.x + float(self.rng.normal(0.0, s.amcl_sigma_m)),
-            true_pose.y + float(self.rng.normal(0.0, s.amcl_sigma_m)),
-            _wrap(true_pose.yaw + float(self.rng.normal(0.0, s.amcl_sigma_rad))),
+            true_pose.x + float(self.rng.normal(0.0, sigma_m)),
+            true_pose.y + float(self.rng.normal(0.0, sigma_m)),
+            _wrap(true_pose.yaw + float(self.rng.normal(0.0, sigma_rad))),
         )
         self.map_from_odom = compose(believed, inverse(self.odom))

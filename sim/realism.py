@@ -49,6 +49,9 @@ PROFILES: dict[str, dict[str, Any]] = {
             "amcl": True,  # [D1]; updates after 0.25 m or 0.2 rad [N1]
             "amcl_sigma_m": 0.03,
             "amcl_sigma_rad": 0.02,
+            "relocalize_every_m": 30.0,  # a bad update once a mission or so ([D1]: AMCL corrects in jumps)
+            "relocalize_sigma_m": 0.15,
+            "relocalize_sigma_rad": 0.08,
         },
     },
     "harsh": {
@@ -75,6 +78,9 @@ PROFILES: dict[str, dict[str, Any]] = {
             "amcl": True,  # [N1]
             "amcl_sigma_m": 0.06,
             "amcl_sigma_rad": 0.05,
+            "relocalize_every_m": 10.0,  # a repetitive or changing room: bad updates every few metres
+            "relocalize_sigma_m": 0.3,
+            "relocalize_sigma_rad": 0.15,
         },
     },
 }

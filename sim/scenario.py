@@ -320,6 +320,9 @@ class LocalizationSpec(StrictModel):
     update_min_a: float = Field(0.2, gt=0)  # … or this much turning (Nav2 amcl's default, rad)
     amcl_sigma_m: float = Field(0.03, ge=0)  # its error at each update (m, each axis)
     amcl_sigma_rad: float = Field(0.02, ge=0)  # its heading error at each update (rad)
+    relocalize_every_m: float = Field(0.0, ge=0)  # now and then an update lands off (mean metres between); 0: never
+    relocalize_sigma_m: float = Field(0.2, ge=0)  # how far off such an update lands (m, each axis)
+    relocalize_sigma_rad: float = Field(0.1, ge=0)  # … and its heading (rad)
 
 
 class ExternalDetector(StrictModel):

@@ -60,6 +60,22 @@ def test_the_corrector_jumps_only_after_the_robot_has_moved_or_turned_enough():
     assert math.hypot(before.x - truth.x, before.y - truth.y) > 0.005  # from a drifted estimate: a jump
 
 
+def test_now_and_then_an_update_lands_well_off_and_the_next_brings_it_back():
+    spec = LocalizationSpec(amcl_sigma_m=0.0, amcl_sigma_rad=0.0, relocalize_every_m=2.0, relocalize_sigma_m=0.3)
+    loc = Localization(spec, START, seed=4)
+    errors = []
+    for p in straight(20.0, steps=2000):
+        loc.step(p)
+        errors.append(math.hypot(loc.estimate.x - p.x, loc.estimate.y - p.y))
+    assert 3 <= loc.relocalizations <= 25  # about one per 2 m over 20 m
+    assert max(errors) > 0.1  # a jump well beyond AMCL's usual error (0 here) ...
+    off = sum(1 for e in errors if e > 0.05) / len(errors)
+    assert 0 < off < 0.3  # ... that does not stay: the next update (0.25 m on) brings it back
+    steady = Localization(LocalizationSpec(amcl_sigma_m=0.0, amcl_sigma_rad=0.0), START, seed=4)
+    drive(steady, straight(20.0, steps=2000))
+    assert steady.relocalizations == 0
+
+
 def test_the_tree_sees_the_belief_and_the_ground_truth_stays_true():
     scenario = load_scenario("explore_dock")
     scenario = scenario.model_copy(
