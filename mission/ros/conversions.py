@@ -413,6 +413,24 @@ def pose_with_covariance_to_pose2d(msg: Any) -> tuple[Pose2D, float, str]:
     return _pose2d_of(msg.pose.pose), stamp_to_sec(msg.header.stamp), str(msg.header.frame_id)
 
 
+def pose2d_to_pose_with_covariance(
+    factory: MessageFactory, pose: Pose2D, stamp: float, frame_id: str, sigma_m: float, sigma_rad: float
+) -> Any:
+    """Pose2D → geometry_msgs/PoseWithCovarianceStamped, as AMCL publishes /amcl_pose (x, y, yaw variances)."""
+    cov = np.zeros(36)
+    cov[0] = cov[7] = sigma_m**2
+    cov[35] = sigma_rad**2
+    return factory.new(
+        "geometry_msgs/msg/PoseWithCovarianceStamped",
+        header=header_msg(factory, stamp, frame_id),
+        pose=factory.new(
+            "geometry_msgs/msg/PoseWithCovariance",
+            pose=matrix_to_pose(factory, se3.planar(pose.x, pose.y, pose.yaw)),
+            covariance=cov,
+        ),
+    )
+
+
 def state_to_odometry(factory: MessageFactory, state: RobotState, frame_id: str, child_frame_id: str) -> Any:
     """RobotState → nav_msgs/Odometry (covariances zero: the sim's ground truth)."""
     t = se3.planar(state.pose.x, state.pose.y, state.pose.yaw)

@@ -3,8 +3,10 @@
 :class:`SimRobot` is a world adapter that wraps the simulation (sim/sim_adapter.py) and puts it behind topics:
 
 * out, on sim time: ``/clock`` every step; the camera image, camera info (and depth when the scenario renders
-  it) at the camera rate; ``/odom`` and ``/tf`` (map → odom, odom → base_link) every step; ``/scan`` at the
-  lidar rate; ``/map`` (transient local) and ``/tf_static`` (base_link → camera_link → camera_optical_frame,
+  it) at the camera rate; ``/odom`` and ``/tf`` (map → odom, odom → base_link) every step; with a
+  ``localization:`` that drifts, ``/odom`` is the wheels' odometry, map → odom the AMCL-like corrector's, and
+  ``/amcl_pose`` (transient local) its estimate at each update; ``/scan`` at the lidar rate; ``/map``
+  (transient local) and ``/tf_static`` (base_link → camera_link → camera_optical_frame,
   base_link → base_scan) once;
 * in: ``/cmd_vel`` (a twist overrides navigation while it keeps coming, 0.5 s), Nav2's ``navigate_to_pose``
   action served by the sim's navigator (feedback with the distance remaining; succeeded, aborted with the
@@ -49,6 +51,7 @@ from mission.ros.conversions import (
     array_to_image,
     grid_to_msg,
     intrinsics_to_camera_info,
+    pose2d_to_pose_with_covariance,
     pose_stamped,
     pose_to_matrix,
     scan_to_msg,
@@ -160,6 +163,11 @@ class SimRobot:
             "tf_static": n.create_publisher(self.tf_message, "/tf_static", TF_STATIC_QOS),
             "truth": n.create_publisher(m.cls("std_msgs/msg/String"), "/sim/ground_truth", RELIABLE),
         }
+        loc = self.sim.localization
+        if loc is not None and loc.spec.amcl:  # AMCL's estimate at each update, latched as amcl publishes it
+            amcl = m.cls("geometry_msgs/msg/PoseWithCovarianceStamped")
+            self.pub["amcl_pose"] = n.create_publisher(amcl, "/amcl_pose", LATCHED)
+        self._amcl_updates = 0
         detector = self.sim.scenario.external_detector
         if detector is not None and detector.topic:
             self.pub["detector"] = n.create_publisher(pose, detector.topic, RELIABLE)
@@ -311,6 +319,10 @@ class SimRobot:
         if self.faults.tf_loop:
             transforms.append(transform_stamped(m, se3.invert(se3.planar(p.x, p.y, p.yaw)), stamp, "base_link", "odom"))
         self.pub["tf"].publish(self.tf_message(transforms=transforms))
+        if loc is not None and "amcl_pose" in self.pub and loc.updates != self._amcl_updates:
+            self._amcl_updates = loc.updates
+            sigma = (loc.spec.amcl_sigma_m, loc.spec.amcl_sigma_rad)
+            self.pub["amcl_pose"].publish(pose2d_to_pose_with_covariance(m, loc.estimate, stamp, "map", *sigma))
 
     def _publish_truth(self, stamp: float) -> None:
         from mission.app.metrics import dock_errors
