@@ -8,8 +8,11 @@ The runner (mission/app/runner.py) drives every world the same way, once per ste
     adapter.act(bb)     # intent → the simulated base / Nav2 goal_pose, cmd_vel, docking
     adapter.advance(dt) # simulated worlds step time; live worlds return at once
 
-Optional: ``ground_truth()`` (a simulated world: what really is, for metrics and pictures) and
-``exhausted`` (a world that can run out, such as a bag: True once it has, and the loop ends).
+Optional: ``ground_truth()`` (a simulated world: what really is, for metrics and pictures),
+``exhausted`` (a world that can run out, such as a bag: True once it has, and the loop ends) and
+``waiting_for()`` (a live robot: what it still waits for before it may move, '' once its inputs are alive;
+until then the runner senses and perceives but does not tick the tree, so nothing is commanded and the
+mission's clock has not started).
 
 Implementations: ``mission.sim.sim_adapter.SimAdapter`` (pybullet), ``mission.ros.ros_adapter`` (rclpy) and replay.
 """
@@ -40,3 +43,9 @@ class WorldAdapter(Protocol):
 
     def close(self) -> None:
         """Release the world (disconnect, stop threads)."""
+
+
+def waiting_for(world: object) -> str:
+    """What `world` still waits for before the tree may run ('' for worlds that never wait: sim, replay)."""
+    ask = getattr(world, "waiting_for", None)
+    return str(ask()) if callable(ask) else ""

@@ -43,7 +43,7 @@ from mission.core.observers import RunObserver, Tick
 from mission.core.perception import Perceived, PerceptionSource
 from mission.core.snapshot import active_branch, snapshot
 from mission.core.types import LaserScan, NavStatus, RobotState, Twist
-from mission.core.world import WorldAdapter
+from mission.core.world import WorldAdapter, waiting_for
 from mission.perception_plugins import registry
 from mission.perception_plugins.pipeline import PerceptionStage
 from mission.trees import scopes
@@ -278,10 +278,11 @@ class TreeRunner:
         self.world.sense(self.bb)
         clock = float(bbk.get(self.bb, bbk.CLOCK, 0.0) or 0.0)
         self._track_movers(clock)
-        if self.start_clock is None:
+        waiting = waiting_for(self.world)  # a live robot whose camera or pose has not arrived yet: hold the tree
+        if self.start_clock is None and not waiting:
             self.start_clock = clock
         perceived = self.perceive()
-        if self.tree is not None:
+        if self.tree is not None and not waiting:
             self.tree.tick()
             self.status = self.tree.root.status
             if self.status == py_trees.common.Status.FAILURE and not self.failure:

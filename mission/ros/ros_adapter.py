@@ -60,6 +60,8 @@ class RosAdapter(CachedWorld):
         self.publishers: dict[str, Any] = {}
         self.on_image: Callable[[], None] | None = None
         self.last_input: dict[str, float] = {}  # kind → monotonic time of the last message (the watchdog)
+        self._inputs_alive = False  # a camera image and the robot's pose have arrived (waiting_for)
+        self.say = log.info
 
     def _image(self, msg: Any, topic: str) -> None:
         self.last_input["image"] = time.monotonic()
@@ -125,6 +127,27 @@ class RosAdapter(CachedWorld):
             "cmd_vel": n.create_publisher(m.cls("geometry_msgs/msg/Twist"), t.cmd_vel_topic, RELIABLE),
             "dock": n.create_publisher(pose, t.dock_pose_topic, RELIABLE),
         }
+
+    def waiting_for(self) -> str:
+        """What the robot waits for before the tree may run: a camera image and its own pose ('' once both have
+        arrived; they are not waited for again — a camera or clock that goes silent later is the watchdog's
+        fault). A node started before its drivers must not drive blind (issue 36)."""
+        if self._inputs_alive:
+            return ""
+        missing = []
+        if not self.cache.stats.received.get("image"):
+            missing.append(f"camera images on {self.topics.image_topic}")
+        if self.state is None:
+            t = self.topics
+            missing.append(f"the robot's pose ({t.odom_topic}, or TF {t.odom_frame} → {t.base_frame})")
+        if missing:
+            return "waiting for " + " and ".join(missing) + "; the robot does not move until they arrive"
+        self._inputs_alive = True
+        self.say("inputs alive: the tree starts")
+        return ""
+
+    def fault(self, now: float) -> str:
+        return "; ".join(p for p in (self.waiting_for(), super().fault(now)) if p)
 
     def now(self) -> float:
         return self.node.get_clock().now().nanoseconds * 1e-9

@@ -253,3 +253,33 @@ def test_the_installed_node_without_setup_bash_says_to_source_it(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr
     assert f"source {ROOT / 'install' / 'setup.bash'}" in lines[0]
+
+
+def test_a_node_started_before_its_robot_waits_without_moving_and_says_for_what(tmp_path, watcher):
+    from geometry_msgs.msg import Twist
+
+    build_ros()
+    watcher.client.subscribe(Twist, "/cmd_vel")
+    node = NodeProcess(node_command("explore_dock.xml"), installed_env(), tmp_path / "node.log")
+    robot = None
+    try:
+        wait_for(lambda: watcher.saw("waiting for camera images on /camera/image_raw"), 60, "the node to say it waits")
+        assert watcher.saw("the robot's pose (/odom, or TF odom → base_link)")
+        time.sleep(3.0)  # the explore spin would have started by now
+        assert [m for m in watcher.client.messages("/cmd_vel") if m.angular.z or m.linear.x] == []
+        assert all(s["state"] == "" for s in watcher.statuses())  # the tree has not run
+        robot = NodeProcess(
+            robot_command("explore_dock", 0, tmp_path / "report", 8.0), {**os.environ, **ROS_ENV}, tmp_path / "robot.log"
+        )
+        wait_for(lambda: any(s["state"] == "EXPLORE" for s in watcher.statuses()), 90, "the mission to start")
+        wait_for(lambda: [m for m in watcher.client.messages("/cmd_vel") if m.angular.z], 60, "the explore spin")
+        assert "inputs alive: the tree starts" in node.log()
+        assert node.alive()
+    except BaseException:
+        print("--- node log\n" + node.log()[-4000:])
+        raise
+    finally:
+        if robot is not None:
+            robot.stop()
+        node.stop()
+        clean_shm()

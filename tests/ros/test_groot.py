@@ -8,7 +8,18 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from tests.helpers.groot2_client import Groot2Client, ProtocolError
-from tests.helpers.ros_env import ROOT, clean_shm, inet_sockets, installed_env, node_process, wait_for
+from tests.helpers.ros_env import (
+    ROOT,
+    FakeCamera,
+    FakeOdometry,
+    RosClient,
+    blank_image,
+    clean_shm,
+    inet_sockets,
+    installed_env,
+    node_process,
+    wait_for,
+)
 
 pytestmark = pytest.mark.ros
 
@@ -33,6 +44,9 @@ def test_the_node_answers_groot2_with_its_tree_and_live_statuses(tmp_path):
     cmd = [*MISSION, "tree", "--ros-args", "-p", "tree:=follow.xml", "-p", f"groot_port:={port}", "-p", "tick_hz:=20"]
     with node_process(cmd, installed_env(), tmp_path / "node.log") as node:
         client = Groot2Client(port, timeout_s=30.0)  # ZeroMQ delivers the request once the node listens
+        robot = RosClient()  # a camera that sees nothing and a base standing still: the tree may run
+        camera, _odom = FakeCamera(robot), FakeOdometry(robot)
+        camera.scene = lambda stamp: (blank_image(stamp), None)
         try:
 
             def full_tree() -> str | None:
@@ -44,7 +58,7 @@ def test_the_node_answers_groot2_with_its_tree_and_live_statuses(tmp_path):
             root = ET.fromstring(wait_for(full_tree, 30, "the tree from the node's Groot2 monitor", poll=0.1))
             tags = [el.tag for el in root.iter() if el.get("_uid")]
             assert "FollowTarget" in tags and root.find("TreeNodesModel/Action[@ID='FollowTarget']") is not None
-            # no camera publishes: the target is never seen, so the coordinator searches — RUNNING, on every tick
+            # the camera sees no marker: the target is never seen, so the coordinator searches — RUNNING, every tick
             statuses = wait_for(lambda: (s := client.statuses()) and 1 in s.values() and s, 10, "a RUNNING node")
             assert sorted(statuses) == list(range(1, len(tags) + 1))
             bound = [addr for proto, addr in inet_sockets(node.pid) if proto.startswith("tcp")]
@@ -54,5 +68,7 @@ def test_the_node_answers_groot2_with_its_tree_and_live_statuses(tmp_path):
             print(node.log())
             raise
         finally:
+            camera.scene = None
+            robot.close()
             client.close()
     clean_shm()

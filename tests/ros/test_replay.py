@@ -21,7 +21,7 @@ from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
 from mission.ros.messages import BagMessages, RclpyMessages
 from mission.sim.scenario import load_scenario
 from mission.sim.sim_adapter import SimAdapter
-from tests.helpers.ros_env import ROOT, FakeCamera, RosClient, clean_shm, installed_env, node_process, wait_for
+from tests.helpers.ros_env import ROOT, FakeCamera, FakeOdometry, RosClient, clean_shm, installed_env, node_process, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -122,6 +122,7 @@ def test_replay_of_a_recorded_sim_bag_reproduces_the_live_detections(recording, 
             client.subscribe(String, "/mission/tree", qos=_latched())
             camera = FakeCamera(client, hz=1000.0)  # its timer is only used for the first frame; see below
             camera._timer.cancel()
+            _odometry = FakeOdometry(client)  # the robot's pose: without it the tree waits and nothing moves
             camera.wait_for_subscriber()
             redetect = client.node.create_publisher(Empty, "/mission/redetect", 10)
 
