@@ -153,8 +153,9 @@ class MarkerOptics:
                 continue
             x0, y0, x1, y1 = roi
             u, v = np.meshgrid(np.arange(x0, x1, dtype=np.float64), np.arange(y0, y1, dtype=np.float64))
-            rays = cv2.undistortPoints(np.column_stack([u.ravel(), v.ravel()]).reshape(-1, 1, 2), self.K,
-                                       self.distortion).reshape(-1, 2)
+            rays = cv2.undistortPoints(
+                np.column_stack([u.ravel(), v.ravel()]).reshape(-1, 1, 2), self.K, self.distortion
+            ).reshape(-1, 2)
             d_opt = np.column_stack([rays, np.ones(len(rays))])
             d_map = d_opt @ ex.T_opt_mid[:3, :3].T  # each pixel's ray in the map frame
             denom = d_map @ n

@@ -268,9 +268,8 @@ def test_a_node_started_before_its_robot_waits_without_moving_and_says_for_what(
         time.sleep(3.0)  # the explore spin would have started by now
         assert [m for m in watcher.client.messages("/cmd_vel") if m.angular.z or m.linear.x] == []
         assert all(s["state"] == "" for s in watcher.statuses())  # the tree has not run
-        robot = NodeProcess(
-            robot_command("explore_dock", 0, tmp_path / "report", 8.0), {**os.environ, **ROS_ENV}, tmp_path / "robot.log"
-        )
+        later = robot_command("explore_dock", 0, tmp_path / "report", 8.0)
+        robot = NodeProcess(later, {**os.environ, **ROS_ENV}, tmp_path / "robot.log")
         wait_for(lambda: any(s["state"] == "EXPLORE" for s in watcher.statuses()), 90, "the mission to start")
         wait_for(lambda: [m for m in watcher.client.messages("/cmd_vel") if m.angular.z], 60, "the explore spin")
         assert "inputs alive: the tree starts" in node.log()

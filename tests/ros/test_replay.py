@@ -21,7 +21,16 @@ from mission.ros.conversions import array_to_image, intrinsics_to_camera_info
 from mission.ros.messages import BagMessages, RclpyMessages
 from mission.sim.scenario import load_scenario
 from mission.sim.sim_adapter import SimAdapter
-from tests.helpers.ros_env import ROOT, FakeCamera, FakeOdometry, RosClient, clean_shm, installed_env, node_process, wait_for
+from tests.helpers.ros_env import (
+    ROOT,
+    FakeCamera,
+    FakeOdometry,
+    RosClient,
+    clean_shm,
+    installed_env,
+    node_process,
+    wait_for,
+)
 
 pytestmark = pytest.mark.ros
 
