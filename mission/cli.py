@@ -105,6 +105,9 @@ def _add_viz(p: argparse.ArgumentParser) -> None:
                    help="a JSON-lines tick log (`mission run --log`) or a Groot2 .btlog (`--btlog`, BT.CPP's)")
     p.add_argument("--tick", type=non_negative_int, default=None,
                    help="with --log: the tree as it was at tick N (a .btlog: at its Nth timestamp)")
+    p.add_argument("--nodes-model", action="append", default=[], metavar="FILE",
+                   help="a BT.CPP file whose <TreeNodesModel> describes nodes this project does not register "
+                        "(Nav2's nav2_tree_nodes.xml, say): they are drawn, not run; repeatable")
 
 
 def _add_tree(p: argparse.ArgumentParser) -> None:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
 
@@ -36,7 +37,7 @@ from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.lost import HoldLastGoal
 from mission.behaviours.mission_state import STATES, SetMissionState
 from mission.behaviours.perceive import PerceiveTargets
-from mission.behaviours.ports import PortsDeclared, unknown_port, wrong_type
+from mission.behaviours.ports import Port, PortsDeclared, unknown_port, wrong_type
 from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search import SearchSweep
 from mission.behaviours.search_give_up import GiveUpSearch
@@ -45,6 +46,7 @@ from mission.behaviours.search_views import CoverUnseen, SearchBelief
 from mission.behaviours.staging import GoToStaging
 from mission.behaviours.visibility import IsTargetVisible
 from mission.behaviours.wait_for_target import WaitForTarget
+from mission.core.errors import TreeError
 from mission.trees.builtins import BUILTINS, RESERVED_TAGS
 from mission.trees.execution import POSTCONDITIONS, PRECONDITIONS
 from mission.trees.manifest import BuildContext, Builder, Check, NodeKind, NodeManifest
@@ -117,6 +119,19 @@ class BehaviourFactory:
             deprecated=bool(getattr(cls, "DEPRECATED", False)),
         )
         self._manifests[tag] = self._registered[tag] = manifest
+        return manifest
+
+    def model(self, tag: str, kind: NodeKind, ports: Mapping[str, Port], doc: str) -> NodeManifest:
+        """Know ``<tag>`` from a model only (a TreeNodesModel, trees/node_models.py): checked and drawn like any
+        node, never built — building it is a TreeError naming it. For drawing another team's trees."""
+        if tag in self._manifests or tag in RESERVED_TAGS:
+            raise ValueError(f"tag {tag!r} is already known; a model describes a node type nothing registers")
+
+        def refuse(name: str, children: list[Behaviour], values: dict[str, Any], ctx: BuildContext) -> Behaviour:
+            raise TreeError(f"{tag} ({name}) is {doc}; register a behaviour for it to run this tree")
+
+        manifest = NodeManifest(tag, kind, doc, refuse, dict(ports), untyped=frozenset(ports), runnable=False)
+        self._manifests[tag] = manifest
         return manifest
 
     def set_port(self, tag: str, port: str, value: Any) -> None:

@@ -349,6 +349,7 @@ class _Compiler:
         self.factory = factory
         self.enums = factory.enums
         self.problems: list[str] = []
+        self.unknown: dict[str, str] = {}  # node type nothing registers → where it is first used
         self.reached: set[str] = set()
         self.uid = 0
         self.declared: set[str] = set()  # entries BT.CPP creates when the tree is built
@@ -564,6 +565,7 @@ class _Compiler:
 
         manifest = self.factory.manifest(node_type)
         if manifest is None:
+            self.unknown.setdefault(node_type, f"line {el.line}")
             self.problem(el.error(self._unknown_node(node_type)))
             for child in el.children:
                 self.node(child, scope, stack)
@@ -789,6 +791,14 @@ def _compile(
             f"{display_path(doc.path)}: the expanded tree (SubTrees in place) nests too deeply to load; "
             "expected fewer levels of SubTrees inside SubTrees"
         ) from None
+    if len(compiler.unknown) > 1:  # another team's tree: name every node type at once, and how to draw it
+        listed = ", ".join(f"{tag} ({where})" for tag, where in compiler.unknown.items())
+        compiler.problems.insert(
+            0,
+            f"{display_path(doc.path)}: {len(compiler.unknown)} unknown node types: {listed}; expected registered "
+            "behaviours or BT.CPP built-ins (`mission nodes-model` lists them). `mission viz` draws such a tree "
+            "(with --nodes-model FILE for their TreeNodesModel) but cannot run it",
+        )
     if compiler.problems:
         err = TreeError(compiler.problems[0])
         err.problems = list(compiler.problems)  # type: ignore[attr-defined]

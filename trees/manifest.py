@@ -54,3 +54,4 @@ class NodeManifest:
     scripts: frozenset[str] = frozenset()
     untyped: frozenset[str] = frozenset()
     deprecated: bool = False  # still loads and runs; left out of the palette unless a tree uses it
+    runnable: bool = True  # False: a model from a TreeNodesModel, drawn by `mission viz`, never built

@@ -5,6 +5,7 @@
     mission viz --log run.jsonl --tick 120 --format svg -o t120.svg
     mission viz --log run.jsonl --format html -o run.html   # the whole run, with a slider
     mission viz --log run.btlog --format html -o run.html   # a Groot2 log (mission run --btlog, or BT.CPP's)
+    mission viz navigate_to_pose.xml --nodes-model nav2_tree_nodes.xml   # another team's nodes, from a model
 
 Text formats go to stdout without -o; svg/dot/html too; png needs -o. SVG, HTML and PNG are laid out
 here (mission.viz.layout) — Graphviz is not needed for any format.
@@ -87,9 +88,17 @@ def main(args: argparse.Namespace) -> int:
     if not args.tree:
         raise MissionError("give a tree file (mission viz TREE.xml) or a tick log (mission viz --log run.jsonl)")
     from mission.trees.loader import describe_tree, resolve_tree_path
+    from mission.trees.node_models import drawing_factory
 
     path = resolve_tree_path(args.tree)
-    root = from_description(describe_tree(path))
+    factory, models = drawing_factory(path, args.nodes_model)
+    root = from_description(describe_tree(path, factory))
+    if models:  # one note line: what is drawn from a model is not runnable here
+        by_source: dict[str, list[str]] = {}
+        for m in models:
+            by_source.setdefault(m.source, []).append(m.tag)
+        told = "; ".join(f"{', '.join(tags)} ({source})" for source, tags in by_source.items())
+        print(f"mission viz: {len(models)} node type(s) drawn from models, not runnable here: {told}", file=sys.stderr)
     page = None
     if fmt == "html":
         from mission.viz.html import render_page, static_header

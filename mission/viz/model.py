@@ -157,6 +157,8 @@ def from_description(desc: Any) -> VizNode:
         name = str(attr(d, "name", "") or tag)
         ports = dict(attr(d, "ports", {}) or {})
         effective = dict(attr(d, "effective_ports", {}) or {})
+        manifest = attr(d, "manifest")
+        modelled = manifest is not None and not getattr(manifest, "runnable", True)
         return VizNode(
             id=0,
             name=name,
@@ -167,6 +169,7 @@ def from_description(desc: Any) -> VizNode:
             line=attr(d, "line"),
             subtree=attr(d, "subtree"),
             defaults={str(k): _port_str(v) for k, v in effective.items() if k not in ports},
+            feedback=str(manifest.doc) if modelled else "",
         )
 
     root = attr(desc, "root", None)
