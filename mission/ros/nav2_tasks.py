@@ -111,17 +111,22 @@ class PhaseWatch(py_trees.visitors.VisitorBase):
         super().__init__(full=False)
         self.spec = spec
         self.current: str | None = None  # the deepest named node running at the end of the last tick
+        self.passed: list[str] = []  # the named nodes the last tick ran or finished, in the order it did
         self.failed: str | None = None  # the last named node that failed
         self.reason = ""  # its feedback message when it failed
         self._running: str | None = None
+        self._passed: list[str] = []
 
     def initialise(self) -> None:
         self._running = None
+        self._passed = []
 
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         name = behaviour.name
         if name not in self.spec.phases:
             return
+        if behaviour.status in (Status.RUNNING, Status.SUCCESS) and name not in self._passed:
+            self._passed.append(name)  # a phase done within one tick (seen at once) is still a phase
         if behaviour.status == Status.RUNNING:
             self._running = name  # leaves are visited after their parents: the deepest wins
         elif behaviour.status == Status.FAILURE and name in self.spec.errors:
@@ -129,14 +134,26 @@ class PhaseWatch(py_trees.visitors.VisitorBase):
 
     def finalise(self) -> None:
         self.current = self._running
+        self.passed = self._passed
 
 
-def feedback_state(spec: TaskSpec, watch: PhaseWatch, attempt: int) -> str:
-    """The feedback state constant's name for where the tree is (NONE before any named node runs)."""
-    state = spec.states.get(watch.current or "", "NONE")
-    if spec.retry_from and attempt > 1 and state == spec.retry_from and watch.current != "RETURN_TO_STAGING":
+def feedback_state(spec: TaskSpec, watch: PhaseWatch, attempt: int, phase: str | None = None) -> str:
+    """The feedback state constant's name for where the tree is (NONE before any named node runs), or for
+    `phase` (one of the named nodes)."""
+    phase = watch.current if phase is None else phase
+    state = spec.states.get(phase or "", "NONE")
+    if spec.retry_from and attempt > 1 and state == spec.retry_from and phase != "RETURN_TO_STAGING":
         return spec.retry_state
     return state
+
+
+def feedback_states(spec: TaskSpec, watch: PhaseWatch, attempt: int) -> list[str]:
+    """Every state the last tick went through, in order, ending where the tree is: a phase the tree finished
+    within one tick (the dock already in view: INITIAL_PERCEPTION) is reported too, as Nav2's servers do
+    before they wait for anything."""
+    states = [feedback_state(spec, watch, attempt, p) for p in watch.passed if p in spec.states]
+    states.append(feedback_state(spec, watch, attempt))
+    return [s for i, s in enumerate(states) if s != "NONE" and (i == 0 or s != states[i - 1])] or ["NONE"]
 
 
 def failure(spec: TaskSpec, watch: PhaseWatch, reason: str) -> tuple[str, str]:

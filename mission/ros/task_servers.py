@@ -273,8 +273,14 @@ class TaskServers(RunObserver):
         return max(0, self._attempt() - 1) if value is not None else active.retries
 
     def _feedback(self, active: _Active) -> None:
+        states = tasks.feedback_states(active.spec, active.watch, self._attempt())
+        if states[0] == active.last_state:  # said at the end of the last tick: only what came after
+            states = states[1:] or states
+        for state in states:
+            self._feedback_one(active, state)
+
+    def _feedback_one(self, active: _Active, state: str) -> None:
         fb = active.feedback_type()
-        state = tasks.feedback_state(active.spec, active.watch, self._attempt())
         if state == "RETRY" and active.last_state != "RETRY" and self.runner.tree_entry(ATTEMPT_ENTRY) is None:
             active.retries += 1
         active.last_state = state

@@ -123,3 +123,25 @@ def test_staging_that_takes_longer_than_max_staging_time_fails_to_stage():
         assert message == "the staging pose (1.17, 4.00, 180°) not reached within 2 s"
     finally:
         runner.close()
+
+
+def test_a_phase_the_tree_finishes_within_one_tick_is_still_reported_in_order():
+    """The dock already in view on arrival: INITIAL_PERCEPTION succeeds in the tick CONTROLLING starts in. A Nav2
+    client still sees INITIAL_PERCEPTION before CONTROLLING, as opennav_docking sends it."""
+    seen_at_once = py_trees.behaviours.Success(name="INITIAL_PERCEPTION")
+    controlling = py_trees.behaviours.Running(name="CONTROLLING")
+    staged = py_trees.behaviours.Success(name="NAV_TO_STAGING_POSE")
+    root = py_trees.composites.Sequence("dock", memory=True, children=[staged, seen_at_once, controlling])
+    tree = py_trees.trees.BehaviourTree(root)
+    watch = tasks.PhaseWatch(tasks.DOCK_ROBOT)
+    tree.visitors.append(watch)
+    tree.tick()
+    assert watch.current == "CONTROLLING"
+    assert tasks.feedback_state(tasks.DOCK_ROBOT, watch, 1) == "CONTROLLING"  # where the tree is
+    assert tasks.feedback_states(tasks.DOCK_ROBOT, watch, 1) == [
+        "NAV_TO_STAGING_POSE",
+        "INITIAL_PERCEPTION",
+        "CONTROLLING",
+    ]
+    tree.tick()
+    assert tasks.feedback_states(tasks.DOCK_ROBOT, watch, 1) == ["CONTROLLING"]  # nothing new: where it is
