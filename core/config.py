@@ -193,6 +193,11 @@ def read_yaml(path: str | Path) -> Any:
         raise ConfigError(f"{where}invalid YAML: {problem}", file=str(path)) from None
     except (OSError, UnicodeDecodeError) as err:
         raise ConfigError(f"cannot read: {err}", file=str(path)) from None
+    except RecursionError:  # the YAML parser recurses once per level: [[[[… or {a: {a: {… thousands deep
+        raise ConfigError(
+            "nests too deeply to read (thousands of levels of [ or {); expected a file a few levels deep",
+            file=str(path),
+        ) from None
 
 
 def merge_mappings(base: Mapping[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:

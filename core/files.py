@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shutil
 import stat
 import tempfile
 from collections.abc import Iterator
@@ -104,6 +105,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             fig.savefig(tmp)
     """
     path = Path(path)
+    if _special(path):  # a device, a FIFO, /dev/stdout: written through, never renamed over
+        yield from _through(path)
+        return
     ensure_parent(path)
     fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}")
     os.close(fd)
@@ -124,6 +128,28 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     _fsync_dir(path.parent)
 
 
+def _special(path: Path) -> bool:
+    """Whether `path` exists and is not a regular file (after symlinks): a character device, a FIFO."""
+    try:
+        return not stat.S_ISREG(path.stat().st_mode) and not path.is_dir()
+    except OSError:
+        return False
+
+
+def _through(path: Path) -> Iterator[Path]:
+    """For a special file: the writer writes a temp file elsewhere, which is then copied into `path` (a rename
+    would replace the device itself — as root, /dev/full or /dev/stdout — with a regular file)."""
+    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}")
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        with open(tmp, "rb") as src, open(path, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Replace `path` with `data` atomically (parents created); returns the path."""
     path = Path(path)
@@ -135,3 +161,59 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
 def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8") -> Path:
     """Replace `path` with `text` atomically (parents created); returns the path."""
     return atomic_write_bytes(path, text.encode(encoding))
+
+
+class StreamedFile:
+    """An output file written while the run goes on (a tick log, a .btlog), so it cannot be written atomically.
+
+    A write that fails — the disk is full, the device is gone — must not stop the run or leave half a file that
+    looks whole: the file is closed and removed, and :attr:`failure` says once, naming the option and the file,
+    what happened (the caller logs it). Later writes are ignored."""
+
+    def __init__(self, path: Path, option: str, binary: bool = False) -> None:
+        from mission.core.errors import MissionError
+
+        self.path = path
+        self.option = option
+        self.failure = ""
+        self.writes = 0
+        try:
+            ensure_parent(path)
+            self._fh = path.open("wb") if binary else path.open("w", encoding="utf-8")
+        except OSError as err:
+            raise MissionError(f"{option} {path}: {unwritable(err, path)}") from None
+
+    def write(self, data: str | bytes) -> bool:
+        """Write and flush; False (and :attr:`failure` set) when it could not be, now or before."""
+        if self._fh is None:
+            return False
+        try:
+            self._fh.write(data)  # type: ignore[arg-type]
+            self._fh.flush()
+        except OSError as err:
+            self._give_up(err)
+            return False
+        self.writes += 1
+        return True
+
+    def _give_up(self, err: OSError) -> None:
+        with contextlib.suppress(OSError):
+            self._fh.close()  # type: ignore[union-attr]
+        self._fh = None
+        removed = ""
+        if self.path.is_file():  # not a device: what was written is removed, not left looking complete
+            with contextlib.suppress(OSError):
+                self.path.unlink()
+                removed = " and removed"
+        self.failure = (
+            f"{self.option} {self.path}: cannot write ({err.strerror or err}) after {self.writes} writes: "
+            f"stopped{removed}; the run goes on"
+        )
+
+    def close(self) -> None:
+        if self._fh is not None:
+            try:
+                self._fh.close()
+            except OSError as err:
+                self._give_up(err)
+            self._fh = None

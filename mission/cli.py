@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import math
 import os
@@ -272,9 +273,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
     except BrokenPipeError:
         return _output_closed()
+    except OSError as err:
+        if err.errno not in (errno.ENOSPC, errno.EIO, errno.EBADF):
+            raise
+        return _output_failed(err)
     except KeyboardInterrupt:  # Ctrl-C before a verb has its own handling (imports, set-up): no traceback
         print("mission: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
+
+
+def _output_failed(err: OSError) -> int:
+    """stdout cannot be written (a full disk, `> /dev/full`, a closed descriptor): one line on stderr naming it,
+    exit 74 (sysexits' EX_IOERR), no traceback; what was written before stays as it was."""
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the interpreter's last flush must not fail again
+        os.close(devnull)
+    with contextlib.suppress(OSError, ValueError):
+        print(f"mission: error: cannot write the output (stdout): {err.strerror or err}", file=sys.stderr)
+    return 74
 
 
 def _output_closed() -> int:

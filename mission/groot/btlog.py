@@ -28,10 +28,10 @@ import struct
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any
 
 from mission.core.errors import MissionError
-from mission.core.files import ensure_parent, unwritable
+from mission.core.files import StreamedFile
 from mission.core.observers import RunObserver, Tick
 from mission.groot import protocol as p
 from mission.groot.transitions import TransitionRecorder, watch_run
@@ -77,11 +77,8 @@ class BtLogWriter(RunObserver):
             raise MissionError(
                 f"{option} {path}: expected a file name ending in {SUFFIX} (Groot2 opens logs by that suffix)"
             )
-        try:
-            ensure_parent(self.path)
-            self._fh: IO[bytes] | None = self.path.open("wb")
-        except OSError as err:
-            raise MissionError(f"{option} {self.path}: {unwritable(err, self.path)}") from None
+        self._file = StreamedFile(self.path, option, binary=True)
+        self._said = False
         self._recorder: TransitionRecorder | None = None
         self._tree: Any = None  # the py_trees tree the recorder visits
         self._logged = False  # the header (one tree) is written
@@ -140,14 +137,12 @@ class BtLogWriter(RunObserver):
         self.close()
 
     def _write(self, data: bytes) -> None:
-        if self._fh is not None:
-            self._fh.write(data)
-            self._fh.flush()
+        if not self._file.write(data) and self._file.failure and not self._said:
+            self._said = True
+            log.warning("%s", self._file.failure)
 
     def close(self) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
+        self._file.close()
 
 
 @dataclass(frozen=True)

@@ -21,11 +21,11 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from mission.core import blackboard as bbk
 from mission.core.errors import MissionError
-from mission.core.files import ensure_parent, unwritable
+from mission.core.files import StreamedFile
 from mission.core.observers import RunObserver, Tick
 from mission.viz.model import VizNode, apply_tick, count, from_snapshot, to_dict
 from mission.viz.probe import TickProbe, probe_for, release_probe
@@ -87,15 +87,11 @@ class TickLog(RunObserver):
     def __init__(self, path: str | Path, every: int = 1) -> None:
         self.path = Path(path)
         self.every = max(1, int(every))
-        self._fh: IO[str] | None = None
         self._probe: TickProbe | None = None
         self._logged = False  # the header (one tree) is written
         self.lines = 0
-        try:  # fail before the (slow) simulation starts when the file cannot be written
-            ensure_parent(self.path)
-            self._fh = self.path.open("w", encoding="utf-8")
-        except OSError as err:
-            raise MissionError(f"--log {self.path}: {unwritable(err, self.path)}") from None
+        self._said = False
+        self._file = StreamedFile(self.path, "--log")  # fails before the (slow) simulation when it cannot be opened
 
     def on_start(self, runner: Any) -> None:
         if runner.tree is not None:  # none: an action server's run before its first goal (on_tree brings it)
@@ -131,15 +127,14 @@ class TickLog(RunObserver):
         self.close()
 
     def _write(self, obj: dict[str, Any]) -> None:
-        if self._fh is not None:
-            self._fh.write(_dumps(obj) + "\n")
-            self._fh.flush()
+        if self._file.write(_dumps(obj) + "\n"):
             self.lines += 1
+        elif self._file.failure and not self._said:
+            self._said = True
+            log.warning("%s", self._file.failure)
 
     def close(self) -> None:
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
+        self._file.close()
 
 
 @dataclass
