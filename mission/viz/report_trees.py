@@ -91,6 +91,8 @@ class TransitionTrees(RunObserver):
         if self._tree is None:
             return []
         tree_dir = self.out_dir / "trees"
+        for old in tree_dir.glob("[0-9][0-9]_t*.svg"):  # an earlier run's moments in a reused folder: not this run's
+            old.unlink(missing_ok=True)
         entries = []
         for k, m in enumerate(self.moments):
             root = apply_tick(from_snapshot(self._tree), m["nodes"])

@@ -162,6 +162,11 @@ class TickLogData:
         if not self.ticks:
             raise MissionError(f"{self.path}: the log has no ticks")
         first, last = self.ticks[0]["tick"], self.ticks[-1]["tick"]
+        if self.header.get("format") == "btlog":  # its steps are the moments something changed, not ticks
+            raise MissionError(
+                f"{self.path}: no timestamp {tick}; this .btlog has {len(self.ticks)} (1..{last}): a .btlog records "
+                "status changes, not ticks, and a tree that stays RUNNING adds none"
+            )
         raise MissionError(f"{self.path}: no tick {tick}; the log has ticks {first}..{last}")
 
     def tree_at(self, tick: int) -> VizNode:

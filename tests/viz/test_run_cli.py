@@ -57,3 +57,14 @@ def test_run_writes_log_recording_and_report_trees_and_serves_the_page(tmp_path,
 def test_bad_viewer_arguments_stop_before_the_simulation_starts(tmp_path, capsys):
     assert main(["run", "--scenario", "follow_open", "--record", str(tmp_path / "x.avi"), "--quiet"]) == 2
     assert "expected a .gif or .mp4" in capsys.readouterr().err
+
+
+def test_a_report_folder_used_again_shows_only_the_second_runs_trees(tmp_path, capsys):
+    report = tmp_path / "report"
+    mission_run = ["run", "--max-duration", "0.5", "--report", str(report)]
+    assert main([*mission_run, "--scenario", "explore_dock"]) == 1
+    assert main([*mission_run, "--scenario", "follow_open"]) in (0, 1)
+    trees = sorted(p.name for p in (report / "trees").glob("*.svg"))
+    assert trees and all("explore" not in name for name in trees), trees  # explore_dock's moments are gone
+    page = (report / "report.html").read_text()
+    assert all(f"trees/{name}" in page for name in trees)

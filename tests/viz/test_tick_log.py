@@ -129,3 +129,14 @@ def test_report_has_the_tree_at_each_state_transition(recorded):
     assert "start → FOLLOW" in titles[0] and "FOLLOW → SEARCH" in titles[1] and "final tick" in titles[2]
     page = (report / "report.html").read_text()
     assert all(f"trees/{s}" in page for s in svgs) and "trajectories.png" in page
+
+
+def test_a_btlog_asked_for_a_tick_it_does_not_have_says_it_counts_changes_not_ticks(tmp_path, capsys):
+    """A run of 45 ticks whose tree stays RUNNING after the first: its .btlog has one timestamp, and asking for
+    tick 30 says why, rather than "ticks 1..1" for a 45-tick run."""
+    log = tmp_path / "run.btlog"
+    assert main(["run", "--scenario", "explore_dock", "--max-duration", "3", "--btlog", str(log)]) == 1
+    capsys.readouterr()
+    assert main(["viz", "--log", str(log), "--tick", "30"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no timestamp 30; this .btlog has 1 (1..1): a .btlog records status changes, not ticks" in err
