@@ -7,8 +7,9 @@ cannot be read is reported on stderr and skipped; the exit code is then 1.
 The camera model is ``--intrinsics fx,fy,cx,cy`` or ``--calibration FILE`` (mission/app/calibration.py).
 A source that declares what a frame must carry (``requires``, e.g. the VLM's depth) gets it or the
 command says what is missing before reading any image: ``--depth FILE`` gives one depth image per IMAGE.
-A source that answers off the tick (``wait_idle``, the VLM) is waited for; when it finds nothing, stderr
-says why (its ``status()["state"]``: rate limited, no depth, …), never a silent empty result.
+A source that answers off the tick (``answer``, the VLM) is asked about each image and waited for; when it
+finds nothing, stderr says why (its ``status()["state"]``: rate limited, no depth, …), never a silent empty
+result.
 """
 
 from __future__ import annotations
@@ -175,11 +176,9 @@ def _intrinsics(
 
 def _detect(source: object, frame: Frame) -> list[Detection]:
     """The source's detections of `frame`; a source that answers off the tick is given time to answer."""
-    dets = source.process(frame)  # type: ignore[attr-defined]
-    wait = getattr(source, "wait_idle", None)
-    if dets or wait is None:
-        return dets
-    wait(ANSWER_TIMEOUT_S)
+    answer = getattr(source, "answer", None)
+    if callable(answer):  # it asks a model: ask about this image and wait for the reply
+        return answer(frame, ANSWER_TIMEOUT_S)
     return source.process(frame)  # type: ignore[attr-defined]
 
 

@@ -163,7 +163,9 @@ class VlmSource:
     requires: ClassVar[frozenset[str]] = frozenset({"depth", "intrinsics"})  # an answer is placed in 3D by depth
     # What a batch tool (mission detect: one frame per image, no camera pose to latch in) runs it with
     # unless told otherwise: each answer reported as it comes, not latched in the map.
-    batch_params: ClassVar[dict[str, Any]] = {"latch_in_map": False}
+    # Each image is a request the user made, not a frame of a stream: no pacing between them (the service's
+    # requests_per_minute and daily_quota still hold).
+    batch_params: ClassVar[dict[str, Any]] = {"latch_in_map": False, "publish_rate_limit_hz": 1000.0}
 
     def __init__(
         self,
@@ -183,6 +185,8 @@ class VlmSource:
         path = Path(p.state_file).expanduser() if p.state_file else default_state_file(client_kind)
         if p.clock == "frame":
             path = None  # frame stamps restart with every run: a budget in them is per run, not persisted
+        elif p.client == "stub" and not p.state_file:
+            path = None  # no service counts the stub's answers: its budget is per run, never carried to the next
         self._last_stamp = 0.0
         self._min_interval = 1.0 / p.publish_rate_limit_hz
         self.quota = QuotaStore(
@@ -306,15 +310,28 @@ class VlmSource:
         if problem is not None:
             raise ValueError(problem)
         with self._lock:
-            self._last_stamp = float(frame.stamp)
-            self._collect()
-            if not self.params.latch_in_map:
-                out = [self._unlatched_detection(a, frame) for a in self._fresh]
-                self._fresh = []
-            else:
-                out = self._republish(frame) if self.latch.latched else []
+            out = self._answers(frame)
             self._maybe_request(frame)
             return out
+
+    def answer(self, frame: Frame, timeout: float) -> list[Detection]:
+        """Ask about this one frame and wait for the answer (batch tools: `mission detect`); the tick path
+        never calls it. No second call is made for the same frame."""
+        out = self.process(frame)
+        if out or not self.wait_idle(timeout):
+            return out
+        with self._lock:
+            return self._answers(frame)
+
+    def _answers(self, frame: Frame) -> list[Detection]:
+        """What has come back for this frame: fresh answers, or the latched target re-expressed in it."""
+        self._last_stamp = float(frame.stamp)
+        self._collect()
+        if not self.params.latch_in_map:
+            out = [self._unlatched_detection(a, frame) for a in self._fresh]
+            self._fresh = []
+            return out
+        return self._republish(frame) if self.latch.latched else []
 
     def close(self) -> None:
         self._client.close()

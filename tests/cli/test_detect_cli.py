@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -221,3 +222,25 @@ def test_a_depth_image_of_another_size_or_count_is_refused(images, tmp_path, cap
     assert "depth" in capsys.readouterr().err
     assert main(["detect", str(paths[0]), str(paths[1]), "--depth", str(small)]) == 2
     assert "--depth: 1 depth image(s) for 2 image(s)" in capsys.readouterr().err
+
+
+def test_the_vlm_stub_answers_every_image_of_one_command_and_of_the_next(tmp_path):
+    """Images given to `mission detect` are requests, not a stream: no pacing between them, and the stub (no
+    service counting its calls) keeps no budget from one command to the next."""
+    from tests.helpers.vlm_scene import Box, Scene, camera_pose, render
+
+    frame = render(Scene(boxes=[Box((3.0, 0.2, 0.3), (0.4, 0.4, 0.6), (20, 20, 200))]), camera_pose(0, 0, 0))
+    image, depth = tmp_path / "red_box.png", tmp_path / "red_box_depth.png"
+    cv2.imwrite(str(image), frame.image)
+    cv2.imwrite(str(depth), np.nan_to_num(frame.depth * 1000.0).astype(np.uint16))
+    k = frame.intrinsics
+    cmd = [sys.executable, "-m", "mission", "detect", "--source", "vlm", "--json", "--set", "latency_s=0.05"]
+    cmd += ["--set", "miss_rate=0"]  # the stub imitates a model that misses now and then: not here
+    cmd += ["--intrinsics", f"{k.fx},{k.fy},{k.cx},{k.cy}", *[str(image)] * 3, *["--depth", str(depth)] * 3]
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}  # the user's cache, fresh
+    for _ in range(2):
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=ROOT, env=env)
+        assert proc.returncode == 0, proc.stderr
+        assert "rate limited" not in proc.stderr
+        answers = [json.loads(line)["detections"] for line in proc.stdout.splitlines()]
+        assert len(answers) == 3 and all(a and a[0]["label"] == "red box" for a in answers), answers
