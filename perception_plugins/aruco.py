@@ -14,6 +14,7 @@ here is isolated in :func:`_make_detector`.
 
 from __future__ import annotations
 
+import difflib
 import logging
 import math
 from collections.abc import Callable
@@ -25,6 +26,7 @@ from pydantic import Field, PositiveFloat
 
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
+from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
@@ -49,7 +51,7 @@ _REFINEMENT = {
 class ArucoParams(StrictModel):
     """Params of the `aruco` source (config `perception.sources[i].params`, or `mission detect --set`)."""
 
-    dictionary: str = DEFAULT_DICTIONARY  # a DICT_* name or a dictionary .yml; unknown names warn, use DICT_4X4_250
+    dictionary: str = DEFAULT_DICTIONARY  # a DICT_* name or a dictionary .yml; an unknown name is a config error
     marker_size_m: PositiveFloat = 0.049  # black square's side, metres
     marker_sizes: dict[int, PositiveFloat] = Field(default_factory=dict)  # per-id override
     allowed_ids: list[int] | None = None  # None = report every id of the dictionary
@@ -89,19 +91,19 @@ def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detecto
 
 
 def _dictionary(value: str, source: str) -> MarkerDictionary:
-    """The dictionary `value` names; an unknown name warns (listing the names there are) and falls back to
-    DICT_4X4_250, as the design notes say; a dictionary file that cannot be read is a config error."""
+    """The dictionary `value` names. An unknown name is a config error listing the names there are, as an
+    unknown AprilTag family is: a robot that silently read another dictionary would see no markers — or the
+    wrong ones (issue 36; the design notes' fallback to DICT_4X4_250 hid exactly that). A dictionary file
+    that cannot be read is a config error too."""
     found = marker_dictionaries.resolve(value, key="dictionary")
     if found is not None:
         return found
-    log.warning(
-        "%s: unsupported dictionary %r (supported: %s, or an OpenCV dictionary file .yml); falling back to %s",
-        source,
-        value,
-        ", ".join(SUPPORTED_DICTIONARIES),
-        DEFAULT_DICTIONARY,
+    hint = difflib.get_close_matches(str(value).upper(), SUPPORTED_DICTIONARIES, n=1)
+    raise ConfigError(
+        f"unsupported dictionary {value!r}{f' (did you mean {hint[0]}?)' if hint else ''}; supported: "
+        f"{', '.join(SUPPORTED_DICTIONARIES)}, or an OpenCV dictionary file (.yml)",
+        key="dictionary",
     )
-    return marker_dictionaries.predefined(DEFAULT_DICTIONARY)
 
 
 def to_grey(image: Any) -> np.ndarray:

@@ -205,19 +205,20 @@ def test_a_bad_param_is_a_config_error_naming_the_key(params, key):
 
 
 # --------------------------------------------------------------------------------------------------
-# Fallbacks (design notes: warn and keep going)
+# Fallbacks (design notes: warn and keep going) and what is refused instead
 # --------------------------------------------------------------------------------------------------
 
 
-def test_unsupported_dictionary_warns_listing_the_names_that_exist_and_falls_back_to_4x4_250(caplog):
-    with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.aruco"):
-        src = ArucoSource({"dictionary": "DICT_8X8_1000", "marker_size_m": MARKER})
-    assert "unsupported dictionary 'DICT_8X8_1000'" in caplog.text and "falling back to DICT_4X4_250" in caplog.text
-    assert all(name in caplog.text for name in PREDEFINED)  # the warning lists what does exist
-    assert src.dictionary == "DICT_4X4_250" and src.requested_dictionary == "DICT_8X8_1000"
-    view = _one_view(1.0, seed=6)  # a DICT_4X4_250 marker
-    [det] = src.process(_frame(view))
-    assert det.marker_id == 7 and det.extra["dictionary"] == "DICT_4X4_250"
+def test_an_unsupported_dictionary_is_a_config_error_listing_the_names_that_exist():
+    """As an unknown AprilTag family is (issue 36): reading another dictionary would see no markers, silently."""
+    with pytest.raises(ConfigError) as err:
+        registry.create(
+            SourceConfig(plugin="aruco", params={"dictionary": "DICT_4x4_25O", "marker_size_m": MARKER}),
+            key_prefix="perception.sources[0]",
+        )
+    assert err.value.key == "perception.sources[0].params.dictionary"
+    assert "unsupported dictionary 'DICT_4x4_25O' (did you mean DICT_4X4_250?)" in str(err.value)
+    assert all(name in str(err.value) for name in PREDEFINED)  # it lists what does exist
 
 
 def _fallback_reference(view: sv.SyntheticView):
