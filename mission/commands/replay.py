@@ -11,12 +11,19 @@ import json
 import sys
 
 from mission.app.calibration import load_calibration
-from mission.core.config import load_config
-from mission.ros.bag_replay import TOPIC_KEYS, FrameResult, replay
+from mission.core.config import MissionConfig, load_config, validate_model
+from mission.ros.bag_replay import TOPIC_KEYS, FrameResult, recorded_config, replay
 
 
 def main(args: argparse.Namespace) -> int:
     config = load_config(args.config)
+    if args.config is None and (recorded := recorded_config(args.bag)) is not None:
+        config = validate_model(MissionConfig, recorded, file=f"{args.bag} (its recorded config)")
+        print(
+            f"mission replay: using the config recorded with {args.bag} (`mission run --record-bag`); "
+            "--config FILE replays it with another",
+            file=sys.stderr,
+        )
     if args.rate < 0:
         print("mission: error: --rate must be >= 0 (0 = as fast as possible, 1.0 = recorded rate)", file=sys.stderr)
         return 2

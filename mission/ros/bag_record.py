@@ -127,6 +127,11 @@ class BagRecorder:
             self._connections[key] = self._writer.add_connection(topic, msgtype, typestore=self.typestore)
         return self
 
+    def note(self, key: str, value: str) -> None:
+        """A line of the bag's metadata.yaml ``custom_data`` (rosbag2's own place for it): what made the bag."""
+        if self._writer is not None:
+            self._writer.set_custom_data(key, value)
+
     def close(self) -> None:
         if self._writer is not None:
             self._writer.close()  # writes metadata.yaml: from here on the bag is readable
@@ -191,6 +196,9 @@ class BagRecorder:
                 write(item)
 
 
+RECORDED_CONFIG = "mission.config"  # metadata.yaml custom_data key: the recording run's config, as YAML
+
+
 class BagObserver(RunObserver):
     """A run observer (mission.core.observers.RunObserver) that records the sensors the tree saw each tick.
 
@@ -203,7 +211,12 @@ class BagObserver(RunObserver):
         self.recorder = BagRecorder(path, storage=storage).check()  # before the simulation starts, not after
 
     def on_start(self, runner: Any) -> None:
+        import yaml
+
         self.recorder.open()
+        # the run's config goes with its bag: `mission replay BAG` perceives what the run perceived
+        config = runner.config.model_dump(mode="json", exclude_defaults=True)
+        self.recorder.note(RECORDED_CONFIG, yaml.safe_dump(config, sort_keys=False))
 
     def on_tick(self, runner: Any, tick: Tick) -> None:
         from mission.core import blackboard as bbk

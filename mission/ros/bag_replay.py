@@ -254,6 +254,25 @@ class _Frames(RunObserver):
             self.on_frame(fr)
 
 
+def recorded_config(path: str | Path) -> dict[str, Any] | None:
+    """The config a `mission run --record-bag` run recorded with its bag (metadata.yaml custom_data), or None:
+    another tool's bag, a ROS 1 bag, or one made before configs were recorded."""
+    import yaml
+
+    from mission.ros.bag_record import RECORDED_CONFIG
+
+    meta = Path(path) / "metadata.yaml"
+    if not meta.is_file():
+        return None
+    try:
+        info = (yaml.safe_load(meta.read_text(encoding="utf-8")) or {}).get("rosbag2_bagfile_information") or {}
+        text = (info.get("custom_data") or {}).get(RECORDED_CONFIG)
+        data = yaml.safe_load(text) if isinstance(text, str) else None
+    except (OSError, yaml.YAMLError, AttributeError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 def replay(
     path: str | Path,
     config: MissionConfig,

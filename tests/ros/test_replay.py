@@ -4,6 +4,7 @@ saw. The live run is `mission tree` (the CLI verb, full mission tree) fed the sa
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -243,3 +244,19 @@ def test_replay_of_a_file_that_is_no_bag_is_one_error_naming_it_not_the_bag_besi
     assert proc.stdout == ""
     [line] = proc.stderr.strip().splitlines()
     assert line.startswith(f"mission: error: {notes}: not a bag: expected a ROS 1 .bag file, a rosbag2 directory")
+
+
+def test_a_sim_bag_replayed_without_a_config_uses_the_config_recorded_with_it(tmp_path, capsys):
+    """Issue 36: `mission replay BAG` of a `mission run --record-bag` bag found nothing and said nothing (the
+    built-in config reads DICT_4X4_250; the sim's markers are AprilTag 36h11). The run's config goes with its
+    bag now, and replay says it uses it."""
+    from mission.cli import main
+
+    bag = tmp_path / "run_bag"
+    assert main(["run", "--scenario", "explore_dock", "--max-duration", "14", "--record-bag", str(bag)]) == 1
+    capsys.readouterr()
+    assert main(["replay", str(bag)]) == 0
+    out = capsys.readouterr()
+    assert f"using the config recorded with {bag} (`mission run --record-bag`)" in out.err
+    processed = re.search(r"(\d+) frames processed \((\d+) with detections, marker ids \[0\]\)", out.out)
+    assert processed and int(processed.group(2)) > 10, out.out
