@@ -20,6 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
+from matplotlib.patches import Patch
 
 from mission.app.metrics import MetricsRecorder
 from mission.core.files import atomic_path, atomic_write_text
@@ -28,6 +29,7 @@ from mission.core.types import OccupancyGrid
 from mission.viz.style import STATE_COLOURS
 
 NO_STATE = "#c7c7c7"  # ticks before the mission state is first written
+TARGET = "#1f77b4"  # the target: its path and where it ended
 
 
 def report_observers(out: str | Path) -> list[RunObserver]:
@@ -80,8 +82,9 @@ def plot_trajectories(
     path: Path,
     title: str = "",
     dock_xy: tuple[float, float] | None = None,
-) -> None:
-    """Top-down map: static obstacles, the target's path, the robot's path coloured by mission state."""
+) -> list[str]:
+    """Top-down map: static obstacles, the target's path, the robot's path coloured by mission state; returns
+    what its key says (beside the map, so it hides no obstacle)."""
     fig, ax = plt.subplots(figsize=(7, 7))
     if grid is not None:
         h, w = grid.data.shape
@@ -92,8 +95,8 @@ def plot_trajectories(
     tgt = rec.target_xy
     tgt = tgt[~np.isnan(tgt[:, 0])]
     if len(tgt):
-        ax.plot(tgt[:, 0], tgt[:, 1], "--", color="#1f77b4", lw=1.5, label="target (truth)")
-        ax.plot(*tgt[-1], "s", color="#d62728", ms=8)
+        ax.plot(tgt[:, 0], tgt[:, 1], "--", color=TARGET, lw=1.5, label="target (truth)")
+        ax.plot(*tgt[-1], "s", color=TARGET, mec="black", ms=8, label="target end")  # not SEARCH's red
     xy = rec.robot_xy
     if len(xy) > 1:
         segs = np.stack([xy[:-1], xy[1:]], axis=1)
@@ -110,8 +113,10 @@ def plot_trajectories(
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title or "trajectories")
-    ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+    legend = ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)  # beside the map
+    labels = [text.get_text() for text in legend.get_texts()]
     save_figure(fig, path)
+    return labels
 
 
 def _stretches(values: list[str], end: int) -> list[tuple[int, int, str]]:
@@ -125,9 +130,11 @@ def _stretches(values: list[str], end: int) -> list[tuple[int, int, str]]:
     return out
 
 
-def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
-    """Mission state over time above the ground truth it reacts to (line of sight, field of view, range)."""
+def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> list[str]:
+    """Mission state over time above the ground truth it reacts to (line of sight, field of view, range);
+    returns what its colour key says."""
     t = np.array(rec.times, dtype=float)
+    labels: list[str] = []
     fig, (ax_s, ax_d) = plt.subplots(2, 1, figsize=(10, 4.2), sharex=True, height_ratios=[1.2, 1])
     if len(t) > 1:
         d = np.array(rec.target_distance, dtype=float)
@@ -143,6 +150,15 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
                 ax_s.barh(y, t[b] - t[a], left=t[a], height=0.8, color=colour)
         ax_s.set_yticks(list(ys), list(rows))
         ax_s.set_ylim(ys[-1] - 0.5, ys[0] + 0.5)
+        key = [Patch(color=STATE_COLOURS.get(st, NO_STATE), label=st) for st in dict.fromkeys(rec.states) if st]
+        if has_target:
+            key += [
+                Patch(color="#2ca02c", label="in sight / in view"),
+                Patch(color="#d62728", label="line of sight blocked"),
+                Patch(color="#d9d9d9", label="not in view"),
+            ]
+        ax_s.legend(handles=key, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, frameon=False)
+        labels = [str(k.get_label()) for k in key]
         last_label = -np.inf
         for tt, s in rec.transitions:
             if s and tt - last_label >= (t[-1] - t[0]) / 25:  # flickers would print on top of each other
@@ -155,5 +171,6 @@ def plot_timeline(rec: MetricsRecorder, path: Path, title: str = "") -> None:
             ax_d.text(0.5, 0.5, "no target in this scenario", ha="center", va="center", transform=ax_d.transAxes)
             ax_d.set_yticks([])
     ax_d.set_xlabel("sim time (s)")
-    ax_s.set_title(title or "timeline")
+    ax_s.set_title(title or "timeline", pad=22)  # above the state labels, not on them
     save_figure(fig, path)
+    return labels

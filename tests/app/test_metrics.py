@@ -250,3 +250,19 @@ def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_
         rec.record(GT(t, robot, target, target_in_los=los), state, None, {"target": track})
     latency = rec.summary(3.0)["occlusion_detection_latency_s"]
     assert latency["max"] == pytest.approx(0.4)
+
+
+def test_the_report_pictures_say_what_every_colour_and_mark_means(tmp_path):
+    """Issue 36: the target's end mark had no key (and SEARCH's red), the map's key covered obstacles, the
+    timeline had no colour key. Each picture now returns what its key says."""
+    from mission.viz.run_report import plot_timeline, plot_trajectories
+
+    rec = MetricsRecorder()
+    script = [(0.0, True, "FOLLOW"), (1.0, False, "LOST"), (4.0, False, "SEARCH"), (6.0, True, "FOLLOW")]
+    for i, (t, los, state) in enumerate(script):
+        rec.record(GT(t, Pose2D(0.1 * i, 0, 0), Pose2D(2, 0.2 * i, 0), target_in_los=los), state, None, None)
+    key = plot_trajectories(rec, None, tmp_path / "trajectories.png", "t")
+    assert {"target (truth)", "target end", "robot start", "robot end", "FOLLOW", "LOST", "SEARCH"} <= set(key)
+    timeline = plot_timeline(rec, tmp_path / "timeline.png", "t")
+    assert timeline == ["FOLLOW", "LOST", "SEARCH", "in sight / in view", "line of sight blocked", "not in view"]
+    assert (tmp_path / "trajectories.png").stat().st_size > 0 and (tmp_path / "timeline.png").stat().st_size > 0
