@@ -223,6 +223,9 @@ def test_ctrl_c_in_the_first_second_stops_with_130_and_no_traceback(delay_s):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # as from a terminal: a test run started in the background (`scripts/test &`, nohup) has SIGINT ignored,
+        # and a child inherits that — Python then never turns Ctrl-C into KeyboardInterrupt, by design
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(delay_s)
     proc.send_signal(signal.SIGINT)
