@@ -45,6 +45,7 @@ import numpy as np
 from bench.common import Figure, progress, save_figure
 from bench.missions import aggregate
 from bench.search_bench import _resumable, summarise
+from mission.app.shipped import resolve_config
 from mission.core.files import atomic_write_text
 from mission.sweep.engine import connect, run_sweep
 from mission.sweep.plan import SweepPlan
@@ -174,7 +175,12 @@ def _plans(
         groups.setdefault(CONFIGS.get(s), []).append(s)
     return [
         SweepPlan.from_args(
-            tuple(group), seeds, list(sets), config_file=config, max_duration=max_duration, pictures=pictures
+            tuple(group),
+            seeds,
+            list(sets),
+            config_file=resolve_config(config) if config else None,  # a shipped config's name, as --config takes
+            max_duration=max_duration,
+            pictures=pictures,
         )
         for config, group in groups.items()
     ]
