@@ -70,11 +70,21 @@ def header(runner: Any, adapter: Any, probe: Any, **extra: Any) -> dict[str, Any
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "tree_file": None if tree_path is None else str(tree_path),
         "scenario": scenario,
+        # what ran, on the first line: the config (None: the built-in one) and the perception plugins
+        "config_file": None if getattr(runner, "config_file", None) is None else str(runner.config_file),
+        "perception": _plugins(runner),
         "nodes": 0 if probe is None else count(probe.static),
         "tree": None if probe is None else to_dict(probe.static),
         "map": map_info(runner, adapter),
         **extra,
     }
+
+
+def _plugins(runner: Any) -> list[dict[str, str]]:
+    """The perception sources the run's config names: instance name and plugin."""
+    config = getattr(runner, "config", None)
+    sources = getattr(getattr(config, "perception", None), "sources", None) or []
+    return [{"name": c.name or c.plugin, "plugin": c.plugin} for c in sources]
 
 
 class TickLog(RunObserver):

@@ -140,3 +140,12 @@ def test_a_btlog_asked_for_a_tick_it_does_not_have_says_it_counts_changes_not_ti
     assert main(["viz", "--log", str(log), "--tick", "30"]) == 2
     err = capsys.readouterr().err.strip()
     assert "no timestamp 30; this .btlog has 1 (1..1): a .btlog records status changes, not ticks" in err
+
+
+def test_the_first_line_of_a_log_says_what_ran_tree_config_and_perception(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    assert main(["run", "--scenario", "explore_dock", "--max-duration", "0.3", "--log", str(log)]) == 1
+    first = read_log(log).header
+    assert first["tree_file"].endswith("explore_dock.xml") and first["scenario"] == "explore_dock"
+    assert first["config_file"].endswith("sim_aruco.yaml")  # the shipped config a run without --config uses
+    assert first["perception"] == [{"name": "aruco", "plugin": "aruco"}]
