@@ -62,8 +62,8 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
     "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
     "marker_size_m": (_ARUCO_DEFAULTS.marker_size_m, "ArUco marker side length (without `config`)"),
-    "dictionary": (_ARUCO_DEFAULTS.dictionary, f"ArUco dictionary (without `config`); unknown → warning, "
-                   f"{_ARUCO_DEFAULTS.dictionary}"),
+    "dictionary": (_ARUCO_DEFAULTS.dictionary, "ArUco dictionary (without `config`); an unknown name stops the node "
+                   "with the names there are"),
     "config": ("", "mission config YAML; its perception sources and targets replace the two above"),
     "tree": ("", "tree file or shipped tree name; empty = the config's tree; `none` = perception only"),
     "tick_hz": (0.0, "tree ticks per second; 0 = the config's run.tick_hz (15)"),
