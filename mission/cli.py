@@ -265,8 +265,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM before a verb has its own handling (imports, set-up): stop as Ctrl-C does, with 143."""
+
+
+def _terminate(_signum: int, _frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one verb; its exit code."""
+    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:  # an inherited "ignore" (nohup) is kept
+        signal.signal(signal.SIGTERM, _terminate)  # a run's loop installs its own and restores this one
     try:
         code = _main(argv)
         sys.stdout.flush()  # here, not in the interpreter's exit: a closed pipe is then ours to report
@@ -280,6 +290,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C before a verb has its own handling (imports, set-up): no traceback
         print("mission: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
+    except Terminated:
+        print("mission: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
 
 
 def _output_failed(err: OSError) -> int:

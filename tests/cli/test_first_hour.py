@@ -214,7 +214,10 @@ def test_max_duration_ends_a_run_at_the_limit_even_when_a_tick_is_longer(tmp_pat
 
 
 @pytest.mark.parametrize("delay_s", [0.2, 0.5])
-def test_ctrl_c_in_the_first_second_stops_with_130_and_no_traceback(delay_s):
+@pytest.mark.parametrize(("signame", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_stop_signal_in_the_first_second_stops_with_its_code_and_no_traceback(delay_s, signame, code):
+    """Ctrl-C (130) or a service manager's SIGTERM (143) while the run still starts up: one line, no traceback,
+    the shell's code for that signal."""
     import signal
     import time
 
@@ -228,7 +231,7 @@ def test_ctrl_c_in_the_first_second_stops_with_130_and_no_traceback(delay_s):
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(delay_s)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(getattr(signal, signame))
     _out, err = proc.communicate(timeout=120)
     assert "Traceback" not in err, err
-    assert proc.returncode == 130, err
+    assert proc.returncode == code, err
