@@ -408,6 +408,7 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         "title": "Missions under a real robot's senses: ideal / typical / harsh, and one factor at a time"
         + (f" (QUICK: runs cut at {QUICK_MAX_DURATION_S:g} s simulated — a smoke test)" if quick else "")
         + (" — REDUCED run: fewer seeds or scenarios than the full run" if reduced and not quick else "")
+        + (" — PROFILES ONLY: the one-factor curves did not run (MISSION_BENCH_FACTORS=none)" if not factors else "")
         + (f" — CUT SHORT: {len(rows)} of {planned} runs finished; the same command goes on" if cut else ""),
         "figures": [f.to_json() for f in figures],
         "details": {
