@@ -20,7 +20,7 @@ import os
 import shutil
 import stat
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 __all__ = ["atomic_path", "atomic_write_bytes", "atomic_write_text", "ensure_dir", "ensure_parent", "unwritable"]
@@ -168,13 +168,16 @@ class StreamedFile:
 
     A write that fails — the disk is full, the device is gone — must not stop the run or leave half a file that
     looks whole: the file is closed and removed, and :attr:`failure` says once, naming the option and the file,
-    what happened (the caller logs it). Later writes are ignored."""
+    what happened, and `warn` is given it once. Later writes are ignored."""
 
-    def __init__(self, path: Path, option: str, binary: bool = False) -> None:
+    def __init__(
+        self, path: Path, option: str, binary: bool = False, warn: Callable[[str], None] = lambda message: None
+    ) -> None:
         from mission.core.errors import MissionError
 
         self.path = path
         self.option = option
+        self.warn = warn
         self.failure = ""
         self.writes = 0
         try:
@@ -209,6 +212,7 @@ class StreamedFile:
             f"{self.option} {self.path}: cannot write ({err.strerror or err}) after {self.writes} writes: "
             f"stopped{removed}; the run goes on"
         )
+        self.warn(self.failure)
 
     def close(self) -> None:
         if self._fh is not None:

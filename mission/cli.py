@@ -298,10 +298,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _output_failed(err: OSError) -> int:
     """stdout cannot be written (a full disk, `> /dev/full`, a closed descriptor): one line on stderr naming it,
     exit 74 (sysexits' EX_IOERR), no traceback; what was written before stays as it was."""
-    with contextlib.suppress(OSError, ValueError):
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())  # the interpreter's last flush must not fail again
-        os.close(devnull)
+    _stdout_to_devnull()
     with contextlib.suppress(OSError, ValueError):
         print(f"mission: error: cannot write the output (stdout): {err.strerror or err}", file=sys.stderr)
     return 74
@@ -316,11 +313,16 @@ def _output_closed() -> int:
     (they die of SIGPIPE; Python ignores that signal, and dying of it here would skip cleanup), so
     `set -o pipefail` scripts see what they see for any Unix tool.
     """
+    _stdout_to_devnull()
+    return 128 + signal.SIGPIPE
+
+
+def _stdout_to_devnull() -> None:
+    """Point stdout at /dev/null, so the interpreter's final flush of what is still buffered cannot fail again."""
     with contextlib.suppress(OSError, ValueError):  # ValueError: stdout is not a real file (captured, closed)
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
-    return 128 + signal.SIGPIPE
 
 
 def _module(verb: str) -> str:

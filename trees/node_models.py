@@ -85,8 +85,12 @@ def _guess(tag: str, uses: list[SourceElement]) -> NodeModel:
     else:
         most = max(len(el.children) for el in uses)
         kind = "Action" if most == 0 else "Decorator" if most == 1 else "Control"
-    ports = {a: "input" for el in uses for a in el.attrib if a not in NAME_ATTRIBUTES and not a.startswith("_")}
-    return NodeModel(tag, kind, ports, "guessed from the file")  # type: ignore[arg-type]
+    return NodeModel(tag, kind, dict.fromkeys(_attributes(uses), "input"), "guessed from the file")  # type: ignore[arg-type]
+
+
+def _attributes(uses: list[SourceElement]) -> list[str]:
+    """The port attributes the file writes on these elements (not the name, the ID or Groot2's own)."""
+    return [a for el in uses for a in el.attrib if a not in NAME_ATTRIBUTES and not a.startswith("_")]
 
 
 def drawing_factory(path: str | Path, palettes: Iterable[str | Path] = ()) -> tuple[BehaviourFactory, list[NodeModel]]:
@@ -121,10 +125,8 @@ def _ports(model: NodeModel, uses: list[SourceElement]) -> dict[str, Port]:
     """The model's ports as optional, untyped strings, plus any attribute the file writes that it lacks (a
     model may be older than the tree): a drawing checks nothing about them."""
     names = dict(model.ports)
-    for el in uses:
-        for a in el.attrib:
-            if a not in NAME_ATTRIBUTES and not a.startswith("_"):
-                names.setdefault(a, "input")
+    for a in _attributes(uses):
+        names.setdefault(a, "input")
     ports: dict[str, Any] = {}
     for name, direction in names.items():
         default = REQUIRED if direction == "output" else ""  # an output left out writes nothing

@@ -77,8 +77,7 @@ class BtLogWriter(RunObserver):
             raise MissionError(
                 f"{option} {path}: expected a file name ending in {SUFFIX} (Groot2 opens logs by that suffix)"
             )
-        self._file = StreamedFile(self.path, option, binary=True)
-        self._said = False
+        self._file = StreamedFile(self.path, option, binary=True, warn=log.warning)
         self._recorder: TransitionRecorder | None = None
         self._tree: Any = None  # the py_trees tree the recorder visits
         self._logged = False  # the header (one tree) is written
@@ -137,9 +136,7 @@ class BtLogWriter(RunObserver):
         self.close()
 
     def _write(self, data: bytes) -> None:
-        if not self._file.write(data) and self._file.failure and not self._said:
-            self._said = True
-            log.warning("%s", self._file.failure)
+        self._file.write(data)
 
     def close(self) -> None:
         self._file.close()

@@ -100,8 +100,8 @@ class TickLog(RunObserver):
         self._probe: TickProbe | None = None
         self._logged = False  # the header (one tree) is written
         self.lines = 0
-        self._said = False
-        self._file = StreamedFile(self.path, "--log")  # fails before the (slow) simulation when it cannot be opened
+        # fails before the (slow) simulation when it cannot be opened
+        self._file = StreamedFile(self.path, "--log", warn=log.warning)
 
     def on_start(self, runner: Any) -> None:
         if runner.tree is not None:  # none: an action server's run before its first goal (on_tree brings it)
@@ -139,9 +139,6 @@ class TickLog(RunObserver):
     def _write(self, obj: dict[str, Any]) -> None:
         if self._file.write(_dumps(obj) + "\n"):
             self.lines += 1
-        elif self._file.failure and not self._said:
-            self._said = True
-            log.warning("%s", self._file.failure)
 
     def close(self) -> None:
         self._file.close()
