@@ -150,10 +150,12 @@ def feedback_state(spec: TaskSpec, watch: PhaseWatch, attempt: int, phase: str |
 def feedback_states(spec: TaskSpec, watch: PhaseWatch, attempt: int) -> list[str]:
     """Every state the last tick went through, in order, ending where the tree is: a phase the tree finished
     within one tick (the dock already in view: INITIAL_PERCEPTION) is reported too, as Nav2's servers do
-    before they wait for anything."""
+    before they wait for anything. Empty before the tree reaches a named node (a node still waiting for its
+    camera does not tick it): Nav2's servers never send NONE as feedback."""
     states = [feedback_state(spec, watch, attempt, p) for p in watch.passed if p in spec.states]
     states.append(feedback_state(spec, watch, attempt))
-    return [s for i, s in enumerate(states) if s != "NONE" and (i == 0 or s != states[i - 1])] or ["NONE"]
+    states = [s for s in states if s != "NONE"]
+    return [s for i, s in enumerate(states) if i == 0 or s != states[i - 1]]
 
 
 def failure(spec: TaskSpec, watch: PhaseWatch, reason: str) -> tuple[str, str]:

@@ -274,6 +274,8 @@ class TaskServers(RunObserver):
 
     def _feedback(self, active: _Active) -> None:
         states = tasks.feedback_states(active.spec, active.watch, self._attempt())
+        if not states:  # the tree has not reached a named node yet: nothing to say
+            return
         if states[0] == active.last_state:  # said at the end of the last tick: only what came after
             states = states[1:] or states
         for state in states:

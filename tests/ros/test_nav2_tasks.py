@@ -135,6 +135,7 @@ def test_a_phase_the_tree_finishes_within_one_tick_is_still_reported_in_order():
     tree = py_trees.trees.BehaviourTree(root)
     watch = tasks.PhaseWatch(tasks.DOCK_ROBOT)
     tree.visitors.append(watch)
+    assert tasks.feedback_states(tasks.DOCK_ROBOT, watch, 1) == []  # not ticked yet: no NONE feedback
     tree.tick()
     assert watch.current == "CONTROLLING"
     assert tasks.feedback_state(tasks.DOCK_ROBOT, watch, 1) == "CONTROLLING"  # where the tree is
