@@ -2,10 +2,15 @@
 
 This is the geometric half of the VLM pipeline (the design notes' Gemini Robotics-ER node):
 
-1. back-project the pixel with its depth and the intrinsics (pinhole: x = (u-cx)·z/fx, y = (v-cy)·z/fy);
+1. back-project the pixel with its depth through the lens the frame's intrinsics describe (each pixel's ray
+   undistorted when the camera has distortion; pinhole x = (u-cx)·z/fx, y = (v-cy)·z/fy otherwise);
 2. take the depth patch around it (a fixed physical radius, so the patch shrinks with distance), reject
    pixels whose depth is more than k·MAD (2.5) from the median — background behind a small target — and
-   fit a plane by SVD: its normal, turned toward the camera, is the target's z axis;
+   fit a plane by SVD: its normal, turned toward the camera, is the target's z axis. A stereo camera's depth
+   noise grows with distance squared; far away it swamps the patch's few centimetres of width, and the
+   "plane" the SVD finds then runs along the rays. Such a plane is not used: the surface is taken to face
+   the camera at the patch's mean depth, which averages the noise instead of amplifying it. The point's
+   standard error (``sigma_m``) says how far to trust it;
 3. in-plane rotation: Canny edges on the image patch, PCA of their gradient vectors (the structure
    tensor) gives the dominant edge direction; when edges are balanced (a square, a printed tag) the
    4-fold circular mean of edge angles is used instead. The axis is carried onto the plane by
@@ -28,6 +33,8 @@ import numpy as np
 from mission.core.types import CameraIntrinsics
 
 MIN_PLANE_POINTS = 6
+MIN_PLANE_FACING = 0.25  # |cos| between the pixel's ray and a fitted normal below which the plane is noise (75°)
+MAX_PLANE_RMS = 0.3  # plane residual over the patch's half-width above which the plane is noise
 BALANCED_EDGES = 0.3  # structure-tensor anisotropy below which a single "dominant edge" is not trusted
 
 
@@ -38,9 +45,11 @@ class SurfacePose:
     T_camera_target: np.ndarray  # 4×4
     inliers: int  # depth pixels kept by the MAD test and used for the plane
     outliers: int  # depth pixels rejected by it
-    plane_rms_m: float  # RMS distance of the inliers to the plane
+    plane_rms_m: float  # RMS distance of the inliers to the plane (the depth spread when no plane was used)
     edge_anisotropy: float  # 0 = balanced edges (4-fold mean used), 1 = one clear edge direction
     edge_pixels: int
+    sigma_m: float = 0.0  # the point's standard error from the depth noise (how far two answers may differ)
+    plane_used: bool = True  # False: the depth noise swamped the patch, the surface faces the camera
 
 
 def mad_inliers(values: np.ndarray, k: float = 2.5) -> np.ndarray:
@@ -80,8 +89,19 @@ def depth_at(depth: np.ndarray, u: float, v: float, radius_px: int = 2) -> float
     return float(np.median(win)) if win.size else None
 
 
+def _rays(intr: CameraIntrinsics, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
+    """N×3 rays (x/z, y/z, 1) of pixels, through the lens (undistorted when the intrinsics have distortion)."""
+    us, vs = np.asarray(us, dtype=np.float64).ravel(), np.asarray(vs, dtype=np.float64).ravel()
+    if intr.distortion and any(c != 0.0 for c in intr.distortion):
+        pts = np.column_stack([us, vs]).reshape(-1, 1, 2)
+        xy = cv2.undistortPoints(pts, intr.matrix, intr.dist_coeffs).reshape(-1, 2)
+    else:
+        xy = np.column_stack([(us - intr.cx) / intr.fx, (vs - intr.cy) / intr.fy])
+    return np.column_stack([xy, np.ones(len(xy))])
+
+
 def _ray(intr: CameraIntrinsics, u: float, v: float) -> np.ndarray:
-    return np.array([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy, 1.0])
+    return _rays(intr, np.array([u]), np.array([v]))[0]
 
 
 def _ray_plane(ray: np.ndarray, centroid: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
@@ -162,19 +182,29 @@ def estimate_surface_pose(
     z = patch[valid]
     keep = mad_inliers(z, mad_k)
     zs, us, vs = z[keep], uu[valid][keep], vv[valid][keep]
-    pts = np.stack([(us - intr.cx) * zs / intr.fx, (vs - intr.cy) * zs / intr.fy, zs], axis=1)
+    pts = _rays(intr, us, vs) * zs[:, None]
 
     ray = _ray(intr, u, v)
+    ray_unit = ray / np.linalg.norm(ray)
     point = ray * z0
+    facing = -ray_unit  # too few pixels or too much noise for a plane: the surface faces the camera
+    normal, rms, sigma, plane_used = facing, 0.0, 0.0, False
+    if len(zs) >= 2:
+        rms = float(np.std(zs))
+        sigma = rms * float(np.linalg.norm(ray)) / math.sqrt(len(zs))
     if len(pts) >= MIN_PLANE_POINTS:
-        centroid, normal, rms = fit_plane_svd(pts)
-        if normal @ centroid > 0:  # turn the normal toward the camera (origin)
-            normal = -normal
-        hit = _ray_plane(ray, centroid, normal)
+        centroid, fitted, fit_rms = fit_plane_svd(pts)
+        if fitted @ centroid > 0:  # turn the normal toward the camera (origin)
+            fitted = -fitted
+        cos = abs(float(ray_unit @ fitted))
+        half_width = r * z0 / intr.fx
+        determined = cos >= MIN_PLANE_FACING and fit_rms <= MAX_PLANE_RMS * half_width
+        hit = _ray_plane(ray, centroid, fitted) if determined else None
         if hit is not None and abs(hit[2] - z0) < 0.5 * z0:
-            point = hit  # the pixel's ray through the fitted plane: less noisy than one depth sample
-    else:  # too few pixels for a plane: face the camera
-        normal, rms = -ray / np.linalg.norm(ray), 0.0
+            point, normal, rms, plane_used = hit, fitted, fit_rms, True  # the ray through the plane: less noisy
+            sigma = fit_rms / (math.sqrt(len(pts)) * cos)
+        else:  # the noise runs along the rays: average it over the patch
+            point = ray * float(np.mean(zs))
 
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     angle, anisotropy, n_edges = dominant_edge_angle(gray[v0:v1, u0:u1])
@@ -202,4 +232,6 @@ def estimate_surface_pose(
         plane_rms_m=rms,
         edge_anisotropy=anisotropy,
         edge_pixels=n_edges,
+        sigma_m=float(sigma),
+        plane_used=plane_used,
     )

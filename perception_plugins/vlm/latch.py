@@ -8,6 +8,11 @@ design notes' node asks until `min_consecutive` answers agree within `tolerance_
 the camera is ``inv(T_anchor_camera_now) @ T_anchor_target`` — no model calls — which is only right for
 a static target; `reset()` (the /redetect request) starts over.
 
+An answer read from noisy depth (a stereo camera far away: its error grows with distance squared) carries
+its standard error. Two answers agree when they are within the tolerance or within three of their combined
+standard errors, and the latch is their mean weighted by inverse variance, so a far, noisy answer neither
+blocks the consensus nor drags it.
+
 Pure logic, no threads and no clock: source.py drives it.
 """
 
@@ -28,10 +33,21 @@ class Candidate:
     T_anchor_target: np.ndarray
     confidence: float
     stamp: float  # of the frame the model saw
+    sigma_m: float = 0.0  # the position's standard error from the depth noise (0: as exact as the tolerance)
 
 
-def mean_pose(candidates: list[Candidate]) -> np.ndarray:
-    """Mean position and chordal-mean rotation of candidates.
+AGREE_SIGMAS = 3.0  # two answers within this many combined standard errors agree
+
+
+def agree_within_m(a: Candidate, b: Candidate, tolerance_m: float) -> float:
+    """How far apart two answers may be and still be the same place: the tolerance, or three combined
+    standard errors of their depth noise when that is more."""
+    return max(tolerance_m, AGREE_SIGMAS * math.hypot(a.sigma_m, b.sigma_m))
+
+
+def mean_pose(candidates: list[Candidate], floor_sigma_m: float = 0.0) -> np.ndarray:
+    """Mean position (weighted by inverse variance, each σ at least `floor_sigma_m`) and chordal-mean
+    rotation of candidates.
 
     The in-plane axis of a rectangular surface is known modulo 90°, so each rotation is first turned
     about its own z by the multiple of 90° that brings it closest to the first candidate's.
@@ -44,7 +60,8 @@ def mean_pose(candidates: list[Candidate]) -> np.ndarray:
         acc += best
     u, _, vt = np.linalg.svd(acc)
     rot = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
-    pos = np.mean([c.T_anchor_target[:3, 3] for c in candidates], axis=0)
+    sigmas = np.array([max(c.sigma_m, floor_sigma_m, 1e-6) for c in candidates])
+    pos = np.average([c.T_anchor_target[:3, 3] for c in candidates], axis=0, weights=1.0 / sigmas**2)
     return se3.transform(rot, pos)
 
 
@@ -80,12 +97,15 @@ class OneShotLatch:
         if self.latched:
             return False
         p = candidate.T_anchor_target[:3, 3]
-        agrees = all(np.linalg.norm(p - c.T_anchor_target[:3, 3]) <= self.tolerance_m for c in self.run)
+        agrees = all(
+            np.linalg.norm(p - c.T_anchor_target[:3, 3]) <= agree_within_m(candidate, c, self.tolerance_m)
+            for c in self.run
+        )
         self.run = [*self.run, candidate] if agrees else [candidate]
         if len(self.run) < self.min_consecutive:
             return False
         chosen = self.run[-self.min_consecutive :]
-        self.T_anchor_target = mean_pose(chosen)
+        self.T_anchor_target = mean_pose(chosen, floor_sigma_m=self.tolerance_m / AGREE_SIGMAS)
         self.confidence = float(np.mean([c.confidence for c in chosen]))
         self.latched_at = candidate.stamp
         return True

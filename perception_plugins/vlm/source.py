@@ -62,7 +62,7 @@ from mission.core.perception import TARGET_LABEL
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins.vlm.client import VlmClient, make_client
 from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
-from mission.perception_plugins.vlm.latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.latch import AGREE_SIGMAS, Candidate, OneShotLatch, agree_within_m
 from mission.perception_plugins.vlm.quota import QuotaBudget, QuotaStore, default_state_file
 from mission.perception_plugins.vlm.settings import GeminiSettings, OpenAiSettings, RemoteSettings
 
@@ -492,7 +492,7 @@ class VlmSource:
             return
         assert req.T_anchor_camera is not None
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
-                              req.stamp)
+                              req.stamp, answer.pose.sigma_m)
         if self._off_the_runs_depth(candidate, answer):
             return
         if self.latch.add(candidate):
@@ -524,16 +524,20 @@ class VlmSource:
             return False
         expected = np.mean([c.T_anchor_target[:3, 3] for c in run], axis=0)
         here = candidate.T_anchor_target[:3, 3]
-        if float(np.linalg.norm(here - expected)) <= p.latch_position_tolerance_m:
+        noisiest = max(run, key=lambda c: c.sigma_m)
+        if float(np.linalg.norm(here - expected)) <= agree_within_m(candidate, noisiest, p.latch_position_tolerance_m):
             self._inconsistent_candidate = None
             return False
         in_cam = se3.apply(se3.invert(req.T_anchor_camera), expected[None, :])[0]
         seen = answer.pose.T_camera_target[:3, 3]
-        if abs(float(np.linalg.norm(seen)) - float(np.linalg.norm(in_cam))) <= p.depth_tolerance_m:
+        depth_tolerance = p.depth_tolerance_m + AGREE_SIGMAS * math.hypot(candidate.sigma_m, noisiest.sigma_m)
+        if abs(float(np.linalg.norm(seen)) - float(np.linalg.norm(in_cam))) <= depth_tolerance:
             self._inconsistent_candidate = None
             return False  # the same depth elsewhere: the target moved (the consensus restarts)
         last = self._inconsistent_candidate
-        if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= p.latch_position_tolerance_m:
+        if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= agree_within_m(
+            last, candidate, p.latch_position_tolerance_m
+        ):
             self._inconsistent_candidate = None
             self.latch.add(last)  # twice there: the target is there, and the answer held back counts again
             return False
