@@ -225,6 +225,7 @@ class VlmSource:
         self.last_error = ""  # the last failed model call, one line (no secrets: the clients redact them)
         self._misreads: Counter[str] = Counter()  # likely cause of each misread answer → count
         self._inconsistent_candidate: Candidate | None = None  # the last answer dropped as off the run's depth
+        self._inconsistent_cause = ""  # the misread cause it was counted under
         self._logged: set[str] = set()
 
     # -- public controls ---------------------------------------------------------------------------
@@ -539,12 +540,22 @@ class VlmSource:
             last, candidate, p.latch_position_tolerance_m
         ):
             self._inconsistent_candidate = None
+            self._unmisread(self._inconsistent_cause)  # the target moved: that answer was read right
             self.latch.add(last)  # twice there: the target is there, and the answer held back counts again
             return False
         self._inconsistent_candidate = candidate
+        self._inconsistent_cause = self._swap_cause(answer, in_cam)
         self.counters["answers_off_depth"] += 1
-        self._misread(self._swap_cause(answer, in_cam))
+        self._misread(self._inconsistent_cause)
         return True
+
+    def _unmisread(self, cause: str) -> None:
+        """An answer held back as misread was confirmed by the next one (the target moved): it was not."""
+        self.counters["answers_misread"] -= 1
+        self.counters["target_moved"] += 1
+        self._misreads[cause] -= 1
+        if self._misreads[cause] <= 0:
+            del self._misreads[cause]
 
     @staticmethod
     def _swap_cause(answer: _Answer, run_in_cam: np.ndarray) -> str:

@@ -337,5 +337,7 @@ def test_a_target_seen_twice_at_a_new_depth_has_moved_and_the_consensus_restarts
         src.close()
     assert st["answers_off_depth"] == 1  # the first answer at the new depth was held back…
     assert src.latch.latched and st["model_calls"] == 5  # …the second confirmed it: a new consensus of three
+    assert st["target_moved"] == 1 and st.get("answers_misread", 0) == 0  # and it was not a misread
+    assert st["misread_cause"] == ""
     face = box_front_face(near)[:3, 3]
     assert np.linalg.norm(src.latch.T_anchor_target[:3, 3] - face) < 0.05
