@@ -182,7 +182,7 @@ class CameraModel:
             z = z + self._rng.standard_normal(z.shape, dtype=np.float32) * np.nan_to_num(sigma)
         if c.depth_edge_holes_m > 0:
             jump = np.zeros(z.shape, dtype=bool)
-            finite = np.nan_to_num(depth, nan=np.inf)
+            finite = np.nan_to_num(depth, nan=1e6, posinf=1e6)  # no return: far (finite, so no inf - inf warnings)
             dx = np.abs(np.diff(finite, axis=1)) > c.depth_edge_holes_m
             dy = np.abs(np.diff(finite, axis=0)) > c.depth_edge_holes_m
             jump[:, 1:] |= dx

@@ -282,13 +282,16 @@ class VlmSource:
 
     def misread_cause(self) -> str:
         """The likely cause once :data:`MISREADS_BEFORE_CAUSE` answers were misread ("" before): the most
-        frequent guess ("answers look like [x, y]; set family"), or that points keep missing the target."""
+        frequent guess ("answers look like [x, y]; set family"), or, when most answers are misread, that
+        points keep missing the target."""
         total = sum(self._misreads.values())
         if total < MISREADS_BEFORE_CAUSE:
             return ""
         known = Counter({k: v for k, v in self._misreads.items() if k})
         if known:
             return known.most_common(1)[0][0]
+        if 2 * total < self.counters["answers"] + self.counters["points_dropped"]:
+            return ""  # most answers read right: a target on the move, or an edge's depth, not a convention
         family = getattr(self._client, "family", None)
         return (f"{total} answers misread (points outside the image or off the other answers' depth); "
                 f"check the model's family{f' (now {family})' if family else ''}")
