@@ -234,4 +234,9 @@ def test_a_stop_signal_in_the_first_second_stops_with_its_code_and_no_traceback(
     proc.send_signal(getattr(signal, signame))
     _out, err = proc.communicate(timeout=120)
     assert "Traceback" not in err, err
-    assert proc.returncode == code, err
+    assert err.strip().splitlines() == [f"mission: {'interrupted' if signame == 'SIGINT' else 'terminated'}"], err
+    # A shell sees 128 + the signal either way: the exit code, or the process ended by the signal itself. CPython
+    # does the latter when a Ctrl-C went through one of its C-level runs (an extension's import) on the way to
+    # our handler — its "unhandled KeyboardInterrupt" flag is then set for good; seen once under load in CI.
+    killed = signame == "SIGINT" and proc.returncode == -signal.SIGINT
+    assert proc.returncode == code or killed, err
