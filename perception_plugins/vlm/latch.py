@@ -9,9 +9,10 @@ the camera is ``inv(T_anchor_camera_now) @ T_anchor_target`` — no model calls 
 a static target; `reset()` (the /redetect request) starts over.
 
 An answer read from noisy depth (a stereo camera far away: its error grows with distance squared) carries
-its standard error. Two answers agree when they are within the tolerance or within three of their combined
-standard errors, and the latch is their mean weighted by inverse variance, so a far, noisy answer neither
-blocks the consensus nor drags it.
+its standard error, and its range. Two answers agree when they are within the tolerance, within three of
+their combined standard errors, or within the arc a small bearing error spans at their range (a robot's
+heading, as AMCL knows it, is off by ~0.02 rad: 12 cm sideways at 6 m). The latch is their mean weighted by
+inverse variance, so a far, noisy answer neither blocks the consensus nor drags it.
 
 Pure logic, no threads and no clock: source.py drives it.
 """
@@ -34,15 +35,17 @@ class Candidate:
     confidence: float
     stamp: float  # of the frame the model saw
     sigma_m: float = 0.0  # the position's standard error from the depth noise (0: as exact as the tolerance)
+    range_m: float = 0.0  # how far from the camera it was answered
 
 
 AGREE_SIGMAS = 3.0  # two answers within this many combined standard errors agree
 
 
-def agree_within_m(a: Candidate, b: Candidate, tolerance_m: float) -> float:
-    """How far apart two answers may be and still be the same place: the tolerance, or three combined
-    standard errors of their depth noise when that is more."""
-    return max(tolerance_m, AGREE_SIGMAS * math.hypot(a.sigma_m, b.sigma_m))
+def agree_within_m(a: Candidate, b: Candidate, tolerance_m: float, bearing_rad: float = 0.0) -> float:
+    """How far apart two answers may be and still be the same place: the tolerance; or three combined
+    standard errors of their depth noise; or, far away, the arc `bearing_rad` spans at the farther answer's
+    range (the robot's heading error between two answers moves a far answer sideways) — whichever is more."""
+    return max(tolerance_m, AGREE_SIGMAS * math.hypot(a.sigma_m, b.sigma_m), bearing_rad * max(a.range_m, b.range_m))
 
 
 def mean_pose(candidates: list[Candidate], floor_sigma_m: float = 0.0) -> np.ndarray:
@@ -68,9 +71,12 @@ def mean_pose(candidates: list[Candidate], floor_sigma_m: float = 0.0) -> np.nda
 class OneShotLatch:
     """Consensus → latch, plus the circuit breaker of failed attempts."""
 
-    def __init__(self, *, min_consecutive: int, tolerance_m: float, max_failed_attempts: int) -> None:
+    def __init__(
+        self, *, min_consecutive: int, tolerance_m: float, max_failed_attempts: int, bearing_tolerance_rad: float = 0.0
+    ) -> None:
         self.min_consecutive = min_consecutive
         self.tolerance_m = tolerance_m
+        self.bearing_tolerance_rad = bearing_tolerance_rad
         self.max_failed_attempts = max_failed_attempts
         self.reset()
 
@@ -98,7 +104,8 @@ class OneShotLatch:
             return False
         p = candidate.T_anchor_target[:3, 3]
         agrees = all(
-            np.linalg.norm(p - c.T_anchor_target[:3, 3]) <= agree_within_m(candidate, c, self.tolerance_m)
+            np.linalg.norm(p - c.T_anchor_target[:3, 3])
+            <= agree_within_m(candidate, c, self.tolerance_m, self.bearing_tolerance_rad)
             for c in self.run
         )
         self.run = [*self.run, candidate] if agrees else [candidate]

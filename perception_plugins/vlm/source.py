@@ -102,6 +102,7 @@ class VlmParams(StrictModel):
     republish_rate_hz: float = Field(30.0, gt=0.0)  # rate of the latched pose, re-projected into the camera
     min_consecutive_detections: int = Field(3, ge=1)  # agreeing answers needed to latch
     latch_position_tolerance_m: float = Field(0.10, gt=0.0)  # answers agree when this close in the map frame
+    latch_bearing_tolerance_rad: float = Field(0.08, ge=0.0)  # or this bearing apart at their range (heading error)
     max_failed_latch_attempts: int = Field(5, ge=1)  # failures before the circuit breaker stops calls
     # the pose from depth
     patch_radius_m: float = Field(0.05, gt=0.0)  # depth patch around the answered pixel
@@ -209,6 +210,7 @@ class VlmSource:
         self.latch = OneShotLatch(
             min_consecutive=p.min_consecutive_detections,
             tolerance_m=p.latch_position_tolerance_m,
+            bearing_tolerance_rad=p.latch_bearing_tolerance_rad,
             max_failed_attempts=p.max_failed_latch_attempts,
         )
         self._lock = threading.RLock()
@@ -496,7 +498,8 @@ class VlmSource:
             return
         assert req.T_anchor_camera is not None
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
-                              req.stamp, answer.pose.sigma_m)
+                              req.stamp, answer.pose.sigma_m,
+                              float(np.linalg.norm(answer.pose.T_camera_target[:3, 3])))
         if self._off_the_runs_depth(candidate, answer):
             return
         if self.latch.add(candidate):
@@ -529,7 +532,8 @@ class VlmSource:
         expected = np.mean([c.T_anchor_target[:3, 3] for c in run], axis=0)
         here = candidate.T_anchor_target[:3, 3]
         noisiest = max(run, key=lambda c: c.sigma_m)
-        if float(np.linalg.norm(here - expected)) <= agree_within_m(candidate, noisiest, p.latch_position_tolerance_m):
+        within = agree_within_m(candidate, noisiest, p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad)
+        if float(np.linalg.norm(here - expected)) <= within:
             self._inconsistent_candidate = None
             return False
         in_cam = se3.apply(se3.invert(req.T_anchor_camera), expected[None, :])[0]
@@ -540,7 +544,7 @@ class VlmSource:
             return False  # the same depth elsewhere: the target moved (the consensus restarts)
         last = self._inconsistent_candidate
         if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= agree_within_m(
-            last, candidate, p.latch_position_tolerance_m
+            last, candidate, p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad
         ):
             self._inconsistent_candidate = None
             self._unmisread(self._inconsistent_cause)  # the target moved: that answer was read right

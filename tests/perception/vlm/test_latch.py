@@ -38,3 +38,13 @@ def test_a_noisy_answer_counts_less_in_the_latched_position():
     assert consensus.latched
     x = consensus.T_anchor_target[0, 3]  # type: ignore[index]
     assert 6.76 < x < 6.79  # the plain mean would be 6.823
+
+
+def test_far_answers_a_heading_error_apart_agree_and_near_ones_the_same_distance_apart_do_not():
+    # AMCL's heading is off by ~0.02 rad between updates: 6 m away that moves an answer ~0.3 m sideways.
+    consensus = OneShotLatch(min_consecutive=2, tolerance_m=0.10, max_failed_attempts=5, bearing_tolerance_rad=0.08)
+    far = [Candidate(se3.transform(np.eye(3), (6.8, y, 0.3)), 0.8, 0.0, 0.0, 5.8) for y in (4.0, 4.3)]
+    assert [consensus.add(c) for c in far] == [False, True]
+    consensus = OneShotLatch(min_consecutive=2, tolerance_m=0.10, max_failed_attempts=5, bearing_tolerance_rad=0.08)
+    near = [Candidate(se3.transform(np.eye(3), (2.0, y, 0.3)), 0.8, 0.0, 0.0, 1.0) for y in (4.0, 4.3)]
+    assert [consensus.add(c) for c in near] == [False, False]
