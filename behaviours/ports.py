@@ -12,7 +12,7 @@ type (ranges, formats). Everything else is derived from that declaration, so not
   :meth:`PortsDeclared.bind_params` (an unknown name, a missing required port or a wrong type is a
   TypeError naming the port) and keeps the result as ``self.params``;
 * the tree loader's checks (trees/loader.py), which convert the XML strings and bind them the same way
-  before anything is built, the Groot2 TreeNodesModel and the README's behaviour table.
+  before anything is built, the Groot2 TreeNodesModel and the docs' behaviour table.
 
 Directions are BehaviorTree.CPP's: an ``input`` port is a value the node reads (a constant in the tree
 file, or a blackboard entry ``{key}`` read before every tick, so ``self.params`` always holds the current

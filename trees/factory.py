@@ -12,7 +12,7 @@ extra constructor arguments it needs (its dependencies) given at registration, a
 Nothing is discovered: no import side effects fill it, no constructor signature is inspected. A node's
 ports come from its class's declaration (behaviours/ports.py); the factory turns a class into a
 :class:`~mission.trees.manifest.NodeManifest`, which is all the loader, the Groot2 TreeNodesModel and the
-README's behaviour table read. :func:`shipped_factory` is the one list of the behaviours that ship.
+the docs' behaviour table read. :func:`shipped_factory` is the one list of the behaviours that ship.
 
 Scripting enums (BT.CPP's ``registerScriptingEnum``) are registered here too: names a script may use for
 numbers. The shipped factory registers the mission states, so ``_skipIf="mission_state == DONE"`` reads.
@@ -172,7 +172,7 @@ class BehaviourFactory:
         return [m for tag, m in self._manifests.items() if tag in BUILTINS]
 
     def behaviours(self, *, deprecated: bool = False) -> list[NodeManifest]:
-        """The registered behaviours, sorted by tag (as Groot2 and the README list them); the deprecated ones
+        """The registered behaviours, sorted by tag (as Groot2 and the docs list them); the deprecated ones
         (which still load and run) only when asked for."""
         return sorted(
             (m for tag, m in self._manifests.items() if tag not in BUILTINS and (deprecated or not m.deprecated)),

@@ -2,7 +2,7 @@
 
 BehaviorTree.CPP calls this a node's manifest. The BT.CPP built-ins (trees/builtins.py) and the behaviours
 registered in a factory (trees/factory.py) are both manifests, so the loader checks and builds every node
-of a tree file the same way, and the TreeNodesModel and the README's table read the same records.
+of a tree file the same way, and the TreeNodesModel and the docs' table read the same records.
 """
 
 from __future__ import annotations

@@ -149,7 +149,7 @@ PARAMS_DIR = Path(__file__).resolve().parent / "params"  # the params files ship
 
 def resolve_params_file(name_or_path: str) -> str:
     """A ``--params-file`` value as a file: a path that exists (or looks like a path), else the name of a params
-    file shipped in mission/ros/params/ (``explore_dock`` or ``explore_dock.yaml``), so the README's examples
+    file shipped in mission/ros/params/ (``explore_dock`` or ``explore_dock.yaml``), so the docs' examples
     work from any directory after ``pip install``. Anything else is left to :func:`read_params_file`, whose
     error names it."""
     if Path(name_or_path).exists() or "/" in name_or_path or "\\" in name_or_path:

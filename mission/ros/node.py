@@ -55,7 +55,7 @@ NODE_NAME = "mission_tree"
 
 _ARUCO_DEFAULTS = ArucoParams()  # the aruco source's own defaults: one place for each (perception_plugins/aruco.py)
 
-# name → (default, description): the node's ROS parameters (the README's table lists the same)
+# name → (default, description): the node's ROS parameters (docs/ros.md's table lists the same)
 PARAMETERS: dict[str, tuple[Any, str]] = {
     "image_topic": ("/camera/image_raw", "camera images (bgr8, rgb8, mono8)"),
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),

@@ -44,7 +44,7 @@ WORKER_WAIT_S = 60.0  # an existing scheduler must have a worker within this lon
 #: * the workers' statistical profiler samples every 10 ms for the dashboard's profile page: ~12 % more CPU;
 #: * Dask spawns workers with MALLOC_TRIM_THRESHOLD_=65536, which fixes glibc's mmap threshold, so every
 #:   camera image (~0.9 MB) is mapped and unmapped anew: ~0.7 s more system time per run (+25 %). Unset,
-#:   a run costs on a worker what it costs alone. (An existing cluster keeps its own config: README.)
+#:   a run costs on a worker what it costs alone. (An existing cluster keeps its own config: docs/tutorials/sweep.md.)
 WORKER_SETTINGS = {
     "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
     "distributed.worker.profile.enabled": False,

@@ -9,7 +9,7 @@ from mission.core.types import Pose2D
 from mission.trees.factory import shipped_factory
 from mission.trees.manifest import BuildContext
 
-# tag → (node type, {port: (type, default)}) — what tree files rely on (the README's table shows the same)
+# tag → (node type, {port: (type, default)}) — what tree files rely on (the docs' table shows the same)
 CATALOGUE = {
     "PerceiveTargets": ("Action", {}),
     "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0)}),

@@ -139,20 +139,6 @@ def test_a_config_name_that_is_neither_a_file_nor_shipped_lists_the_shipped_ones
     assert "sim_apriltag.yaml" in line and "sim_aruco.yaml" in line
 
 
-def test_the_readmes_first_tree_of_your_own_runs_as_the_readme_says(tmp_path):
-    """The README's patrol.xml, run with the README's command from the directory holding it (cut to 15 s)."""
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
-    xml = readme.split('<root BTCPP_format="4" main_tree_to_execute="Patrol">', 1)[1].split("</root>", 1)[0]
-    (tmp_path / "patrol.xml").write_text(f'<root BTCPP_format="4" main_tree_to_execute="Patrol">{xml}</root>\n')
-    command = readme.split("`mission run --scenario follow_open --tree patrol.xml`", 1)
-    assert len(command) == 2, "the README's command for patrol.xml changed: update this test"
-    result = mission(
-        "run", "--scenario", "follow_open", "--tree", "patrol.xml", "--quiet", "--max-duration", "15", cwd=tmp_path
-    )
-    assert result.returncode == 0, result.stdout + result.stderr
-    assert result.stdout.startswith("SUCCESS: follow_open seed 0: followed the target"), result.stdout
-
-
 # -- 5. which plugin ran, how well it docked ------------------------------------------------------------------
 
 

@@ -109,7 +109,7 @@ def test_set_output_from_text(bt):
     """
     bt.register_simple_action("BB_TestNode", bb_test_node, BB_TEST_NODE_PORTS)
     tree = bt.load(xml_text)
-    # BT.CPP asserts only that nothing throws; an error here fails the node instead (README "Errors")
+    # BT.CPP asserts only that nothing throws; an error here fails the node instead (docs/btcpp.md "Differences")
     assert tree.tick_while_running() == "SUCCESS"
 
 

@@ -135,8 +135,8 @@ def test_subtree_remapping(bt):
     # InputPort<BatteryStatus>("enum", "Name of the check"): the second argument is the description
     bt.register_simple_condition("PrintEnum", print_enum, [("enum", int, port(doc="Name of the check"))])
     # InputPort<std::string>("check_name") has no default and the XML leaves it out: BT.CPP only notices when the
-    # node reads it, which IsHealthOk never does; a port without default is required here (README "Errors"), so
-    # it gets the default "" (never read)
+    # node reads it, which IsHealthOk never does; a port without default is required here (docs/btcpp.md
+    # "Differences"), so it gets the default "" (never read)
     bt.register_simple_condition("IsHealthOk", is_health_ok, [("check_name", str, port("")), ("health", bool, port())])
     bt.register_tree_text(xml_txt)
 

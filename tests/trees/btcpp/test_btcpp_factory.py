@@ -485,7 +485,7 @@ def test_reload_same_tree(bt):
 @pytest.mark.xfail(
     strict=True,
     reason="an input port declared without a default that the XML does not set is a load error here "
-    "(trees/loader.py _Compiler.node: missing required port; README 'Differences'); BT.CPP's getInput only "
+    "(trees/loader.py _Compiler.node: missing required port; docs/btcpp.md 'Differences'); BT.CPP's getInput only "
     "fails when the node reads it, and ActionIssue1046 ignores that",
 )
 def test_factory_destroyed_before_tick(bt):

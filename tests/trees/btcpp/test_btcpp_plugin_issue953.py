@@ -3,7 +3,7 @@
 The fixture loads plugin_issue953.so with ``factory.registerFromPlugin``; its Issue953Action reads an input port
 of a C++ type (Issue953Type) whose ``convertFromString`` exists only inside the plugin, which is what issue
 #953 is about (the converter stored in PortInfo). The project registers Python behaviours and has no plugins
-(README: "Not supported: … C++ plugins"); its port types are str, int, float, bool and Pose2D.
+(docs/btcpp.md: "Not supported: … C++ plugins"); its port types are str, int, float, bool and Pose2D.
 """
 
 from __future__ import annotations

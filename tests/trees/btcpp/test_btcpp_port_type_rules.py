@@ -266,7 +266,7 @@ def test_type_lock_runtime_type_change_fails(bt):
     tree.tick_exactly_once()
     time.sleep(0.005)
     # Second tick fails (tries to change TestPoint to string): BT.CPP throws; an error here may also fail the
-    # node instead (README "Errors")
+    # node instead (docs/btcpp.md "Differences")
     try:
         status = tree.tick_while_running()
     except Exception:

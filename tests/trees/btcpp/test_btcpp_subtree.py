@@ -259,7 +259,7 @@ def register_tree_text_again(bt: Harness, xml_text: str) -> None:
 @pytest.mark.xfail(
     strict=True,
     reason="a port whose entry was never written fails the node (trees/execution.py _tick_own → _fail, "
-    "PortError) where BT.CPP's SaySomething/CopyPorts throw from the tick (README: Differences)",
+    "PortError) where BT.CPP's SaySomething/CopyPorts throw from the tick (docs/btcpp.md: Differences)",
 )
 def test_bad_remapping(bt):
     register_say_something(bt)

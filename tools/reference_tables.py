@@ -1,10 +1,10 @@
-"""The README's reference tables, generated from the code that defines them.
+"""The documentation's reference tables, generated from the code that defines them.
 
 Config keys, plugin params, scenario keys, ROS parameters, behaviours and CLI flags are declared once
 (pydantic models, the ROS parameter table, each behaviour's ``Params``, the argparse parser); this module
 renders them as markdown between ``<!-- reference:NAME -->`` … ``<!-- /reference:NAME -->`` markers so
-the README cannot drift from the code. ``python -m tools.readme_tables`` rewrites README.md;
-``--check`` only reports (a test runs it).
+the docs cannot drift from the code. ``python -m tools.reference_tables`` rewrites every page under docs/
+(and README.md) that holds a marker; ``--check`` only reports (a test runs it).
 
 A field's description is its trailing ``# comment`` in the model's source — the comment a developer
 reads is the one a user reads.
@@ -26,7 +26,16 @@ from pydantic_core import PydanticUndefined
 
 from mission.core.files import atomic_write_text
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+
+
+def pages() -> list[Path]:
+    """The README and every documentation page, in a stable order."""
+    return [README, *sorted(DOCS.rglob("*.md"))]
+
+
 _BLOCK = re.compile(r"(<!-- reference:(?P<name>[\w-]+) -->\n).*?(<!-- /reference:(?P=name) -->)", re.S)
 _FIELD_COMMENT = re.compile(r"^\s+(\w+)\s*:[^#\n]*#\s*(.+?)\s*$")
 
@@ -293,21 +302,23 @@ def render(text: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Regenerate the README's reference tables from the code.")
-    parser.add_argument("--check", action="store_true", help="report a stale README, change nothing (exit 1)")
-    parser.add_argument("path", nargs="?", default=str(README))
+    parser = argparse.ArgumentParser(description="Regenerate the docs' reference tables from the code.")
+    parser.add_argument("--check", action="store_true", help="report stale pages, change nothing (exit 1)")
+    parser.add_argument("paths", nargs="*", help="pages to regenerate (default: README.md and docs/**/*.md)")
     args = parser.parse_args(argv)
-    path = Path(args.path)
-    text = path.read_text(encoding="utf-8")
-    new = render(text)
-    if new == text:
-        return 0
-    if args.check:
-        print(f"{path}: reference tables are stale; run `python -m tools.readme_tables`", file=sys.stderr)
-        return 1
-    atomic_write_text(path, new)  # README.md: never left half-written
-    print(f"{path}: reference tables regenerated")
-    return 0
+    stale = 0
+    for path in [Path(p) for p in args.paths] or pages():
+        text = path.read_text(encoding="utf-8")
+        new = render(text)
+        if new == text:
+            continue
+        if args.check:
+            print(f"{path}: reference tables are stale; run `python -m tools.reference_tables`", file=sys.stderr)
+            stale += 1
+            continue
+        atomic_write_text(path, new)  # never left half-written
+        print(f"{path}: reference tables regenerated")
+    return 1 if stale else 0
 
 
 if __name__ == "__main__":
