@@ -67,10 +67,21 @@ def test_the_site_builds_strictly_with_every_internal_link_and_anchor_resolved(t
     assert (tmp_path / "site" / "reference" / "config" / "index.html").is_file()
 
 
-def test_every_page_is_in_the_sites_navigation():
+def test_every_page_is_in_the_sites_navigation_and_the_results_page_shows_benchmarks_md():
+    import yaml
+
+    site = yaml.safe_load(_text(ROOT / "mkdocs.yml"))
     nav = _text(ROOT / "mkdocs.yml")
+    excluded = set(site.get("exclude_docs", "").split())  # templates, not pages (docs/bench/notes.md)
     for page in sorted(DOCS.rglob("*.md")):
-        assert f": {page.relative_to(DOCS).as_posix()}" in nav, f"{page} is not in mkdocs.yml's nav"
+        name = page.relative_to(DOCS).as_posix()
+        assert name in excluded or f": {name}" in nav, f"{page} is not in mkdocs.yml's nav"
+    from tools.mkdocs_hooks import on_page_markdown
+
+    shown = on_page_markdown(_text(DOCS / "bench" / "results.md"), page=None)
+    assert "\n## robustness\n" in shown and "\n## perception\n" in shown  # the benchmarks' own sections
+    pictures = re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", shown)
+    assert pictures and all((DOCS / "bench" / p).is_file() for p in pictures), pictures
 
 
 # -- generated and required content --------------------------------------------------------------------
