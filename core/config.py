@@ -229,7 +229,7 @@ class SourceConfig(StrictModel):
 
     plugin: str  # entry-point name (`mission plugins` lists them)
     name: str | None = None  # defaults to the plugin name; must be unique when a plugin is used twice
-    params: dict[str, Any] = Field(default_factory=dict)  # the plugin's own params (Perception plugins below)
+    params: dict[str, Any] = Field(default_factory=dict)  # the plugin's own params (see Perception plugins)
 
 
 class TargetSpec(StrictModel):
