@@ -46,6 +46,7 @@ import numpy as np
 import pupil_apriltags
 
 from mission.perception_plugins.corner_refinement import refine_corners
+from mission.perception_plugins.marker_quads import one_quad_per_marker
 
 log = logging.getLogger(__name__)
 
@@ -292,6 +293,8 @@ class OpenCvBackend:
             return []
         ids = ids.reshape(-1)
         quads = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
+        keep = one_quad_per_marker(quads, ids)  # the outer of an id's nested quads (marker_quads)
+        ids, quads = ids[keep], quads[keep]
         if self.refine_edges:
             quads = refine_corners(gray, quads, self._n + 2)
         corners = quads

@@ -32,6 +32,7 @@ from mission.perception_plugins import marker_dictionaries, square_pose
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
+from mission.perception_plugins.marker_quads import one_quad_per_marker
 
 log = logging.getLogger(__name__)
 
@@ -79,15 +80,25 @@ def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detecto
 
         def detect(grey: np.ndarray) -> tuple[Any, Any]:
             corners, ids, _ = detector.detectMarkers(grey)
-            return corners, ids
+            return _one_per_marker(corners, ids)
 
         return detect
 
     def detect_legacy(grey: np.ndarray) -> tuple[Any, Any]:  # pragma: no cover - OpenCV < 4.7
         corners, ids, _ = aruco.detectMarkers(grey, dictionary, parameters=params)
-        return corners, ids
+        return _one_per_marker(corners, ids)
 
     return detect_legacy
+
+
+def _one_per_marker(corners: Any, ids: Any) -> tuple[Any, Any]:
+    """OpenCV's (corners, ids) with one quad per marker: the outer one of an id's nested quads (marker_quads)."""
+    if ids is None or len(ids) < 2:
+        return corners, ids
+    keep = one_quad_per_marker(np.asarray(corners, dtype=np.float64), np.asarray(ids))
+    if len(keep) == len(ids):
+        return corners, ids
+    return tuple(corners[k] for k in keep), np.asarray(ids)[keep]
 
 
 def _dictionary(value: str, source: str) -> MarkerDictionary:

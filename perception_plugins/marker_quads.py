@@ -1,0 +1,42 @@
+"""One quad per marker: OpenCV's ArUco detector can report the same id twice in one image (issue 34).
+
+With ``minMarkerDistanceRate`` lowered to 0.025 — which keeps a large rendered marker whose white quiet zone
+shows as a second contour (opencv_contrib#2913) — candidates closer together than OpenCV's default allows both
+survive: the marker's outer square and a contour inside it (the inner edge of its black border, 7–9 px in on
+an 85 px marker), or two quads a pixel apart. When both decode, both are reported, and the inner one is a pose
+several per cent too far away. A quad that decodes is the marker or a contour inside it (the quiet zone's
+contour outside it does not decode), so of the same id's quads that overlap, the largest is the marker.
+Quads of the same id that do not overlap are two printed markers and are both kept.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _area(quad: np.ndarray) -> float:
+    x, y = quad[:, 0], quad[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _side(quad: np.ndarray) -> float:
+    return float(np.mean(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)))
+
+
+def one_quad_per_marker(quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Indices (in input order) of the quads to keep: of the same id's quads whose centres lie within half the
+    larger one's side of each other, only the largest. `quads` is N×4×2 px, `ids` N ints."""
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
+    ids = np.asarray(ids).reshape(-1)
+    centres = quads.mean(axis=1)
+    areas = [_area(q) for q in quads]
+    sides = [_side(q) for q in quads]
+    dropped: set[int] = set()
+    for i in sorted(range(len(ids)), key=lambda k: -areas[k]):  # largest first: it absorbs what lies inside it
+        if i in dropped:
+            continue
+        for j in range(len(ids)):
+            same_marker = ids[j] == ids[i] and np.linalg.norm(centres[j] - centres[i]) < 0.5 * max(sides[i], sides[j])
+            if j != i and j not in dropped and areas[j] <= areas[i] and same_marker:
+                dropped.add(j)
+    return np.array([k for k in range(len(ids)) if k not in dropped], dtype=int)
