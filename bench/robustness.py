@@ -35,6 +35,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import textwrap
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -470,7 +471,7 @@ def _curves(per_factor: dict[str, dict[str, Any]], profiles: dict[str, dict[str,
     n = len(per_factor)
     cols = min(4, n)
     rows_ = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows_, cols, figsize=(3.3 * cols, 2.8 * rows_), squeeze=False)
+    fig, axes = plt.subplots(rows_, cols, figsize=(3.6 * cols, 3.0 * rows_), squeeze=False)
     for ax, (name, v) in zip(axes.ravel(), per_factor.items(), strict=False):
         f = BY_NAME[name]
         labels = ["ideal", *(label for label, _ in f.levels)]
@@ -481,12 +482,12 @@ def _curves(per_factor: dict[str, dict[str, Any]], profiles: dict[str, dict[str,
         ax.axhline(ACCEPTANCE, color="grey", ls="--", lw=0.7)
         ax.set_xticks(range(len(labels)), labels, fontsize=6, rotation=15)
         ax.set_ylim(-0.05, 1.05)
-        ax.set_title(f"{name}: {f.what}", fontsize=7)
+        ax.set_title(f"{name}\n" + "\n".join(textwrap.wrap(f.what, 44)), fontsize=7)
         ax.legend(fontsize=6, loc="lower left")
     for ax in axes.ravel()[n:]:
         ax.set_axis_off()
     fig.supylabel("success rate", fontsize=8)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.02, 0.0, 1.0, 1.0))
     name = "robustness_curves.png"
     save_figure(fig, out / name)
     return name
