@@ -95,9 +95,21 @@ class CameraIntrinsics:
         p = np.asarray(points_cam, dtype=np.float64).reshape(-1, 3)
         return np.stack([self.fx * p[:, 0] / p[:, 2] + self.cx, self.fy * p[:, 1] / p[:, 2] + self.cy], axis=1)
 
+    def rays(self, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
+        """N×3 rays (x/z, y/z, 1) of pixels through this lens: undistorted when there is distortion."""
+        us, vs = np.asarray(us, dtype=np.float64).ravel(), np.asarray(vs, dtype=np.float64).ravel()
+        if any(c != 0.0 for c in self.distortion):
+            import cv2  # only a distorted lens needs it
+
+            pts = np.column_stack([us, vs]).reshape(-1, 1, 2)
+            xy = cv2.undistortPoints(pts, self.matrix, self.dist_coeffs).reshape(-1, 2)
+        else:
+            xy = np.column_stack([(us - self.cx) / self.fx, (vs - self.cy) / self.fy])
+        return np.column_stack([xy, np.ones(len(xy))])
+
     def back_project(self, u: float, v: float, depth: float) -> np.ndarray:
-        """The optical-frame point at pixel (u, v) and depth z (metres)."""
-        return np.array([(u - self.cx) * depth / self.fx, (v - self.cy) * depth / self.fy, depth])
+        """The optical-frame point at pixel (u, v) and depth z (metres), through the lens."""
+        return self.rays(np.array([u]), np.array([v]))[0] * depth
 
     def to_dict(self) -> dict[str, Any]:
         return {

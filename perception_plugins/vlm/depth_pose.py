@@ -89,19 +89,8 @@ def depth_at(depth: np.ndarray, u: float, v: float, radius_px: int = 2) -> float
     return float(np.median(win)) if win.size else None
 
 
-def _rays(intr: CameraIntrinsics, us: np.ndarray, vs: np.ndarray) -> np.ndarray:
-    """N×3 rays (x/z, y/z, 1) of pixels, through the lens (undistorted when the intrinsics have distortion)."""
-    us, vs = np.asarray(us, dtype=np.float64).ravel(), np.asarray(vs, dtype=np.float64).ravel()
-    if intr.distortion and any(c != 0.0 for c in intr.distortion):
-        pts = np.column_stack([us, vs]).reshape(-1, 1, 2)
-        xy = cv2.undistortPoints(pts, intr.matrix, intr.dist_coeffs).reshape(-1, 2)
-    else:
-        xy = np.column_stack([(us - intr.cx) / intr.fx, (vs - intr.cy) / intr.fy])
-    return np.column_stack([xy, np.ones(len(xy))])
-
-
 def _ray(intr: CameraIntrinsics, u: float, v: float) -> np.ndarray:
-    return _rays(intr, np.array([u]), np.array([v]))[0]
+    return intr.rays(np.array([u]), np.array([v]))[0]
 
 
 def _ray_plane(ray: np.ndarray, centroid: np.ndarray, normal: np.ndarray) -> np.ndarray | None:
@@ -182,7 +171,7 @@ def estimate_surface_pose(
     z = patch[valid]
     keep = mad_inliers(z, mad_k)
     zs, us, vs = z[keep], uu[valid][keep], vv[valid][keep]
-    pts = _rays(intr, us, vs) * zs[:, None]
+    pts = intr.rays(us, vs) * zs[:, None]
 
     ray = _ray(intr, u, v)
     ray_unit = ray / np.linalg.norm(ray)

@@ -202,16 +202,17 @@ def test_the_examples_of_a_page_run_as_written(page: Path, tmp_path: Path):
     """A page's examples (the blocks after `<!-- example -->`) run in order, in an empty directory, with
     `mission` on the PATH as after `pip install`: shell blocks with bash -e, Python blocks with this Python,
     and a `<!-- example: file NAME -->` block written to NAME for the blocks after it."""
-    if "MISSION_SHARED_DATA" in _text(page) and not SHARED_DATA.is_dir():
+    text = _text(page)
+    if "MISSION_SHARED_DATA" in text and not SHARED_DATA.is_dir():
         pytest.skip(f"{SHARED_DATA} (the real photos) is not beside the checkout")
     env = {
         **os.environ,
         "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
         "MISSION_SHARED_DATA": str(SHARED_DATA),
     }
-    for m in _examples(page):
+    for m in EXAMPLE.finditer(text):
         lang, body, name = m.group("lang"), m.group("body"), m.group("file")
-        line = _text(page)[: m.start()].count("\n") + 2
+        line = text[: m.start()].count("\n") + 2
         if name:
             (tmp_path / name).write_text(body, encoding="utf-8")
             continue
