@@ -22,7 +22,7 @@ from typing import Any, ClassVar, Literal
 
 import cv2
 import numpy as np
-from pydantic import Field, PositiveFloat
+from pydantic import Field, PositiveFloat, PositiveInt
 
 from mission.core import se3
 from mission.core.config import StrictModel, validate_model
@@ -33,6 +33,7 @@ from mission.perception_plugins.corner_refinement import refine_corners, subpix_
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
 from mission.perception_plugins.marker_quads import one_quad_per_marker
+from mission.perception_plugins.marker_tracking import RegionTracker, detect_tracked
 
 log = logging.getLogger(__name__)
 
@@ -58,13 +59,16 @@ class ArucoParams(StrictModel):
     allowed_ids: list[int] | None = None  # None = report every id of the dictionary
     corner_refinement: Literal["edges", "subpix", "none", "contour", "apriltag"] = "edges"  # see corner_refinement.py
     disambiguation: Literal["temporal", "naive"] = "temporal"  # naive = lowest error per frame (baseline)
+    tracking: bool = False  # look where the markers were; the full frame only now and then (marker_tracking.py)
+    full_frame_every: PositiveInt = 10  # tracking: a full-frame pass at least this often (a new marker's wait)
 
 
-Detector = Callable[[np.ndarray], tuple[Any, Any]]
+Detector = Callable[[np.ndarray, float | None], tuple[Any, Any]]
 
 
 def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detector:
-    """A function grey image → (corners, ids), over whichever ArUco API this OpenCV has.
+    """A function (grey image, minimum marker perimeter rate or None for OpenCV's) → (corners, ids), over
+    whichever ArUco API this OpenCV has. The rate is what a tracking window sets (marker_tracking.py).
 
     OpenCV ≥ 4.7 and 5.x: ``ArucoDetector``; older 4.x: the free ``detectMarkers`` (gone in 5.0).
     ``minMarkerDistanceRate`` is lowered from OpenCV's 0.125: with the default, a marker larger than
@@ -75,16 +79,22 @@ def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detecto
     params = aruco.DetectorParameters() if hasattr(aruco, "DetectorParameters") else aruco.DetectorParameters_create()
     params.cornerRefinementMethod = getattr(aruco, _REFINEMENT[refinement])
     params.minMarkerDistanceRate = 0.025
+    default_rate = params.minMarkerPerimeterRate
     if hasattr(aruco, "ArucoDetector"):
         detector = aruco.ArucoDetector(dictionary, params)
 
-        def detect(grey: np.ndarray) -> tuple[Any, Any]:
+        def detect(grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[Any, Any]:
+            rate = default_rate if min_perimeter_rate is None else min_perimeter_rate
+            if rate != params.minMarkerPerimeterRate:
+                params.minMarkerPerimeterRate = rate
+                detector.setDetectorParameters(params)
             corners, ids, _ = detector.detectMarkers(grey)
             return _one_per_marker(corners, ids)
 
         return detect
 
-    def detect_legacy(grey: np.ndarray) -> tuple[Any, Any]:  # pragma: no cover - OpenCV < 4.7
+    def detect_legacy(grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[Any, Any]:  # pragma: no cover
+        params.minMarkerPerimeterRate = default_rate if min_perimeter_rate is None else min_perimeter_rate
         corners, ids, _ = aruco.detectMarkers(grey, dictionary, parameters=params)
         return _one_per_marker(corners, ids)
 
@@ -156,6 +166,7 @@ class ArucoSource:
         self._allowed = None if self.params.allowed_ids is None else set(self.params.allowed_ids)
         self._disambiguator = square_pose.TemporalDisambiguator()
         self._intrinsics = FrameIntrinsics(self.name, log)
+        self.tracker = RegionTracker(self.params.full_frame_every) if self.params.tracking else None
 
     # ------------------------------------------------------------------------------------------------
 
@@ -175,7 +186,10 @@ class ArucoSource:
 
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
-        corners_list, ids = self._detect(grey)
+        if self.tracker is not None:
+            corners_list, ids = detect_tracked(grey, self.tracker, self._detect)
+        else:
+            corners_list, ids = self._detect(grey, None)
         if ids is None or len(ids) == 0:
             return []
         corners_list = self._refine(grey, corners_list)
@@ -245,3 +259,5 @@ class ArucoSource:
 
     def close(self) -> None:
         self._disambiguator.reset()
+        if self.tracker is not None:
+            self.tracker.reset()

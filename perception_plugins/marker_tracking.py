@@ -1,0 +1,185 @@
+"""Tracking mode for the marker sources: look where the markers were, not at the whole frame (issue 34).
+
+A full-frame detection costs the same on every frame, whether anything moved or not; between frames a
+tracked marker's next quad is its last one moved on by its last motion, to within the robot's. So with
+``tracking`` on, a source runs its detector on a window round each predicted quad instead of the whole
+frame, and the whole frame only:
+
+* when nothing is tracked (at the start, and after every marker left);
+* every ``full_frame_every``-th frame, so a marker that comes into view is found at most
+  ``full_frame_every − 1`` frames after the full-frame detector would have found it;
+* at once, on the same frame, when a tracked marker is not found in its window (it moved faster than
+  predicted, or something hid it): a marker the full frame finds is never lost to the tracking.
+
+A window is sized for the marker it expects: OpenCV's size thresholds are fractions of the image it is
+given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
+speck, and the window would cost more than the full frame did. :attr:`Window.min_perimeter_rate` sets
+the window's floor at half the expected marker's perimeter instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+MARGIN = 0.5  # a window reaches this many marker sides beyond the predicted quad (the quiet zone and then some)
+MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
+MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
+
+
+@dataclass(frozen=True)
+class Window:
+    """A region of the frame to detect in, and the smallest marker perimeter (px) worth keeping there."""
+
+    x0: int
+    y0: int
+    x1: int
+    y1: int
+    min_perimeter_px: float
+
+    @property
+    def min_perimeter_rate(self) -> float:
+        """``min_perimeter_px`` as OpenCV's fraction of the window's larger side."""
+        return self.min_perimeter_px / max(self.x1 - self.x0, self.y1 - self.y0, 1)
+
+    def overlaps(self, other: Window) -> bool:
+        return self.x0 < other.x1 and other.x0 < self.x1 and self.y0 < other.y1 and other.y0 < self.y1
+
+    def union(self, other: Window) -> Window:
+        return Window(
+            min(self.x0, other.x0),
+            min(self.y0, other.y0),
+            max(self.x1, other.x1),
+            max(self.y1, other.y1),
+            min(self.min_perimeter_px, other.min_perimeter_px),
+        )
+
+
+@dataclass
+class _Track:
+    quad: np.ndarray  # 4×2 px, the last one found
+    motion: np.ndarray  # 2, px per frame: how far its centre moved between the last two frames it was found in
+
+
+@dataclass
+class RegionTracker:
+    """Where to look in the next frame, from where the markers were (per marker id and quad)."""
+
+    full_frame_every: int = 10
+    tracks: dict[int, _Track] = field(default_factory=dict)
+    since_full: int = 0  # frames since the last full-frame pass
+    full_passes: int = 0
+    window_passes: int = 0
+    rescues: int = 0  # full-frame passes run because a tracked marker was not in its window
+
+    def windows(self, width: int, height: int) -> list[Window] | None:
+        """The windows to detect in this frame, or None for a full-frame pass."""
+        if not self.tracks or self.since_full + 1 >= self.full_frame_every:
+            return None
+        wins: list[Window] = []
+        for tr in self.tracks.values():
+            quad = tr.quad + tr.motion
+            lo, hi = quad.min(axis=0), quad.max(axis=0)
+            side = float(np.max(hi - lo))
+            reach = MARGIN * side + float(np.abs(tr.motion).max())
+            win = Window(
+                max(0, int(np.floor(lo[0] - reach))),
+                max(0, int(np.floor(lo[1] - reach))),
+                min(width, int(np.ceil(hi[0] + reach))),
+                min(height, int(np.ceil(hi[1] + reach))),
+                MIN_PERIMETER_FRACTION * _perimeter(tr.quad),
+            )
+            if win.x1 - win.x0 < MIN_WINDOW_PX or win.y1 - win.y0 < MIN_WINDOW_PX:
+                return None  # at the image's edge, or tiny: the full frame is as cheap and surer
+            wins.append(win)
+        return _merged(wins)
+
+    def found(self, quads: np.ndarray, ids: np.ndarray, full: bool) -> bool:
+        """Take this frame's detections (M×4×2, M); False when a window pass missed a tracked marker (the
+        caller then runs the full frame and calls again with ``full=True``)."""
+        seen = {int(i) for i in ids}
+        if not full and any(mid not in seen for mid in self.tracks):
+            self.rescues += 1
+            return False
+        if full:
+            self.full_passes += 1
+            self.since_full = 0
+        else:
+            self.window_passes += 1
+            self.since_full += 1
+        tracks: dict[int, _Track] = {}
+        for quad, mid in zip(quads, ids, strict=True):
+            mid = int(mid)
+            if mid in tracks:  # the same id twice (two printed copies): both are looked for next frame by full pass
+                self.since_full = self.full_frame_every
+                continue
+            old = self.tracks.get(mid)
+            motion = quad.mean(axis=0) - old.quad.mean(axis=0) if old is not None else np.zeros(2)
+            tracks[mid] = _Track(np.asarray(quad, dtype=np.float64).copy(), motion)
+        self.tracks = tracks
+        return True
+
+    def reset(self) -> None:
+        self.tracks.clear()
+        self.since_full = 0
+
+
+Detect = Callable[[np.ndarray, float | None], tuple[Any, Any]]  # (grey, min perimeter rate or None) → (corners, ids)
+
+
+def detect_tracked(grey: np.ndarray, tracker: RegionTracker, detect: Detect) -> tuple[np.ndarray, np.ndarray]:
+    """One frame through the tracker: windows where markers were, or the full frame (see the module).
+    Returns (M×4×2 float64 corners in the frame, M ids)."""
+    h, w = grey.shape[:2]
+    wins = tracker.windows(w, h)
+    if wins is not None:
+        quads, ids = _in_windows(grey, wins, detect)
+        if tracker.found(quads, ids, full=False):
+            return quads, ids
+    corners, found_ids = detect(grey, None)
+    quads, ids = _as_arrays(corners, found_ids)
+    tracker.found(quads, ids, full=True)
+    return quads, ids
+
+
+def _in_windows(grey: np.ndarray, wins: list[Window], detect: Detect) -> tuple[np.ndarray, np.ndarray]:
+    all_quads, all_ids = [], []
+    for win in wins:
+        crop = grey[win.y0 : win.y1, win.x0 : win.x1]
+        quads, ids = _as_arrays(*detect(crop, win.min_perimeter_rate))
+        if len(ids):
+            all_quads.append(quads + np.array([win.x0, win.y0], dtype=np.float64))
+            all_ids.append(ids)
+    if not all_ids:
+        return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
+    return np.concatenate(all_quads), np.concatenate(all_ids)
+
+
+def _as_arrays(corners: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
+    if ids is None or len(ids) == 0:
+        return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
+    return np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2), np.asarray(ids, dtype=np.int64).reshape(-1)
+
+
+def _perimeter(quad: np.ndarray) -> float:
+    return float(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1).sum())
+
+
+def _merged(wins: list[Window]) -> list[Window]:
+    """Overlapping windows joined (so a marker is never cut by another's window edge), until none overlap."""
+    out = list(wins)
+    merged = True
+    while merged:
+        merged = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                if out[i].overlaps(out[j]):
+                    out[i] = out[i].union(out.pop(j))
+                    merged = True
+                    break
+            if merged:
+                break
+    return out
