@@ -78,6 +78,7 @@ class Pursuit:
     swept: bool = False
     done: str = ""  # why this loss's pursuit is over ('' while it goes on)
     fallback: bool = False  # no place sees `aim`: heading for the last position instead
+    glance_to: float | None = None  # it left through the view's side: first turn to this heading, where it was
 
 
 class PursueLastSeen(SearchLeaf):
@@ -141,11 +142,23 @@ class PursueLastSeen(SearchLeaf):
             view = approach_goal((robot.x, robot.y), aim, 0.5)
             path_m = math.hypot(view.x - robot.x, view.y - robot.y)
         turn = abs(se3.wrap_angle(view.yaw - robot.yaw)) / TURN_RATE
+        glance = self.glance_heading(track, robot)
+        if glance is not None:
+            turn += 2 * abs(se3.wrap_angle(glance - robot.yaw)) / TURN_RATE  # there and back
         if sweep_to is not None:
             turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
         timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + turn + p.look_s))
         return Pursuit(
-            track.last_seen, last, aim, view, path_m, now + timeout, now, fallback=fallback, sweep_to=sweep_to
+            track.last_seen,
+            last,
+            aim,
+            view,
+            path_m,
+            now + timeout,
+            now,
+            fallback=fallback,
+            sweep_to=sweep_to,
+            glance_to=glance,
         )
 
     def _viewpoint(
@@ -325,6 +338,15 @@ class PursueLastSeen(SearchLeaf):
                                 f"{plan.deadline - plan.started:.1f} s ({plan.path_m:.1f} m detour to see {where})")
         v = plan.view
         robot = state.pose
+        if plan.glance_to is not None:  # first the glance toward where it left the view
+            error = se3.wrap_angle(plan.glance_to - robot.yaw)
+            if abs(error) > 0.1:
+                self.drive(0.0, turn_rate(error, TURN_RATE))
+                self.feedback_message = (
+                    f"LOST: turning to where {p.target} left the view, {math.degrees(abs(error)):.0f}° to go"
+                )
+                return py_trees.common.Status.RUNNING
+            plan.glance_to = None
         close = math.hypot(v.x - robot.x, v.y - robot.y) <= ARRIVED_M
         facing = abs(bearing_to(robot, plan.aim)) <= FACING_RAD
         if plan.arrived_at is None and close and facing:

@@ -16,7 +16,7 @@ import numpy as np
 from mission.behaviours.belief import DEFAULT_SPEED_MPS, DEFAULT_VIEW_RANGE_M, TargetBelief
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import fitted_velocity
-from mission.behaviours.search_grid import SearchGrid, dilate, search_grid, walk
+from mission.behaviours.search_grid import SearchGrid, dilate, line_clear, search_grid, walk
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import Key
@@ -33,6 +33,11 @@ MOVER_HORIZON_S = 5.0
 # Narrower movers may be the target itself (a person-sized box seen corner-on is 0.57 m wide): its own
 # path is where the search wants to look, not a place to keep out of.
 MOVER_MIN_WIDTH_M = 0.7
+# A target last seen this close to the view's edge (or beyond it, by now), with nothing between it and the
+# camera, left through the side of the image: it is most likely just past that edge.
+GLANCE_EDGE_RAD = math.radians(8.0)
+GLANCE_BODY_M = 0.4  # the lidar's returns this close to the last position are the target's own body
+GLANCE_RANGE_M = 4.0  # farther than this, a target does not leave the view by walking across it in a moment
 
 
 class SearchLeaf(MissionLeaf):
@@ -59,6 +64,34 @@ class SearchLeaf(MissionLeaf):
         if k is None or not k.fx > 0 or not k.width:
             return DEFAULT_HFOV
         return 2.0 * math.atan2(k.width / 2.0, k.fx)
+
+    def glance_heading(self, track: TargetTrack, robot: Pose2D) -> float | None:
+        """The robot heading that centres the target's last position in the view, when the target left the
+        view through its side: that position is at or past the view's edge now, within GLANCE_RANGE_M, and
+        nothing the map or the lidar holds stands between it and the camera. None otherwise (it went behind
+        something, or it is in view and simply not detected): turning is then no quick way to see it again.
+
+        Following close behind a target that turns a corner, the robot loses it at the image's edge as often
+        as behind the corner; the glance is the cheap first look a person would take."""
+        sg = self.grid()
+        if sg is None or track.pose_map is None:
+            return None
+        last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
+        cx, cy, cam_yaw = self.camera_pose(robot)
+        if math.hypot(last[0] - cx, last[1] - cy) > GLANCE_RANGE_M:
+            return None
+        off = abs(se3.wrap_angle(math.atan2(last[1] - cy, last[0] - cx) - cam_yaw))
+        if off < self.hfov() / 2 - GLANCE_EDGE_RAD:
+            return None
+        # up to the target's body: the lidar sees the target itself, which hides nothing
+        d = math.hypot(last[0] - cx, last[1] - cy)
+        short = max(0.0, d - GLANCE_BODY_M) / max(d, 1e-9)
+        near = (cx + short * (last[0] - cx), cy + short * (last[1] - cy))
+        if not line_clear(sg.occupied, sg, (cx, cy), last) or not line_clear(
+            self.sight_blocked(sg, robot), sg, (cx, cy), near
+        ):
+            return None
+        return math.atan2(last[1] - robot.y, last[0] - robot.x)
 
     # -- the map ------------------------------------------------------------------------------------
     def grid(self) -> SearchGrid | None:

@@ -71,6 +71,7 @@ class Turn:
     started: float = 0.0
     skipped: int = 0  # legs cut short because nothing could be seen there
     handed_over: bool = False  # stopped because turning here could show little of where the target can be
+    glance: float | None = None  # cumulative angle of the first leg that centres where it left the view
     why: str = ""
 
 
@@ -110,6 +111,9 @@ class TurnToBearing(SearchLeaf):
         legs = [side * (abs(bearing) + o), side * (abs(bearing) - b)]
         self.turn = Turn(episode, yaw, legs, [side, -side], yaw_prev=None if state is None else yaw, started=self.now())
         self.turn.why = f"predicted bearing {math.degrees(bearing):+.0f}°"
+        glance = None if track is None or state is None else self.glance_heading(track, state.pose)
+        if glance is not None and se3.wrap_angle(glance - yaw) * side > 0:  # it left the view on the side turned to
+            self.turn.glance = se3.wrap_angle(glance - yaw)
 
     def _bearing(self) -> tuple[float, float]:
         """(bearing of where the target went, relative to the robot's heading; the side to turn first: ±1)."""
@@ -201,7 +205,8 @@ class TurnToBearing(SearchLeaf):
         # what the belief holds, and what each direction round the camera sees of it: once a tick, for every check
         everywhere = belief.mass() if belief is not None else None
         rays = self._ray_masses(belief) if belief is not None and everywhere and turn.leg < len(turn.legs) else None
-        if turn.leg < len(turn.legs) and self._not_worth_turning(everywhere, rays):
+        glancing = turn.leg == 0 and turn.glance is not None and (turn.glance - turn.turned) * turn.directions[0] > 0.05
+        if turn.leg < len(turn.legs) and not glancing and self._not_worth_turning(everywhere, rays):
             turn.skipped += len(turn.legs) - turn.leg
             turn.leg = len(turn.legs)
             turn.handed_over = True
@@ -215,7 +220,7 @@ class TurnToBearing(SearchLeaf):
             if to_go <= 0.02:  # this leg is turned
                 turn.leg += 1
                 continue
-            if to_go > math.radians(LEG_MIN_DEG) and self._leg_empty(everywhere, rays, turn):
+            if to_go > math.radians(LEG_MIN_DEG) and not glancing and self._leg_empty(everywhere, rays, turn):
                 turn.skipped += 1
                 turn.leg += 1
                 continue
