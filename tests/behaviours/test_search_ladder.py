@@ -154,6 +154,66 @@ def test_turning_in_place_hands_over_at_once_when_a_whole_turn_would_show_little
     assert first_tick(behind_the_wall=False) == S.RUNNING
 
 
+PILLAR = (0.15, -1.6, 0.35, -1.4)  # between the robot at (0, −1) and a place 63° to its right, (0.5, −2)
+
+
+def test_a_target_that_left_through_the_side_of_the_view_is_looked_for_there_before_turning_is_given_up():
+    # where the target can be is mostly behind the wall, so a whole turn here would show little of it and the
+    # rung would hand over at once; but it was last seen 63° to the right, in the open: it walked out of the
+    # image's side, and a glance that way comes first. Behind a pillar instead, no glance: it went behind it.
+    def run(boxes: list[tuple[float, float, float, float]]) -> tuple[S, float]:
+        grid = grid_with_boxes(boxes)
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(0.5, -2.0, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (0.5, -2.0), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        belief.front = (xs > 1.4) & (xs < 3.0) & (ys > -3.5) & (ys < 0.5)
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = TurnToBearing(angular_speed=1.0)
+        lowest, status = 0.0, S.RUNNING
+        for _ in range(100):
+            status = scene.cycle(node)
+            lowest = min(lowest, scene.robot.yaw)
+            if status != S.RUNNING:
+                break
+        return status, math.degrees(lowest)
+
+    status, lowest = run([WALL])
+    assert status == S.FAILURE and "moving instead" in read(bbk.REASON)
+    assert lowest == pytest.approx(math.degrees(math.atan2(-1.0, 0.5)), abs=5.0)  # it faced where it left the view
+    status, lowest = run([WALL, PILLAR])
+    assert status == S.FAILURE and lowest == 0.0  # behind the pillar: handed over without turning
+
+
+def test_lost_first_turns_to_where_the_target_left_the_view_then_drives_to_look_round_the_edge():
+    # last seen standing at the wall's north end, 63° to the left of the robot's heading, nothing in between:
+    # it left through the image's side. LOST turns to it on the spot first, and only then drives off to peek.
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+    lost_at(0.6, 0.2, last_seen=0.0)
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING and read(bbk.STATE) == "LOST"
+    assert read(bbk.NAV_GOAL) is None and read(bbk.TWIST).v == 0.0 and read(bbk.TWIST).w > 0
+    assert node.feedback_message.startswith("LOST: turning to where target left the view")
+    for _ in range(40):
+        if read(bbk.NAV_GOAL) is not None:
+            break
+        scene.cycle(node)
+    assert read(bbk.NAV_GOAL) is not None  # then on to where it can see round the edge
+    assert scene.robot.yaw == pytest.approx(math.atan2(1.2, 0.6), abs=0.12)
+    assert node.pursuit.deadline - node.pursuit.started >= 2 * math.atan2(1.2, 0.6)  # the glance is on the timer
+
+
+def test_lost_does_not_glance_at_a_target_that_went_behind_something():
+    grid = grid_with_boxes([WALL, (0.2, -0.5, 0.4, -0.3)])  # a box between the robot and where it was last seen
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+    lost_at(0.6, 0.2, last_seen=0.0)
+    node = PursueLastSeen()
+    assert scene.cycle(node) == S.RUNNING
+    assert node.pursuit.glance_to is None and not node.feedback_message.startswith("LOST: turning to where")
+
+
 # ------------------------------------------------------------------------------------ the belief
 WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
 
