@@ -37,6 +37,7 @@ MOVER_MIN_WIDTH_M = 0.7
 # camera, left through the side of the image: it is most likely just past that edge.
 GLANCE_EDGE_RAD = math.radians(8.0)
 GLANCE_BODY_M = 0.4  # the lidar's returns this close to the last position are the target's own body
+GLANCE_HORIZON_S = 1.0  # … and where it walked on to, at its last velocity, for at most this long since
 GLANCE_RANGE_M = 4.0  # farther than this, a target does not leave the view by walking across it in a moment
 
 
@@ -67,9 +68,11 @@ class SearchLeaf(MissionLeaf):
 
     def glance_heading(self, track: TargetTrack, robot: Pose2D) -> float | None:
         """The robot heading that centres the target's last position in the view, when the target left the
-        view through its side: that position is at or past the view's edge now, within GLANCE_RANGE_M, and
-        nothing the map or the lidar holds stands between it and the camera. None otherwise (it went behind
-        something, or it is in view and simply not detected): turning is then no quick way to see it again.
+        view through its side: that position is at or past the view's edge now, within GLANCE_RANGE_M,
+        nothing the map or the lidar holds stands between it and the camera, and the map hides neither where
+        it has walked on to since (its last velocity, up to GLANCE_HORIZON_S). None otherwise (it went behind
+        something, or round a corner, or it is in view and simply not detected): turning is then no quick way
+        to see it again.
 
         Following close behind a target that turns a corner, the robot loses it at the image's edge as often
         as behind the corner; the glance is the cheap first look a person would take."""
@@ -90,6 +93,11 @@ class SearchLeaf(MissionLeaf):
         if not line_clear(sg.occupied, sg, (cx, cy), last) or not line_clear(
             self.sight_blocked(sg, robot), sg, (cx, cy), near
         ):
+            return None
+        # and where it has walked on to since, if it kept going: round a corner is behind it, not off the side
+        since = min(GLANCE_HORIZON_S, max(0.0, self.now() - (track.last_seen or self.now())))
+        _, ahead = predicted_walk(sg, sg.target_free(), track, since)
+        if not line_clear(sg.occupied, sg, (cx, cy), ahead):
             return None
         return math.atan2(last[1] - robot.y, last[0] - robot.x)
 
