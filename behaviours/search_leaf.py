@@ -95,7 +95,8 @@ class SearchLeaf(MissionLeaf):
         ):
             return None
         # and where it has walked on to since, if it kept going: round a corner is behind it, not off the side
-        since = min(GLANCE_HORIZON_S, max(0.0, self.now() - (track.last_seen or self.now())))
+        now = self.now()
+        since = min(GLANCE_HORIZON_S, max(0.0, now - (now if track.last_seen is None else track.last_seen)))
         _, ahead = predicted_walk(sg, sg.target_free(), track, since)
         if not line_clear(sg.occupied, sg, (cx, cy), ahead):
             return None

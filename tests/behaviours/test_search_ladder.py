@@ -205,13 +205,23 @@ def test_lost_first_turns_to_where_the_target_left_the_view_then_drives_to_look_
     assert node.pursuit.deadline - node.pursuit.started >= 2 * math.atan2(1.2, 0.6)  # the glance is on the timer
 
 
-def test_lost_does_not_glance_at_a_target_that_went_behind_something():
-    grid = grid_with_boxes([WALL, (0.2, -0.5, 0.4, -0.3)])  # a box between the robot and where it was last seen
-    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid, dt=0.05, clock=0.5)
-    lost_at(0.6, 0.2, last_seen=0.0)
+def test_lost_does_not_glance_at_a_target_that_went_behind_something_or_round_a_corner():
+    scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([WALL, (0.2, -0.5, 0.4, -0.3)]), clock=0.5)
+    lost_at(0.6, 0.2, last_seen=0.0)  # a box between the robot and where it was last seen
     node = PursueLastSeen()
     assert scene.cycle(node) == S.RUNNING
     assert node.pursuit.glance_to is None and not node.feedback_message.startswith("LOST: turning to where")
+
+    def glances(walking: tuple[float, float]) -> bool:
+        # facing north, west of the wall; last seen a second ago just past its north end, far off to the right
+        scene = Scene(robot=Pose2D(-0.5, 1.5, math.pi / 2), grid=grid_with_boxes([WALL]), clock=1.0)
+        lost_at(1.5, 1.4, last_seen=0.0, walking=walking)
+        node = PursueLastSeen()
+        scene.cycle(node)
+        return node.pursuit.glance_to is not None
+
+    assert not glances((0.0, -1.0))  # walking south: by now behind the wall
+    assert glances((0.0, 1.0))  # walking north: still in the open, off the image's side
 
 
 # ------------------------------------------------------------------------------------ the belief
