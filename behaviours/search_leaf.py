@@ -81,13 +81,13 @@ class SearchLeaf(MissionLeaf):
             return None
         last = (float(track.pose_map[0, 3]), float(track.pose_map[1, 3]))
         cx, cy, cam_yaw = self.camera_pose(robot)
-        if math.hypot(last[0] - cx, last[1] - cy) > GLANCE_RANGE_M:
+        d = math.hypot(last[0] - cx, last[1] - cy)
+        if d > GLANCE_RANGE_M:
             return None
         off = abs(se3.wrap_angle(math.atan2(last[1] - cy, last[0] - cx) - cam_yaw))
         if off < self.hfov() / 2 - GLANCE_EDGE_RAD:
             return None
         # up to the target's body: the lidar sees the target itself, which hides nothing
-        d = math.hypot(last[0] - cx, last[1] - cy)
         short = max(0.0, d - GLANCE_BODY_M) / max(d, 1e-9)
         near = (cx + short * (last[0] - cx), cy + short * (last[1] - cy))
         if not line_clear(sg.occupied, sg, (cx, cy), last) or not line_clear(
@@ -95,8 +95,7 @@ class SearchLeaf(MissionLeaf):
         ):
             return None
         # and where it has walked on to since, if it kept going: round a corner is behind it, not off the side
-        now = self.now()
-        since = min(GLANCE_HORIZON_S, max(0.0, now - (now if track.last_seen is None else track.last_seen)))
+        since = 0.0 if track.last_seen is None else min(GLANCE_HORIZON_S, max(0.0, self.now() - track.last_seen))
         _, ahead = predicted_walk(sg, sg.target_free(), track, since)
         if not line_clear(sg.occupied, sg, (cx, cy), ahead):
             return None

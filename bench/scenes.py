@@ -63,22 +63,8 @@ def render_scene(
         t = sv.random_pose(1.5, 30.0, rng, k, size_m)
         v = sv.render_marker_view(t, marker_id=7, marker_size_m=size_m, dictionary=dictionary, intrinsics=k, rng=rng)
         return Scene(v.image, k, [v])
-    background = None
-    truths = []
     poses = _grid_poses(n_markers, k, size_m, rng)
-    for i, t in enumerate(poses):
-        last = i == len(poses) - 1
-        v = sv.render_marker_view(
-            t,
-            marker_id=i,
-            marker_size_m=size_m,
-            dictionary=dictionary,
-            intrinsics=k,
-            rng=rng,
-            background=background,
-            blur_sigma=0.7 if last else 0.0,
-            noise_sigma=3.0 if last else 0.0,
-        )
-        background = cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
-        truths.append(v)
+    truths = sv.render_markers_view(
+        list(enumerate(poses)), marker_size_m=size_m, intrinsics=k, rng=rng, dictionary=dictionary
+    )
     return Scene(truths[-1].image, k, truths)

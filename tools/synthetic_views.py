@@ -234,6 +234,37 @@ def render_marker_view(
     )
 
 
+def render_markers_view(
+    placements: list[tuple[int, np.ndarray]],
+    *,
+    marker_size_m: float,
+    intrinsics: CameraIntrinsics,
+    rng: np.random.Generator,
+    dictionary: int = cv2.aruco.DICT_4X4_250,
+) -> list[SyntheticView]:
+    """Several markers ((id, T_cam_marker) each) in one image: each rendered onto the one before, blur and
+    sensor noise applied once, with the last. The last view's image is the picture; every view keeps its own
+    marker's true corners."""
+    views: list[SyntheticView] = []
+    background = None
+    for i, (marker_id, T) in enumerate(placements):
+        last = i == len(placements) - 1
+        v = render_marker_view(
+            T,
+            marker_id=marker_id,
+            marker_size_m=marker_size_m,
+            dictionary=dictionary,
+            intrinsics=intrinsics,
+            rng=rng,
+            background=background,
+            blur_sigma=0.7 if last else 0.0,
+            noise_sigma=3.0 if last else 0.0,
+        )
+        background = cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
+        views.append(v)
+    return views
+
+
 def pose_sequence(
     T_start: np.ndarray,
     n: int,

@@ -6,7 +6,6 @@ frame given to a source with ``tracking`` on and to one with it off, in the same
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import pytest
 
@@ -29,28 +28,13 @@ def sliding(n: int, *, ids: tuple[int, ...] = (7,), step_px: float = 6.0, appear
     rng = np.random.default_rng(3)
     appear_at = appear_at or {}
     for i in range(n):
-        background = None
-        image = None
-        truth = {}
         shown = [m for m in ids if appear_at.get(m, 0) <= i]
-        for j, m in enumerate(shown):
-            x = (-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx
-            T = se3.transform(sv.R_FRONTAL, (x, 0.1 * j - 0.1, 1.5))
-            last = j == len(shown) - 1
-            v = sv.render_marker_view(
-                T,
-                marker_id=m,
-                marker_size_m=0.15,
-                intrinsics=K,
-                rng=rng,
-                background=background,
-                blur_sigma=0.7 if last else 0.0,
-                noise_sigma=3.0 if last else 0.0,
-            )
-            background = cv2.cvtColor(v.image, cv2.COLOR_BGR2GRAY).astype(np.float32)
-            image = v.image
-            truth[m] = v.corners
-        yield image, truth
+        placements = [
+            (m, se3.transform(sv.R_FRONTAL, ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx, 0.1 * j - 0.1, 1.5)))
+            for j, m in enumerate(shown)
+        ]
+        views = sv.render_markers_view(placements, marker_size_m=0.15, intrinsics=K, rng=rng)
+        yield views[-1].image, {v.marker_id: v.corners for v in views}
 
 
 def test_tracking_finds_the_markers_full_frame_detection_finds_with_the_same_corners_looking_at_windows():
