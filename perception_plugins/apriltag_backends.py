@@ -45,8 +45,8 @@ import cv2
 import numpy as np
 import pupil_apriltags
 
+from mission.perception_plugins.aruco_detection import QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners
-from mission.perception_plugins.marker_quads import one_quad_per_marker
 
 log = logging.getLogger(__name__)
 
@@ -274,27 +274,24 @@ class OpenCvBackend:
     def __init__(self, family: str, *, max_hamming: int, refine_edges: bool) -> None:
         self.family = family
         self.dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, OPENCV_DICTIONARIES[family]))
-        params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE  # refined here, when refine_edges
         self.refine_edges = refine_edges
         # Let OpenCV correct at least `max_hamming` bits; the measured hamming then filters precisely.
         max_bits = max(1, int(self.dictionary.maxCorrectionBits))
-        params.errorCorrectionRate = float(min(1.0, (max_hamming + 0.5) / max_bits))
-        # OpenCV's default 0.125 drops a large marker whose quiet zone shows as a second contour
-        # (opencv_contrib#2913); the aruco source measured the same fix.
-        params.minMarkerDistanceRate = 0.025
-        self._detector = cv2.aruco.ArucoDetector(self.dictionary, params)
+        correction = float(min(1.0, (max_hamming + 0.5) / max_bits))
+
+        def configure(params: Any) -> None:
+            params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE  # refined here, when refine_edges
+            params.errorCorrectionRate = correction
+
+        # The marker's own quad, not an inner contour, and large markers kept (aruco_detection.py).
+        self._detector = QuadDetector(self.dictionary, configure)
         self._n = int(self.dictionary.markerSize)
         self._codes = dictionary_codes(OPENCV_DICTIONARIES[family])
 
     def detect(self, gray: np.ndarray) -> list[RawTag]:
-        corners, ids, _ = self._detector.detectMarkers(gray)
-        if ids is None:
+        quads, ids = self._detector(gray)
+        if len(ids) == 0:
             return []
-        ids = ids.reshape(-1)
-        quads = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
-        keep = one_quad_per_marker(quads, ids)  # the outer of an id's nested quads (marker_quads)
-        ids, quads = ids[keep], quads[keep]
         if self.refine_edges:
             quads = refine_corners(gray, quads, self._n + 2)
         corners = quads

@@ -8,8 +8,8 @@ every OpenCV predefined dictionary and custom ones from an OpenCV dictionary fil
 marker (perception_plugins/corner_refinement.py), and both IPPE poses kept and chosen between over time
 (perception_plugins/square_pose.py), with a confidence computed from the fit.
 
-OpenCV 4.x (≥ 4.7, ``ArucoDetector``) and 5.x are both supported; the only API difference that matters
-here is isolated in :func:`_make_detector`.
+OpenCV 4.x (≥ 4.8, ``ArucoDetector``) and 5.x are both supported; which of the detector's quads is the
+marker is chosen in perception_plugins/aruco_detection.py.
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from __future__ import annotations
 import difflib
 import logging
 import math
-from collections.abc import Callable
 from typing import Any, ClassVar, Literal
 
 import cv2
@@ -29,10 +28,10 @@ from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
+from mission.perception_plugins.aruco_detection import QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
-from mission.perception_plugins.marker_quads import one_quad_per_marker
 from mission.perception_plugins.marker_tracking import RegionTracker, detect_tracked
 
 log = logging.getLogger(__name__)
@@ -63,52 +62,14 @@ class ArucoParams(StrictModel):
     full_frame_every: PositiveInt = 10  # tracking: a full-frame pass at least this often (a new marker's wait)
 
 
-Detector = Callable[[np.ndarray, float | None], tuple[Any, Any]]
+def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> QuadDetector:
+    """OpenCV's ArUco detector (``ArucoDetector``: OpenCV ≥ 4.8 and 5.x) refining with `refinement`'s OpenCV
+    method, choosing the marker's own quad (perception_plugins/aruco_detection.py)."""
 
+    def configure(params: Any) -> None:
+        params.cornerRefinementMethod = getattr(cv2.aruco, _REFINEMENT[refinement])
 
-def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> Detector:
-    """A function (grey image, minimum marker perimeter rate or None for OpenCV's) → (corners, ids), over
-    whichever ArUco API this OpenCV has. The rate is what a tracking window sets (marker_tracking.py).
-
-    OpenCV ≥ 4.7 and 5.x: ``ArucoDetector``; older 4.x: the free ``detectMarkers`` (gone in 5.0).
-    ``minMarkerDistanceRate`` is lowered from OpenCV's 0.125: with the default, a marker larger than
-    ~200 px whose white quiet zone shows as a second contour is dropped in favour of that contour
-    (opencv_contrib#2913) — ~20 % of views at 0.5 m in our tests, 0 % with 0.025.
-    """
-    aruco = cv2.aruco
-    params = aruco.DetectorParameters() if hasattr(aruco, "DetectorParameters") else aruco.DetectorParameters_create()
-    params.cornerRefinementMethod = getattr(aruco, _REFINEMENT[refinement])
-    params.minMarkerDistanceRate = 0.025
-    default_rate = params.minMarkerPerimeterRate
-    if hasattr(aruco, "ArucoDetector"):
-        detector = aruco.ArucoDetector(dictionary, params)
-
-        def detect(grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[Any, Any]:
-            rate = default_rate if min_perimeter_rate is None else min_perimeter_rate
-            if rate != params.minMarkerPerimeterRate:
-                params.minMarkerPerimeterRate = rate
-                detector.setDetectorParameters(params)
-            corners, ids, _ = detector.detectMarkers(grey)
-            return _one_per_marker(corners, ids)
-
-        return detect
-
-    def detect_legacy(grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[Any, Any]:  # pragma: no cover
-        params.minMarkerPerimeterRate = default_rate if min_perimeter_rate is None else min_perimeter_rate
-        corners, ids, _ = aruco.detectMarkers(grey, dictionary, parameters=params)
-        return _one_per_marker(corners, ids)
-
-    return detect_legacy
-
-
-def _one_per_marker(corners: Any, ids: Any) -> tuple[Any, Any]:
-    """OpenCV's (corners, ids) with one quad per marker: the outer one of an id's nested quads (marker_quads)."""
-    if ids is None or len(ids) < 2:
-        return corners, ids
-    keep = one_quad_per_marker(np.asarray(corners, dtype=np.float64), np.asarray(ids))
-    if len(keep) == len(ids):
-        return corners, ids
-    return tuple(corners[k] for k in keep), np.asarray(ids)[keep]
+    return QuadDetector(dictionary, configure)
 
 
 def _dictionary(value: str, source: str) -> MarkerDictionary:

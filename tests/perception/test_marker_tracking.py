@@ -9,32 +9,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mission.core import se3
 from mission.core.types import Frame
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.marker_tracking import RegionTracker, Window, detect_tracked
-from tools import synthetic_views as sv
-
-K = sv.default_intrinsics(1280, 720)
+from tests.helpers.marker_sequences import K, sliding
 
 
 def frame(image: np.ndarray, i: int) -> Frame:
     return Frame(image=image, stamp=i / 30.0, intrinsics=K, frame_id="camera")
-
-
-def sliding(n: int, *, ids: tuple[int, ...] = (7,), step_px: float = 6.0, appear_at: dict[int, int] | None = None):
-    """`n` frames of markers 1.5 m ahead sliding sideways `step_px` a frame (a turning robot's view); a marker
-    in `appear_at` comes into the picture at that frame. Yields (image, {id: true corners})."""
-    rng = np.random.default_rng(3)
-    appear_at = appear_at or {}
-    for i in range(n):
-        shown = [m for m in ids if appear_at.get(m, 0) <= i]
-        placements = [
-            (m, se3.transform(sv.R_FRONTAL, ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx, 0.1 * j - 0.1, 1.5)))
-            for j, m in enumerate(shown)
-        ]
-        views = sv.render_markers_view(placements, marker_size_m=0.15, intrinsics=K, rng=rng)
-        yield views[-1].image, {v.marker_id: v.corners for v in views}
 
 
 def test_tracking_finds_the_markers_full_frame_detection_finds_with_the_same_corners_looking_at_windows():

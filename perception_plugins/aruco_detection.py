@@ -1,0 +1,195 @@
+"""OpenCV's ArUco detector, made to choose the marker's own quad (issue 34): shared by the `aruco` source and
+the OpenCV backend of the `apriltag` source.
+
+OpenCV groups candidate quads closer together than ``minMarkerDistanceRate`` × their perimeter and keeps one
+of each group. Two settings each fail somewhere:
+
+* **OpenCV's default, 0.125**, keeps the marker's outer square where a lower rate also keeps the inner edge
+  of its black border as a second quad. But a large marker (over ~100 px) whose white quiet zone shows as a
+  contour of its own can lose its group to that contour, which does not decode, and is dropped
+  (opencv_contrib#2913): 1–5 % of views of such markers in our renders, none under 60 px.
+* **0.025** keeps those large markers, and reports an ~85 px marker by the inner edge of its border instead
+  of its outline: corners 6–9 px inside the true ones (p95 9.0 px on a rendered sequence whose truth is
+  exact, against 1.6 px at the default), a pose 17 % too far, and a ChArUco photo's worst corner at 9.8 px
+  where raw OpenCV is within 1.8 px.
+
+So :class:`QuadDetector` takes OpenCV's default quads, and then looks for what only the default drops: a
+*rescue pass* at a third of the resolution, at 0.025, keeping only markers of at least
+:data:`RESCUE_MIN_SIDE_PX` (the only ones the default loses; at a third of the pixels it costs about a tenth of
+the full pass). A marker it finds that the default did not is detected again at full resolution in a window
+round it, where — large as it is — 0.025 still groups its border's inner edge with its outline.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import cv2
+import numpy as np
+
+from mission.perception_plugins.marker_quads import one_quad_per_marker
+
+RESCUE_SCALE = 3  # the rescue pass looks at 1 / RESCUE_SCALE of the image's width and height
+RESCUE_MIN_SIDE_PX = 60.0  # markers smaller than this (full-resolution px) are never dropped by the default
+RESCUE_RATE = 0.025  # minMarkerDistanceRate of the rescue pass and its windows (what #2913 needs)
+WINDOW_MARGIN = 0.5  # a rescued marker is re-detected in a window this many sides beyond its quad
+
+Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
+
+
+def _parameters(configure: Configure, distance_rate: float | None = None) -> Any:
+    params = cv2.aruco.DetectorParameters()
+    configure(params)
+    if distance_rate is not None:
+        params.minMarkerDistanceRate = distance_rate
+    return params
+
+
+def _as_arrays(corners: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
+    if ids is None or len(ids) == 0:
+        return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
+    return np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2), np.asarray(ids, dtype=np.int64).reshape(-1)
+
+
+def _side(quad: np.ndarray) -> float:
+    return float(np.mean(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)))
+
+
+class QuadDetector:
+    """(grey image, minimum marker perimeter rate or None for OpenCV's) → (N×4×2 float64 corners, N ids), with
+    one quad per marker and that quad the marker's outline (see the module).
+
+    The perimeter rate is what a tracking window sets (marker_tracking.py); it applies to every pass.
+    ``rescues`` counts the markers the rescue pass added, for the benches.
+    """
+
+    def __init__(self, dictionary: cv2.aruco.Dictionary, configure: Configure) -> None:
+        self._params = _parameters(configure)
+        self._default_rate = float(self._params.minMarkerPerimeterRate)
+        self._detector = cv2.aruco.ArucoDetector(dictionary, self._params)
+        self._rescue_params = _parameters(configure, RESCUE_RATE)
+        self._rescue = cv2.aruco.ArucoDetector(dictionary, self._rescue_params)
+        self._cells = int(dictionary.markerSize) + 2  # data bits + the black border, in modules
+        self.rescues = 0
+
+    def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
+        quads, ids = self._detect(self._detector, self._params, grey, rate)
+        rescued_quads, rescued_ids = self._rescue_pass(grey, rate)
+        extra = [k for k in range(len(rescued_ids)) if not _already_found(rescued_quads[k], rescued_ids[k], quads, ids)]
+        if not extra:
+            return quads, ids
+        add_quads, add_ids = [], []
+        for k in extra:
+            found = self._full_resolution(grey, rescued_quads[k], int(rescued_ids[k]))
+            if found is not None:
+                add_quads.append(found)
+                add_ids.append(int(rescued_ids[k]))
+        if not add_ids:
+            return quads, ids
+        self.rescues += len(add_ids)
+        return np.concatenate([quads, np.stack(add_quads)]), np.concatenate([ids, np.array(add_ids, dtype=np.int64)])
+
+    @staticmethod
+    def _detect(detector: Any, params: Any, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+        if rate != params.minMarkerPerimeterRate:
+            params.minMarkerPerimeterRate = rate
+            detector.setDetectorParameters(params)
+        corners, ids, _ = detector.detectMarkers(grey)
+        quads, ids = _as_arrays(corners, ids)
+        if len(ids) > 1:
+            keep = one_quad_per_marker(quads, ids)
+            quads, ids = quads[keep], ids[keep]
+        return quads, ids
+
+    def _rescue_pass(self, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
+        """Markers of at least RESCUE_MIN_SIDE_PX at 1/RESCUE_SCALE resolution, at RESCUE_RATE, in full-res px."""
+        h, w = grey.shape[:2]
+        longest = max(h, w)
+        if longest * 0.9 < 4 * RESCUE_MIN_SIDE_PX:  # no marker that large fits: nothing the default can drop
+            return _as_arrays(None, None)
+        small = cv2.resize(grey, (w // RESCUE_SCALE, h // RESCUE_SCALE), interpolation=cv2.INTER_AREA)
+        min_rate = max(rate, 4 * RESCUE_MIN_SIDE_PX / longest)  # a perimeter rate is scale-free
+        quads, ids = self._detect(self._rescue, self._rescue_params, small, min_rate)
+        # small pixel u covers full-res pixels 3u … 3u + 2, whose centres average to 3u + 1
+        return (quads + 0.5) * RESCUE_SCALE - 0.5, ids
+
+    def _full_resolution(self, grey: np.ndarray, quad: np.ndarray, marker_id: int) -> np.ndarray | None:
+        """The quad of `marker_id` near `quad`, detected again at full resolution in a window round it."""
+        h, w = grey.shape[:2]
+        reach = WINDOW_MARGIN * _side(quad)
+        lo, hi = quad.min(axis=0) - reach, quad.max(axis=0) + reach
+        x0, y0 = max(0, int(np.floor(lo[0]))), max(0, int(np.floor(lo[1])))
+        x1, y1 = min(w, int(np.ceil(hi[0]))), min(h, int(np.ceil(hi[1])))
+        window = grey[y0:y1, x0:x1]
+        rate = 0.5 * 4 * _side(quad) / max(x1 - x0, y1 - y0, 1)  # half the rescued marker's perimeter
+        quads, ids = self._detect(self._rescue, self._rescue_params, window, rate)
+        quads = quads + np.array([x0, y0], dtype=np.float64)
+        best = None
+        for q, i in zip(quads, ids, strict=True):
+            offset = float(np.linalg.norm(q.mean(axis=0) - quad.mean(axis=0)))
+            if i == marker_id and offset < 0.25 * _side(quad) and (best is None or offset < best[0]):
+                best = (offset, q)
+        return None if best is None else outline(grey, best[1], self._cells)
+
+
+def _already_found(quad: np.ndarray, marker_id: int, quads: np.ndarray, ids: np.ndarray) -> bool:
+    centre, side = quad.mean(axis=0), _side(quad)
+    near = [np.linalg.norm(q.mean(axis=0) - centre) < 0.5 * side for q in quads]
+    return any(i == marker_id and close for i, close in zip(ids, near, strict=True))
+
+
+OUTLINE_GROW = np.arange(-0.3, 0.701, 0.05)  # modules: how far beyond a quad its marker's outline may lie
+_ALONG = np.linspace(0.1, 0.9, 17)  # where along each side the outline's contrast is sampled
+_ACROSS = 0.3  # modules either side of a candidate outline where white (outside) and black (inside) are read
+
+
+def outline(grey: np.ndarray, quad: np.ndarray, cells: int) -> np.ndarray:
+    """`quad` moved to its marker's outline: of the squares grown from it by OUTLINE_GROW modules (in the
+    marker's own plane, through the quad's homography), the one with the most white outside and black inside.
+
+    A quad at 0.025 may be the inner edge of the black border, ~0.4 module inside the outline; the outline is
+    the only nearby square with the quiet zone's white outside and the border's black inside (the border's
+    inner edge has data cells inside, the quiet zone's edge white inside, both beyond the searched range's
+    contrast). Exact under perspective, since the growth is in the marker's plane."""
+    unit = np.array([[0, 0], [cells, 0], [cells, cells], [0, cells]], dtype=np.float64)
+    hom = cv2.getPerspectiveTransform(unit.astype(np.float32), np.asarray(quad, dtype=np.float32))
+    best = max(OUTLINE_GROW, key=lambda g: _outline_contrast(grey, hom, cells, g))
+    best = max(best + np.arange(-0.05, 0.051, 0.01), key=lambda g: _outline_contrast(grey, hom, cells, g))
+    best_grow = float(best)
+    grown = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=np.float64) * best_grow + unit
+    return cv2.perspectiveTransform(grown[None].astype(np.float64), hom)[0]
+
+
+def _outline_contrast(grey: np.ndarray, hom: np.ndarray, cells: int, grow: float) -> float:
+    """Mean grey just outside the square grown `grow` modules, minus just inside it (−inf off the image)."""
+    h, w = grey.shape[:2]
+    lo, hi = -grow, cells + grow
+    inside = cv2.perspectiveTransform(_side_points(lo, hi, _ACROSS)[None], hom)[0]
+    outside = cv2.perspectiveTransform(_side_points(lo, hi, -_ACROSS)[None], hom)[0]
+    pts = np.concatenate([inside, outside])
+    if (pts < 0).any() or (pts[:, 0] > w - 1).any() or (pts[:, 1] > h - 1).any():
+        return -np.inf  # the square leaves the image: it cannot be read, so it is not chosen
+    values = _bilinear(grey, pts)
+    return float(np.mean(values[len(inside) :] - values[: len(inside)]))
+
+
+def _side_points(lo: float, hi: float, inset: float) -> np.ndarray:
+    """Points along the four sides of the square [lo, hi]², `inset` modules inside it (negative: outside)."""
+    a, b = lo + inset, hi - inset
+    t = lo + (hi - lo) * _ALONG
+    return np.concatenate(
+        [
+            np.stack([t, np.full_like(t, a)], axis=1),
+            np.stack([np.full_like(t, b), t], axis=1),
+            np.stack([t, np.full_like(t, b)], axis=1),
+            np.stack([np.full_like(t, a), t], axis=1),
+        ]
+    )
+
+
+def _bilinear(grey: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    x = pts[:, 0].astype(np.float32).reshape(1, -1)
+    y = pts[:, 1].astype(np.float32).reshape(1, -1)
+    return cv2.remap(grey, x, y, cv2.INTER_LINEAR).astype(np.float64).reshape(-1)
