@@ -5,7 +5,7 @@ OpenCV groups candidate quads closer together than ``minMarkerDistanceRate`` × 
 of each group. Two settings each fail somewhere:
 
 * **OpenCV's default, 0.125**, keeps the marker's outer square where a lower rate also keeps the inner edge
-  of its black border as a second quad. But a large marker (over ~100 px) whose white quiet zone shows as a
+  of its black border as a second quad. But a large marker (~80 px and more) whose white quiet zone shows as a
   contour of its own can lose its group to that contour, which does not decode, and is dropped
   (opencv_contrib#2913): 1–5 % of views of such markers in our renders, none under 60 px.
 * **0.025** keeps those large markers, and reports an ~85 px marker by the inner edge of its border instead
@@ -33,6 +33,7 @@ from mission.perception_plugins.marker_quads import one_quad_per_marker
 RESCUE_SCALE = 3  # the rescue pass looks at 1 / RESCUE_SCALE of the image's width and height
 RESCUE_MIN_SIDE_PX = 60.0  # markers smaller than this (full-resolution px) are never dropped by the default
 RESCUE_RATE = 0.025  # minMarkerDistanceRate of the rescue pass and its windows (what #2913 needs)
+RESCUE_THRESHOLD_PX = 7  # the rescue pass's one adaptive-threshold window (px of the third-resolution image)
 WINDOW_MARGIN = 0.5  # a rescued marker is re-detected in a window this many sides beyond its quad
 
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
@@ -70,6 +71,11 @@ class QuadDetector:
         self._detector = cv2.aruco.ArucoDetector(dictionary, self._params)
         self._rescue_params = _parameters(configure, RESCUE_RATE)
         self._rescue = cv2.aruco.ArucoDetector(dictionary, self._rescue_params)
+        # The third-resolution pass thresholds with one window (OpenCV's default tries 3, 13 and 23 px): a
+        # marker of RESCUE_MIN_SIDE_PX or more has cells of 3+ px there, and one pass costs a third as much.
+        self._small_params = _parameters(configure, RESCUE_RATE)
+        self._small_params.adaptiveThreshWinSizeMin = self._small_params.adaptiveThreshWinSizeMax = RESCUE_THRESHOLD_PX
+        self._small = cv2.aruco.ArucoDetector(dictionary, self._small_params)
         self._cells = int(dictionary.markerSize) + 2  # data bits + the black border, in modules
         self.rescues = 0
 
@@ -109,10 +115,10 @@ class QuadDetector:
         longest = max(h, w)
         if longest * 0.9 < 4 * RESCUE_MIN_SIDE_PX:  # no marker that large fits: nothing the default can drop
             return _as_arrays(None, None)
-        small = cv2.resize(grey, (w // RESCUE_SCALE, h // RESCUE_SCALE), interpolation=cv2.INTER_AREA)
+        # Every third pixel (a resize costs more than the pass itself): small pixel u is full-res pixel 3u + 1.
+        small = np.ascontiguousarray(grey[1::RESCUE_SCALE, 1::RESCUE_SCALE])
         min_rate = max(rate, 4 * RESCUE_MIN_SIDE_PX / longest)  # a perimeter rate is scale-free
-        quads, ids = self._detect(self._rescue, self._rescue_params, small, min_rate)
-        # small pixel u covers full-res pixels 3u … 3u + 2, whose centres average to 3u + 1
+        quads, ids = self._detect(self._small, self._small_params, small, min_rate)
         return (quads + 0.5) * RESCUE_SCALE - 0.5, ids
 
     def _full_resolution(self, grey: np.ndarray, quad: np.ndarray, marker_id: int) -> np.ndarray | None:
@@ -140,7 +146,8 @@ def _already_found(quad: np.ndarray, marker_id: int, quads: np.ndarray, ids: np.
     return any(i == marker_id and close for i, close in zip(ids, near, strict=True))
 
 
-OUTLINE_GROW = np.arange(-0.3, 0.701, 0.05)  # modules: how far beyond a quad its marker's outline may lie
+OUTLINE_GROW = np.arange(-0.6, 1.001, 0.02)  # modules: squares grown this far from a quad are read
+PLATEAU = 0.9  # squares scoring this fraction of the best are on its plateau
 _ALONG = np.linspace(0.1, 0.9, 17)  # where along each side the outline's contrast is sampled
 _ACROSS = 0.3  # modules either side of a candidate outline where white (outside) and black (inside) are read
 
@@ -155,9 +162,18 @@ def outline(grey: np.ndarray, quad: np.ndarray, cells: int) -> np.ndarray:
     contrast). Exact under perspective, since the growth is in the marker's plane."""
     unit = np.array([[0, 0], [cells, 0], [cells, cells], [0, cells]], dtype=np.float64)
     hom = cv2.getPerspectiveTransform(unit.astype(np.float32), np.asarray(quad, dtype=np.float32))
-    best = max(OUTLINE_GROW, key=lambda g: _outline_contrast(grey, hom, cells, g))
-    best = max(best + np.arange(-0.05, 0.051, 0.01), key=lambda g: _outline_contrast(grey, hom, cells, g))
-    best_grow = float(best)
+    scores = np.array([_outline_contrast(grey, hom, cells, g) for g in OUTLINE_GROW])
+    if not np.isfinite(scores).any():
+        return np.asarray(quad, dtype=np.float64)
+    # Reading ±_ACROSS either side, every square within ±_ACROSS of the outline scores alike: the outline is
+    # the middle of the plateau round the best score, not its (noise-chosen) peak.
+    top = int(np.argmax(scores))
+    lo = hi = top
+    while lo > 0 and scores[lo - 1] >= PLATEAU * scores[top]:
+        lo -= 1
+    while hi < len(scores) - 1 and scores[hi + 1] >= PLATEAU * scores[top]:
+        hi += 1
+    best_grow = float(OUTLINE_GROW[lo] + OUTLINE_GROW[hi]) / 2
     grown = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=np.float64) * best_grow + unit
     return cv2.perspectiveTransform(grown[None].astype(np.float64), hom)[0]
 

@@ -85,3 +85,18 @@ def test_a_quad_on_the_inner_edge_of_the_border_is_moved_out_to_the_marker():
     assert np.linalg.norm(inner - view.corners, axis=1).min() > 4.0  # a tilted ~110 px marker: pixels off
     assert np.linalg.norm(outline(grey, inner, CELLS) - view.corners, axis=1).max() < 1.0
     assert np.linalg.norm(outline(grey, view.corners, CELLS) - view.corners, axis=1).max() < 1.0  # a right one stays
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_large_marker_on_a_dark_floor_that_opencv_drops_is_found_by_its_outline(seed):
+    # 0.5 m ahead, ~250 px wide, on a plain grey-57 floor: the white quiet zone's own contour wins OpenCV's
+    # grouping at its default rate and the marker is dropped (opencv_contrib#2913)
+    T = sv.pose_facing_camera(np.array([-0.061, -0.07, 0.51]), tilt_axis_angle=0.62, tilt=0.11, roll=-1.14)
+    floor = np.full((K.height, K.width), 57.0, np.float32)
+    view = sv.render_marker_view(T, marker_size_m=0.15, intrinsics=K, rng=np.random.default_rng(seed), background=floor)
+    grey = cv2.cvtColor(view.image, cv2.COLOR_BGR2GRAY)
+    assert raw_opencv(0.125)(grey) == {}
+    ours = QuadDetector(DICTIONARY, unrefined)
+    quads, ids = ours(grey)
+    assert ids.tolist() == [7] and ours.rescues == 1
+    assert np.linalg.norm(quads[0] - view.corners, axis=1).max() < 2.5
