@@ -29,10 +29,11 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field, PositiveFloat, field_validator, model_validator
+from pydantic import Field, PositiveFloat, PositiveInt, field_validator, model_validator
 
 from mission.core import se3
 from mission.core.config import Renamed, StrictModel, validate_model
@@ -48,6 +49,7 @@ from mission.perception_plugins.apriltag_backends import (
 )
 from mission.perception_plugins.aruco import to_grey
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +117,8 @@ class AprilTagParams(StrictModel):
     max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
     min_decision_margin: float = Field(0.0, ge=0.0)  # drop weaker decodes (grey levels)
     disambiguation: Literal["temporal", "naive"] = "temporal"  # flip choice, as the aruco source
+    tracking: bool = False  # look where the tags were; the full frame only now and then (marker_tracking.py)
+    full_frame_every: PositiveInt = FULL_FRAME_EVERY  # tracking: a full-frame pass at least this often
 
     @field_validator("min_contrast")
     @classmethod
@@ -206,6 +210,7 @@ class AprilTagSource:
         self._disambiguator = square_pose.TemporalDisambiguator()
         self._intrinsics = FrameIntrinsics(self.name, log)
         self.counters: dict[str, int] = {}
+        self.tracker = RegionTracker(p.full_frame_every) if p.tracking else None
 
     # -- lookups -----------------------------------------------------------------------------------
     def marker_size(self, tag_id: int) -> float:
@@ -222,10 +227,17 @@ class AprilTagSource:
     def _count(self, key: str) -> None:
         self.counters[key] = self.counters.get(key, 0) + 1
 
+    def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
+        """The backend's tags in `grey` as the tracker takes them (a window's own tags, moved to the frame)."""
+        return [Found(t.corners, t.tag_id, t) for t in self._backend.detect(grey, min_perimeter_rate)]
+
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
-        raw = self._backend.detect(grey)
+        if self.tracker is not None:
+            raw = [replace(f.extra, corners=f.quad) for f in detect_tracked(grey, self.tracker, self._found)]
+        else:
+            raw = self._backend.detect(grey)
         if not raw:
             return []
         intr, degraded = self._intrinsics(frame)
@@ -316,3 +328,5 @@ class AprilTagSource:
     def close(self) -> None:
         self._backend.close()
         self._disambiguator.reset()
+        if self.tracker is not None:
+            self.tracker.reset()

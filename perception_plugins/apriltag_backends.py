@@ -242,7 +242,8 @@ class Apriltag3Backend:
                 head.qtp.min_cluster_pixels = int(min_cluster_pixels)
         self.last_min_contrast: int | None = None  # what the last frame used (for reports and tests)
 
-    def detect(self, gray: np.ndarray) -> list[RawTag]:
+    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None) -> list[RawTag]:
+        """The tags in `gray`. AprilTag 3 has no perimeter floor to set; a tracking window's is not used."""
         out = []
         order = list(pupil_corner_order())
         gray = np.ascontiguousarray(gray)
@@ -288,8 +289,9 @@ class OpenCvBackend:
         self._n = int(self.dictionary.markerSize)
         self._codes = dictionary_codes(OPENCV_DICTIONARIES[family])
 
-    def detect(self, gray: np.ndarray) -> list[RawTag]:
-        quads, ids = self._detector(gray)
+    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None) -> list[RawTag]:
+        """The tags in `gray`; `min_perimeter_rate` is what a tracking window sets (marker_tracking.py)."""
+        quads, ids = self._detector(gray, min_perimeter_rate)
         if len(ids) == 0:
             return []
         if self.refine_edges:

@@ -32,7 +32,7 @@ from mission.perception_plugins.aruco_detection import QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
-from mission.perception_plugins.marker_tracking import RegionTracker, detect_tracked
+from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +59,7 @@ class ArucoParams(StrictModel):
     corner_refinement: Literal["edges", "subpix", "none", "contour", "apriltag"] = "edges"  # see corner_refinement.py
     disambiguation: Literal["temporal", "naive"] = "temporal"  # naive = lowest error per frame (baseline)
     tracking: bool = False  # look where the markers were; the full frame only now and then (marker_tracking.py)
-    full_frame_every: PositiveInt = 10  # tracking: a full-frame pass at least this often (a new marker's wait)
+    full_frame_every: PositiveInt = FULL_FRAME_EVERY  # tracking: a full-frame pass at least this often
 
 
 def _make_detector(dictionary: cv2.aruco.Dictionary, refinement: str) -> QuadDetector:
@@ -141,6 +141,15 @@ class ArucoSource:
             return subpix_corners(grey, quads, self._cells)
         return quads
 
+    def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
+        """A frame's (rate None) or a tracking window's markers. A window is searched scaled down when the
+        edges refiner will finish its corners at full resolution (QuadDetector.window)."""
+        if min_perimeter_rate is not None and self.params.corner_refinement == "edges":
+            quads, ids = self._detect.window(grey, min_perimeter_rate)
+        else:
+            quads, ids = self._detect(grey, min_perimeter_rate)
+        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
         return float(self.params.marker_sizes.get(marker_id, self.params.marker_size_m))
@@ -148,10 +157,12 @@ class ArucoSource:
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
         if self.tracker is not None:
-            corners_list, ids = detect_tracked(grey, self.tracker, self._detect)
+            found = detect_tracked(grey, self.tracker, self._found)
+            corners_list = np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
+            ids = np.array([f.marker_id for f in found], dtype=np.int64)
         else:
             corners_list, ids = self._detect(grey, None)
-        if ids is None or len(ids) == 0:
+        if len(ids) == 0:
             return []
         corners_list = self._refine(grey, corners_list)
         intrinsics, degraded = self._intrinsics(frame)

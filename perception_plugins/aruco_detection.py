@@ -36,6 +36,9 @@ RESCUE_RATE = 0.025  # minMarkerDistanceRate of the rescue pass and its windows 
 RESCUE_THRESHOLD_PX = 7  # the rescue pass's one adaptive-threshold window (px of the third-resolution image)
 WINDOW_MARGIN = 0.5  # a rescued marker is re-detected in a window this many sides beyond its quad
 
+WINDOW_SIDE_PX = 64.0  # a tracking window is searched scaled so its expected marker is at most this wide
+WINDOW_THRESHOLD_PX = 13  # and thresholded with this one window (OpenCV's default tries 3, 13 and 23 px)
+
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
 
@@ -77,6 +80,10 @@ class QuadDetector:
         self._small_params.adaptiveThreshWinSizeMin = self._small_params.adaptiveThreshWinSizeMax = RESCUE_THRESHOLD_PX
         self._small = cv2.aruco.ArucoDetector(dictionary, self._small_params)
         self._cells = int(dictionary.markerSize) + 2  # data bits + the black border, in modules
+        self._window_params = _parameters(configure)
+        self._window_params.adaptiveThreshWinSizeMin = WINDOW_THRESHOLD_PX
+        self._window_params.adaptiveThreshWinSizeMax = WINDOW_THRESHOLD_PX
+        self._window = cv2.aruco.ArucoDetector(dictionary, self._window_params)
         self.rescues = 0
 
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +103,20 @@ class QuadDetector:
             return quads, ids
         self.rescues += len(add_ids)
         return np.concatenate([quads, np.stack(add_quads)]), np.concatenate([ids, np.array(add_ids, dtype=np.int64)])
+
+    def window(self, grey: np.ndarray, min_perimeter_rate: float) -> tuple[np.ndarray, np.ndarray]:
+        """The markers in a tracking window expected to hold a marker of half the perimeter the rate floors
+        (marker_tracking.Window): searched scaled down so that marker is WINDOW_SIDE_PX wide, with one
+        threshold window. Its quads are ~0.5 / scale px off, for a refiner working at full resolution
+        (corner_refinement.py) to finish; at that size OpenCV's default keeps every marker (#2913 is a
+        large-marker fault), so no rescue pass."""
+        h, w = grey.shape[:2]
+        expected_side = 0.5 * min_perimeter_rate * max(h, w)
+        scale = min(1.0, WINDOW_SIDE_PX / max(expected_side, 1.0))
+        small = grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        sh, sw = small.shape[:2]
+        quads, ids = self._detect(self._window, self._window_params, small, min_perimeter_rate)
+        return (quads + 0.5) * np.array([w / sw, h / sh]) - 0.5, ids
 
     @staticmethod
     def _detect(detector: Any, params: Any, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:

@@ -27,6 +27,7 @@ import numpy as np
 
 MARGIN = 0.5  # a window reaches this many marker sides beyond the predicted quad (the quiet zone and then some)
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
+FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker waits at most 9 frames
 MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
 
 
@@ -68,7 +69,7 @@ class _Track:
 class RegionTracker:
     """Where to look in the next frame, from where the markers were (per marker id and quad)."""
 
-    full_frame_every: int = 10
+    full_frame_every: int = FULL_FRAME_EVERY
     tracks: dict[int, _Track] = field(default_factory=dict)
     since_full: int = 0  # frames since the last full-frame pass
     full_passes: int = 0
@@ -127,41 +128,51 @@ class RegionTracker:
         self.since_full = 0
 
 
-Detect = Callable[[np.ndarray, float | None], tuple[Any, Any]]  # (grey, min perimeter rate or None) → (corners, ids)
+@dataclass(frozen=True)
+class Found:
+    """One marker a detector found: its quad (4×2 px, in the image it was given), its id, and what else its
+    source keeps of it (the apriltag source: hamming distance and decision margin)."""
+
+    quad: np.ndarray
+    marker_id: int
+    extra: Any = None
+
+    def moved(self, offset: np.ndarray) -> Found:
+        return Found(self.quad + offset, self.marker_id, self.extra)
 
 
-def detect_tracked(grey: np.ndarray, tracker: RegionTracker, detect: Detect) -> tuple[np.ndarray, np.ndarray]:
-    """One frame through the tracker: windows where markers were, or the full frame (see the module).
-    Returns (M×4×2 float64 corners in the frame, M ids)."""
+Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
+
+
+def detect_tracked(grey: np.ndarray, tracker: RegionTracker, detect: Detect) -> list[Found]:
+    """One frame through the tracker: windows where markers were, or the full frame (see the module). The
+    markers' quads are in the frame's pixels."""
     h, w = grey.shape[:2]
     wins = tracker.windows(w, h)
     if wins is not None:
-        quads, ids = _in_windows(grey, wins, detect)
-        if tracker.found(quads, ids, full=False):
-            return quads, ids
-    corners, found_ids = detect(grey, None)
-    quads, ids = _as_arrays(corners, found_ids)
-    tracker.found(quads, ids, full=True)
-    return quads, ids
+        found = _in_windows(grey, wins, detect)
+        if tracker.found(_quads(found), _ids(found), full=False):
+            return found
+    found = detect(grey, None)
+    tracker.found(_quads(found), _ids(found), full=True)
+    return found
 
 
-def _in_windows(grey: np.ndarray, wins: list[Window], detect: Detect) -> tuple[np.ndarray, np.ndarray]:
-    all_quads, all_ids = [], []
+def _in_windows(grey: np.ndarray, wins: list[Window], detect: Detect) -> list[Found]:
+    out: list[Found] = []
     for win in wins:
-        crop = grey[win.y0 : win.y1, win.x0 : win.x1]
-        quads, ids = _as_arrays(*detect(crop, win.min_perimeter_rate))
-        if len(ids):
-            all_quads.append(quads + np.array([win.x0, win.y0], dtype=np.float64))
-            all_ids.append(ids)
-    if not all_ids:
-        return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
-    return np.concatenate(all_quads), np.concatenate(all_ids)
+        crop = np.ascontiguousarray(grey[win.y0 : win.y1, win.x0 : win.x1])
+        offset = np.array([win.x0, win.y0], dtype=np.float64)
+        out += [f.moved(offset) for f in detect(crop, win.min_perimeter_rate)]
+    return out
 
 
-def _as_arrays(corners: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
-    if ids is None or len(ids) == 0:
-        return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
-    return np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2), np.asarray(ids, dtype=np.int64).reshape(-1)
+def _quads(found: list[Found]) -> np.ndarray:
+    return np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
+
+
+def _ids(found: list[Found]) -> np.ndarray:
+    return np.array([f.marker_id for f in found], dtype=np.int64)
 
 
 def _perimeter(quad: np.ndarray) -> float:

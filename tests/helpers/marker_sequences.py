@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+import cv2
 import numpy as np
 
 from mission.core import se3
@@ -13,7 +14,12 @@ K = sv.default_intrinsics(1280, 720)  # fx ≈ 869 px: a 0.15 m marker 1.5 m ahe
 
 
 def sliding(
-    n: int, *, ids: tuple[int, ...] = (7,), step_px: float = 6.0, appear_at: dict[int, int] | None = None
+    n: int,
+    *,
+    ids: tuple[int, ...] = (7,),
+    step_px: float = 6.0,
+    appear_at: dict[int, int] | None = None,
+    dictionary: int = cv2.aruco.DICT_4X4_250,
 ) -> Iterator[tuple[np.ndarray, dict[int, np.ndarray]]]:
     """`n` frames (1280×720) of 0.15 m markers 1.5 m ahead sliding sideways `step_px` a frame (a turning robot's
     view); a marker in `appear_at` comes into the picture at that frame. Yields (image, {id: true corners})."""
@@ -25,5 +31,5 @@ def sliding(
             (m, se3.transform(sv.R_FRONTAL, ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx, 0.1 * j - 0.1, 1.5)))
             for j, m in enumerate(shown)
         ]
-        views = sv.render_markers_view(placements, marker_size_m=0.15, intrinsics=K, rng=rng)
+        views = sv.render_markers_view(placements, marker_size_m=0.15, intrinsics=K, rng=rng, dictionary=dictionary)
         yield views[-1].image, {v.marker_id: v.corners for v in views}

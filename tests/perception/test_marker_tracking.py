@@ -6,10 +6,12 @@ frame given to a source with ``tracking`` on and to one with it off, in the same
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
 from mission.core.types import Frame
+from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
 from mission.perception_plugins.marker_tracking import RegionTracker, Window, detect_tracked
 from tests.helpers.marker_sequences import K, sliding
@@ -19,16 +21,17 @@ def frame(image: np.ndarray, i: int) -> Frame:
     return Frame(image=image, stamp=i / 30.0, intrinsics=K, frame_id="camera")
 
 
-def test_tracking_finds_the_markers_full_frame_detection_finds_with_the_same_corners_looking_at_windows():
+def test_tracking_finds_the_markers_full_frame_detection_finds_as_accurately_looking_at_windows():
     tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15})
     full = ArucoSource({"marker_size_m": 0.15})
     found = 0
-    for i, (image, _) in enumerate(sliding(30, ids=(3, 7, 11))):
+    for i, (image, truth) in enumerate(sliding(30, ids=(3, 7, 11))):
         a = {d.marker_id: d for d in tracked.process(frame(image, i))}
         b = {d.marker_id: d for d in full.process(frame(image, i))}
-        assert a.keys() >= b.keys()  # (in one frame the full frame misses marker 3, which its window finds)
-        for m in b:
-            assert np.abs(a[m].corners - b[m].corners).max() < 0.05  # the same pixels, the same corners
+        assert a.keys() >= b.keys()
+        for m in b:  # windows are searched scaled down; the refiner finishes at full resolution
+            assert np.linalg.norm(a[m].corners - truth[m], axis=1).max() < 0.3
+            assert np.abs(a[m].corners - b[m].corners).max() < 0.2
         found += len(a)
     assert found == 90
     stats = tracked.tracker
@@ -75,5 +78,22 @@ def test_nothing_tracked_means_the_full_frame():
     tracker = RegionTracker()
     assert tracker.windows(640, 480) is None
     seen = []
-    _, ids = detect_tracked(np.zeros((480, 640), np.uint8), tracker, lambda g, r: seen.append(r) or ((), None))
-    assert seen == [None] and len(ids) == 0 and tracker.full_passes == 1
+    found = detect_tracked(np.zeros((480, 640), np.uint8), tracker, lambda g, r: seen.append(r) or [])
+    assert seen == [None] and found == [] and tracker.full_passes == 1
+
+
+@pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
+def test_apriltag_tracking_finds_what_the_full_frame_finds_with_the_same_decodes(backend):
+    params = {"family": "tag36h11", "backend": backend, "marker_size_m": 0.15}
+    tracked, full = AprilTagSource({**params, "tracking": True}), AprilTagSource(params)
+    found = 0
+    for i, (image, _) in enumerate(sliding(20, ids=(3, 7, 11), dictionary=cv2.aruco.DICT_APRILTAG_36h11)):
+        a = {d.marker_id: d for d in tracked.process(frame(image, i))}
+        b = {d.marker_id: d for d in full.process(frame(image, i))}
+        assert a.keys() >= b.keys()
+        for m in b:
+            assert np.abs(a[m].corners - b[m].corners).max() < 0.05
+            assert a[m].extra["hamming"] == b[m].extra["hamming"]  # the decode travels with the window's tag
+        found += len(a)
+    assert found == 60
+    assert tracked.tracker is not None and tracked.tracker.window_passes >= 15 and tracked.tracker.full_passes == 2
