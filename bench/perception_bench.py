@@ -13,11 +13,14 @@ frame so both sides see the same machine load:
 * ``apriltag`` source, backend opencv vs raw ``ArucoDetector.detectMarkers`` (DICT_APRILTAG_36h11, same
   parameters) + ``solvePnP(IPPE_SQUARE)``.
 
-Reported: median ms per call, frames/s, and the overhead ratio ours/raw (target ≤ 1.10).
+Reported: median ms per call, frames/s, and the overhead ratio ours/raw (target ≤ 1.10). Then the tracking
+part (bench/tracking_bench.py): ``tracking: true`` against full-frame detection on rendered panning sequences,
+and the machine's load average at the end of the run.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -27,6 +30,7 @@ import numpy as np
 
 from bench.common import Figure, progress, ratio, save_figure
 from bench.scenes import APRILTAG_DICT, ARUCO_DICT, Scene, render_scene
+from bench.tracking_bench import run_tracking
 from mission.core.types import Frame
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.apriltag_backends import (
@@ -194,6 +198,8 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             meets_target=worst["ratio"] <= TARGET,
         ),
     )
+    tracking_rows, tracking_figures = run_tracking(quick)
+    figures += tracking_figures
     plot = _plot(rows, out)
     return {
         "title": "Perception throughput: our sources vs the raw library calls on the same rendered frames",
@@ -204,6 +210,8 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             "marker_size_m": SIZE,
             "opencv_threads": cv2.getNumThreads(),
             "rows": rows,
+            "tracking": tracking_rows,
+            "load_average": [round(x, 2) for x in os.getloadavg()],
         },
         "plots": [plot] if plot else [],
     }

@@ -1,0 +1,187 @@
+"""The perception benchmark's tracking part (issue 34): ``tracking: true`` against full-frame detection on
+rendered sequences whose truth is exact (bench/marker_sequences.py), calls interleaved frame by frame so both
+sides see the same machine load.
+
+Per resolution (640×480, 1280×720, 1920×1080) and marker count (1, 8):
+
+* ``aruco``, tracking on, against OpenCV's default ``ArucoDetector.detectMarkers`` on the whole frame (the
+  issue's baseline: no pose, no refinement — cheaper than any source) and against our source with tracking
+  off;
+* ``apriltag`` (each backend), tracking on, against the same source and backend with tracking off.
+
+Reported: median ms per frame and the speed-up; recall (markers found with tracking ÷ markers the baseline
+found, matched by id per frame); corner error against the truth (p95 and worst) for both; and the new-marker
+latency: for each marker the baseline finds after a frame without it, how many frames later the tracked
+source first reports it (bounded by ``full_frame_every − 1``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import cv2
+import numpy as np
+
+from bench.common import Figure, progress, ratio
+from bench.marker_sequences import MARKER_SIZE_M, SequenceFrame, panning_sequence
+from mission.core.types import Frame
+from mission.perception_plugins.apriltag import AprilTagSource
+from mission.perception_plugins.aruco import ArucoSource
+
+RESOLUTIONS = ((640, 480), (1280, 720), (1920, 1080))
+MARKER_COUNTS = (1, 8)
+ARUCO_TARGET = 3.0  # ≥ 3× OpenCV's default detector on the whole frame (issue 34), at 1280×720 and 1920×1080
+APRILTAG_TARGET = 2.0  # ≥ 2× the same backend at the same settings
+RECALL_TARGET = 0.995
+
+Detect = Callable[[np.ndarray, Frame], dict[int, np.ndarray]]  # (grey, frame) → id → corners
+
+
+def _source(source: Any) -> Detect:
+    return lambda grey, frame: {d.marker_id: d.corners for d in source.process(frame)}
+
+
+def _raw_aruco() -> Detect:
+    detector = cv2.aruco.ArucoDetector(
+        cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_250), cv2.aruco.DetectorParameters()
+    )
+
+    def detect(grey: np.ndarray, frame: Frame) -> dict[int, np.ndarray]:
+        corners, ids, _ = detector.detectMarkers(grey)
+        if ids is None or len(ids) == 0:
+            return {}
+        return {
+            int(i): np.asarray(c, dtype=np.float64).reshape(4, 2) for i, c in zip(ids.ravel(), corners, strict=True)
+        }
+
+    return detect
+
+
+def _cases() -> list[tuple[str, int, Callable[[], Any], list[tuple[str, Callable[[], Detect]]], float]]:
+    """(label, dictionary, tracked source factory, [(baseline label, baseline factory)], target speed-up)."""
+    aruco = {"marker_size_m": MARKER_SIZE_M}
+    tag3 = {"marker_size_m": MARKER_SIZE_M, "backend": "apriltag3"}
+    tagcv = {"marker_size_m": MARKER_SIZE_M, "backend": "opencv"}
+    return [
+        (
+            "aruco",
+            cv2.aruco.DICT_4X4_250,
+            lambda: ArucoSource({**aruco, "tracking": True}),
+            [
+                ("OpenCV ArucoDetector default, full frame", _raw_aruco),
+                ("aruco source, tracking off", lambda: _source(ArucoSource(aruco))),
+            ],
+            ARUCO_TARGET,
+        ),
+        (
+            "apriltag (apriltag3)",
+            cv2.aruco.DICT_APRILTAG_36h11,
+            lambda: AprilTagSource({**tag3, "tracking": True}),
+            [("apriltag source (apriltag3), tracking off", lambda: _source(AprilTagSource(tag3)))],
+            APRILTAG_TARGET,
+        ),
+        (
+            "apriltag (opencv)",
+            cv2.aruco.DICT_APRILTAG_36h11,
+            lambda: AprilTagSource({**tagcv, "tracking": True}),
+            [("apriltag source (opencv), tracking off", lambda: _source(AprilTagSource(tagcv)))],
+            APRILTAG_TARGET,
+        ),
+    ]
+
+
+def _errors(found: dict[int, np.ndarray], truth: dict[int, np.ndarray]) -> list[float]:
+    return [float(np.linalg.norm(found[m] - truth[m], axis=1).max()) for m in found if m in truth]
+
+
+def track_sequence(frames: list[SequenceFrame], intrinsics: Any, tracked: Any, baseline: Detect) -> dict[str, Any]:
+    """Interleaved per frame: the tracked source, then the baseline, on the same grey image."""
+    t_tracked, t_base = [], []
+    err_tracked: list[float] = []
+    err_base: list[float] = []
+    found_both = found_base = 0
+    waits: list[int] = []
+    pending: dict[int, int] = {}  # marker the baseline found anew at frame → that frame, until tracked finds it
+    base_prev: set[int] = set()
+    detect = _source(tracked)
+    for i, sf in enumerate(frames):
+        grey = cv2.cvtColor(sf.image, cv2.COLOR_BGR2GRAY)
+        frame = Frame(grey, stamp=i / 30.0, intrinsics=intrinsics, frame_id="camera")
+        t0 = time.perf_counter()
+        mine = detect(grey, frame)
+        t1 = time.perf_counter()
+        base = baseline(grey, frame)
+        t2 = time.perf_counter()
+        t_tracked.append((t1 - t0) * 1000)
+        t_base.append((t2 - t1) * 1000)
+        err_tracked += _errors(mine, sf.truth)
+        err_base += _errors(base, sf.truth)
+        found_base += len(base)
+        found_both += len(base.keys() & mine.keys())
+        for m in base.keys() - base_prev:
+            pending.setdefault(m, i)
+        for m in list(pending):
+            if m in mine:
+                waits.append(i - pending.pop(m))
+        base_prev = set(base)
+    waits += [len(frames) - start for start in pending.values()]  # never found by the end: as long as it waited
+    tracker = tracked.tracker
+    return {
+        "tracked_ms": round(float(np.median(t_tracked)), 3),
+        "baseline_ms": round(float(np.median(t_base)), 3),
+        "speedup": ratio(float(np.median(t_base)), float(np.median(t_tracked))),
+        "recall": round(found_both / found_base, 4) if found_base else None,
+        "markers_baseline": found_base,
+        "corner_p95_tracked_px": round(float(np.percentile(err_tracked, 95)), 3) if err_tracked else None,
+        "corner_max_tracked_px": round(float(np.max(err_tracked)), 3) if err_tracked else None,
+        "corner_p95_baseline_px": round(float(np.percentile(err_base, 95)), 3) if err_base else None,
+        "corner_max_baseline_px": round(float(np.max(err_base)), 3) if err_base else None,
+        "new_marker_wait_max_frames": max(waits) if waits else 0,
+        "full_passes": tracker.full_passes,
+        "window_passes": tracker.window_passes,
+    }
+
+
+def run_tracking(quick: bool) -> tuple[list[dict[str, Any]], list[Figure]]:
+    """The tracking rows and figures of the perception benchmark."""
+    n_frames = 20 if quick else 90
+    resolutions = RESOLUTIONS[1:2] if quick else RESOLUTIONS
+    rows: list[dict[str, Any]] = []
+    figures: list[Figure] = []
+    for label, dictionary, make_tracked, baselines, target in _cases():
+        for w, h in resolutions:
+            for n in MARKER_COUNTS:
+                k, frames = panning_sequence(w, h, n_frames, n, dictionary=dictionary, seed=w + n)
+                for base_label, make_base in baselines:
+                    tracked = make_tracked()
+                    r = track_sequence(frames, k, tracked, make_base())
+                    tracked.close()
+                    row = {"source": label, "baseline": base_label, "resolution": f"{w}x{h}", "markers": n, **r}
+                    rows.append(row)
+                    progress(
+                        f"perception: tracking {label} {w}x{h} {n} markers vs {base_label}: "
+                        f"{r['tracked_ms']} vs {r['baseline_ms']} ms ({r['speedup']}×), recall {r['recall']}"
+                    )
+                    if base_label == baselines[0][0]:
+                        gated = w >= 1280 or label != "aruco"
+                        figures.append(
+                            Figure(
+                                f"tracking {label} {w}×{h}, {n} marker{'s' if n > 1 else ''}: speed-up "
+                                f"(recall {r['recall']}, corners p95 {r['corner_p95_tracked_px']} px vs "
+                                f"{r['corner_p95_baseline_px']}, new marker ≤ "
+                                f"{r['new_marker_wait_max_frames']} frames)",
+                                r["speedup"],
+                                "×",
+                                baseline=base_label,
+                                baseline_value=r["baseline_ms"],
+                                target=f"≥ {target:.1f}× and recall ≥ {RECALL_TARGET}" if gated else None,
+                                meets_target=(
+                                    (r["speedup"] or 0) >= target and (r["recall"] or 0) >= RECALL_TARGET
+                                    if gated
+                                    else None
+                                ),
+                            )
+                        )
+    return rows, figures
