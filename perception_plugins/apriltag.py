@@ -32,6 +32,7 @@ import math
 from dataclasses import replace
 from typing import Any, ClassVar, Literal
 
+import cv2
 import numpy as np
 from pydantic import Field, PositiveFloat, PositiveInt, field_validator, model_validator
 
@@ -42,12 +43,14 @@ from mission.core.types import Detection, Frame
 from mission.perception_plugins import square_pose
 from mission.perception_plugins.apriltag_backends import (
     APRILTAG3_MAX_HAMMING,
+    OPENCV_DICTIONARIES,
     SUPPORTED_FAMILIES,
     Apriltag3Backend,
     OpenCvBackend,
     RawTag,
 )
 from mission.perception_plugins.aruco import to_grey
+from mission.perception_plugins.aruco_detection import QuadDetector
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
 
@@ -170,6 +173,15 @@ def _params(params: dict) -> AprilTagParams:
         raise ConfigError.several(problems, file=err.file) from None
 
 
+def _searcher(family: str) -> QuadDetector | None:
+    """OpenCV's detector for `family`, for tracking's search pass; None for a family OpenCV does not have (its
+    new tags then wait for the next full-frame pass)."""
+    if family not in OPENCV_DICTIONARIES:
+        return None
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, OPENCV_DICTIONARIES[family]))
+    return QuadDetector(dictionary, lambda params: None)
+
+
 def decode_confidence(hamming: int, decision_margin: float) -> float:
     """0..1 from AprilTag's decode quality: halves per corrected bit; a weak margin (< ~25 grey levels) costs."""
     return float(0.5 ** max(0, hamming) * (1.0 - math.exp(-max(0.0, decision_margin) / 25.0)))
@@ -211,6 +223,7 @@ class AprilTagSource:
         self._intrinsics = FrameIntrinsics(self.name, log)
         self.counters: dict[str, int] = {}
         self.tracker = RegionTracker(p.full_frame_every) if p.tracking else None
+        self._searcher = _searcher(p.family) if p.tracking else None
 
     # -- lookups -----------------------------------------------------------------------------------
     def marker_size(self, tag_id: int) -> float:
@@ -231,11 +244,21 @@ class AprilTagSource:
         """The backend's tags in `grey` as the tracker takes them (a window's own tags, moved to the frame)."""
         return [Found(t.corners, t.tag_id, t) for t in self._backend.detect(grey, min_perimeter_rate)]
 
+    def _search(self, grey: np.ndarray) -> list[Found]:
+        """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;
+        AprilTag 3 costs most of a full frame even there). It only says where to look: each tag it finds is
+        detected again by the backend, at full resolution, in a window of its own."""
+        if self._searcher is None:
+            return []
+        quads, ids = self._searcher.search(grey)
+        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
         if self.tracker is not None:
-            raw = [replace(f.extra, corners=f.quad) for f in detect_tracked(grey, self.tracker, self._found)]
+            found = detect_tracked(grey, self.tracker, self._found, self._search)
+            raw = [replace(f.extra, corners=f.quad) for f in found]
         else:
             raw = self._backend.detect(grey)
         if not raw:

@@ -150,6 +150,10 @@ class ArucoSource:
             quads, ids = self._detect(grey, min_perimeter_rate)
         return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
 
+    def _search(self, grey: np.ndarray) -> list[Found]:
+        quads, ids = self._detect.search(grey)
+        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
         return float(self.params.marker_sizes.get(marker_id, self.params.marker_size_m))
@@ -157,7 +161,7 @@ class ArucoSource:
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
         if self.tracker is not None:
-            found = detect_tracked(grey, self.tracker, self._found)
+            found = detect_tracked(grey, self.tracker, self._found, self._search)
             corners_list = np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
             ids = np.array([f.marker_id for f in found], dtype=np.int64)
         else:

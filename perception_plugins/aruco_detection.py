@@ -39,6 +39,9 @@ WINDOW_MARGIN = 0.5  # a rescued marker is re-detected in a window this many sid
 WINDOW_SIDE_PX = 64.0  # a tracking window is searched scaled so its expected marker is at most this wide
 WINDOW_THRESHOLD_PX = 13  # and thresholded with this one window (OpenCV's default tries 3, 13 and 23 px)
 
+SEARCH_SIDE_PX = 480  # tracking's search pass looks at the frame sampled down to about this on its longer side
+SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
+
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
 
@@ -84,6 +87,10 @@ class QuadDetector:
         self._window_params.adaptiveThreshWinSizeMin = WINDOW_THRESHOLD_PX
         self._window_params.adaptiveThreshWinSizeMax = WINDOW_THRESHOLD_PX
         self._window = cv2.aruco.ArucoDetector(dictionary, self._window_params)
+        self._search_params = _parameters(configure)
+        self._search_params.adaptiveThreshWinSizeMin = SEARCH_THRESHOLD_PX
+        self._search_params.adaptiveThreshWinSizeMax = SEARCH_THRESHOLD_PX
+        self._search = cv2.aruco.ArucoDetector(dictionary, self._search_params)
         self.rescues = 0
 
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -118,6 +125,14 @@ class QuadDetector:
         quads, ids = self._detect(self._window, self._window_params, small, min_perimeter_rate)
         return (quads + 0.5) * np.array([w / sw, h / sh]) - 0.5, ids
 
+    def search(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tracking's search pass (marker_tracking.detect_tracked): the markers in the whole frame sampled down
+        (search_step) with one threshold window, in the frame's pixels — for finding markers that came into
+        view, not for their corners (they are detected again at full resolution)."""
+        step = search_step(grey)
+        quads, ids = self._detect(self._search, self._search_params, sampled(grey, step), self._default_rate)
+        return quads * step + step // 2, ids
+
     @staticmethod
     def _detect(detector: Any, params: Any, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
         if rate != params.minMarkerPerimeterRate:
@@ -136,11 +151,10 @@ class QuadDetector:
         longest = max(h, w)
         if longest * 0.9 < 4 * RESCUE_MIN_SIDE_PX:  # no marker that large fits: nothing the default can drop
             return _as_arrays(None, None)
-        # Every third pixel (a resize costs more than the pass itself): small pixel u is full-res pixel 3u + 1.
-        small = np.ascontiguousarray(grey[1::RESCUE_SCALE, 1::RESCUE_SCALE])
+        small = sampled(grey, RESCUE_SCALE)
         min_rate = max(rate, 4 * RESCUE_MIN_SIDE_PX / longest)  # a perimeter rate is scale-free
         quads, ids = self._detect(self._small, self._small_params, small, min_rate)
-        return (quads + 0.5) * RESCUE_SCALE - 0.5, ids
+        return quads * RESCUE_SCALE + RESCUE_SCALE // 2, ids
 
     def _full_resolution(self, grey: np.ndarray, quad: np.ndarray, marker_id: int) -> np.ndarray | None:
         """The quad of `marker_id` near `quad`, detected again at full resolution in a window round it."""
@@ -230,3 +244,15 @@ def _bilinear(grey: np.ndarray, pts: np.ndarray) -> np.ndarray:
     x = pts[:, 0].astype(np.float32).reshape(1, -1)
     y = pts[:, 1].astype(np.float32).reshape(1, -1)
     return cv2.remap(grey, x, y, cv2.INTER_LINEAR).astype(np.float64).reshape(-1)
+
+
+def search_step(grey: np.ndarray) -> int:
+    """Every how many pixels the search pass samples `grey`: about SEARCH_SIDE_PX on its longer side, at least
+    every second pixel (so a 640×480 frame is searched at 320×240)."""
+    return max(2, round(max(grey.shape[:2]) / SEARCH_SIDE_PX))
+
+
+def sampled(grey: np.ndarray, step: int) -> np.ndarray:
+    """Every `step`-th pixel of `grey` (sampled pixel u is pixel step·u + step // 2): cheaper than a resize,
+    which costs more than the detection it feeds."""
+    return np.ascontiguousarray(grey[step // 2 :: step, step // 2 :: step])

@@ -75,6 +75,7 @@ class RegionTracker:
     full_passes: int = 0
     window_passes: int = 0
     rescues: int = 0  # full-frame passes run because a tracked marker was not in its window
+    discovered: int = 0  # markers the search pass found between full-frame passes
 
     def windows(self, width: int, height: int) -> list[Window] | None:
         """The windows to detect in this frame, or None for a full-frame pass."""
@@ -82,18 +83,8 @@ class RegionTracker:
             return None
         wins: list[Window] = []
         for tr in self.tracks.values():
-            quad = tr.quad + tr.motion
-            lo, hi = quad.min(axis=0), quad.max(axis=0)
-            side = float(np.max(hi - lo))
-            reach = MARGIN * side + float(np.abs(tr.motion).max())
-            win = Window(
-                max(0, int(np.floor(lo[0] - reach))),
-                max(0, int(np.floor(lo[1] - reach))),
-                min(width, int(np.ceil(hi[0] + reach))),
-                min(height, int(np.ceil(hi[1] + reach))),
-                MIN_PERIMETER_FRACTION * _perimeter(tr.quad),
-            )
-            if win.x1 - win.x0 < MIN_WINDOW_PX or win.y1 - win.y0 < MIN_WINDOW_PX:
+            win = window_round(tr.quad, tr.motion, width, height)
+            if win is None:
                 return None  # at the image's edge, or tiny: the full frame is as cheap and surer
             wins.append(win)
         return _merged(wins)
@@ -128,6 +119,24 @@ class RegionTracker:
         self.since_full = 0
 
 
+def window_round(quad: np.ndarray, motion: np.ndarray, width: int, height: int) -> Window | None:
+    """The window where a marker last seen at `quad` (4×2 px), moving `motion` px a frame, is looked for in the
+    next frame; None when it would be under MIN_WINDOW_PX on a side (at the image's edge)."""
+    moved = quad + motion
+    lo, hi = moved.min(axis=0), moved.max(axis=0)
+    reach = MARGIN * float(np.max(hi - lo)) + float(np.abs(motion).max())
+    win = Window(
+        max(0, int(np.floor(lo[0] - reach))),
+        max(0, int(np.floor(lo[1] - reach))),
+        min(width, int(np.ceil(hi[0] + reach))),
+        min(height, int(np.ceil(hi[1] + reach))),
+        MIN_PERIMETER_FRACTION * _perimeter(quad),
+    )
+    if win.x1 - win.x0 < MIN_WINDOW_PX or win.y1 - win.y0 < MIN_WINDOW_PX:
+        return None
+    return win
+
+
 @dataclass(frozen=True)
 class Found:
     """One marker a detector found: its quad (4×2 px, in the image it was given), its id, and what else its
@@ -142,20 +151,51 @@ class Found:
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
+Search = Callable[[np.ndarray], list[Found]]  # the whole frame, cheaply at reduced resolution → markers (frame px)
 
 
-def detect_tracked(grey: np.ndarray, tracker: RegionTracker, detect: Detect) -> list[Found]:
-    """One frame through the tracker: windows where markers were, or the full frame (see the module). The
+def detect_tracked(
+    grey: np.ndarray, tracker: RegionTracker, detect: Detect, search: Search | None = None
+) -> list[Found]:
+    """One frame through the tracker: windows where markers were, or the full frame (see the module). On a
+    window frame, `search` (when given) looks over the whole frame at reduced resolution for markers that are
+    not tracked yet; each it finds is detected again in a window of its own, at full resolution. The
     markers' quads are in the frame's pixels."""
     h, w = grey.shape[:2]
     wins = tracker.windows(w, h)
     if wins is not None:
         found = _in_windows(grey, wins, detect)
+        if search is not None and tracker.tracks.keys() <= {f.marker_id for f in found}:
+            new = _new_markers(grey, found, search, detect)
+            tracker.discovered += len(new)
+            found += new
         if tracker.found(_quads(found), _ids(found), full=False):
             return found
     found = detect(grey, None)
     tracker.found(_quads(found), _ids(found), full=True)
     return found
+
+
+def _new_markers(grey: np.ndarray, found: list[Found], search: Search, detect: Detect) -> list[Found]:
+    """Markers `search` finds that are not among `found`, each detected again in its own full-resolution window."""
+    h, w = grey.shape[:2]
+    new: list[Found] = []
+    for candidate in search(grey):
+        if any(f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad) for f in found + new):
+            continue
+        win = window_round(candidate.quad, np.zeros(2), w, h)
+        if win is None:
+            continue  # at the image's edge: the next full-frame pass has it
+        new += [
+            f
+            for f in _in_windows(grey, [win], detect)
+            if f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad)
+        ]
+    return new
+
+
+def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
+    return float(np.linalg.norm(a.mean(axis=0) - b.mean(axis=0))) < 0.125 * max(_perimeter(a), _perimeter(b))
 
 
 def _in_windows(grey: np.ndarray, wins: list[Window], detect: Detect) -> list[Found]:

@@ -38,13 +38,21 @@ def test_tracking_finds_the_markers_full_frame_detection_finds_as_accurately_loo
     assert stats is not None and stats.window_passes >= 25 and stats.full_passes == 3  # frames 0, 10, 20
 
 
-def test_a_marker_that_comes_into_view_is_found_within_full_frame_every_frames():
-    source = ArucoSource({"tracking": True, "full_frame_every": 5, "marker_size_m": 0.15})
-    first_seen = None
-    for i, (image, _) in enumerate(sliding(20, ids=(7, 9), appear_at={9: 6})):
-        if 9 in {d.marker_id for d in source.process(frame(image, i))} and first_seen is None:
-            first_seen = i
-    assert first_seen is not None and 6 <= first_seen < 6 + 5  # at the next full-frame pass: frame 10
+@pytest.mark.parametrize("source", ["aruco", "apriltag3", "opencv"])
+def test_a_marker_that_comes_into_view_is_found_on_the_frame_it_appears_between_full_frame_passes(source):
+    # marker 9 appears at frame 6, between the full-frame passes of frames 0 and 5 · 2 = 10: the search pass
+    # (the whole frame sampled down to ~480 px) finds it, and its own window confirms it at full resolution
+    params = {"tracking": True, "full_frame_every": 10, "marker_size_m": 0.15}
+    if source == "aruco":
+        tracked, dictionary = ArucoSource(params), cv2.aruco.DICT_4X4_250
+    else:
+        tracked, dictionary = AprilTagSource({**params, "backend": source}), cv2.aruco.DICT_APRILTAG_36h11
+    seen = [
+        {d.marker_id for d in tracked.process(frame(image, i))}
+        for i, (image, _) in enumerate(sliding(10, ids=(7, 9), appear_at={9: 6}, dictionary=dictionary))
+    ]
+    assert [9 in s for s in seen] == [False] * 6 + [True] * 4
+    assert tracked.tracker is not None and tracked.tracker.full_passes == 1 and tracked.tracker.discovered == 1
 
 
 def test_a_marker_lost_from_its_window_sends_the_same_frame_to_the_full_detector():
