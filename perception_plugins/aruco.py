@@ -28,7 +28,7 @@ from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
-from mission.perception_plugins.aruco_detection import QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
@@ -142,8 +142,8 @@ class ArucoSource:
         return quads
 
     def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
-        """A frame's (rate None) or a tracking window's markers. A window is searched scaled down when the
-        edges refiner will finish its corners at full resolution (QuadDetector.window)."""
+        """A frame's (rate None) or tracking windows' markers; windows scaled down for the edges refiner
+        (QuadDetector.window) are searched with one threshold window."""
         if min_perimeter_rate is not None and self.params.corner_refinement == "edges":
             quads, ids = self._detect.window(grey, min_perimeter_rate)
         else:
@@ -161,7 +161,9 @@ class ArucoSource:
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
         if self.tracker is not None:
-            found = detect_tracked(grey, self.tracker, self._found, self._search)
+            edges = self.params.corner_refinement == "edges"
+            side = WINDOW_SIDE_PX if edges else None
+            found = detect_tracked(grey, self.tracker, self._found, self._search, side)
             corners_list = np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
             ids = np.array([f.marker_id for f in found], dtype=np.int64)
         else:

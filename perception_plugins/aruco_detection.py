@@ -112,18 +112,10 @@ class QuadDetector:
         return np.concatenate([quads, np.stack(add_quads)]), np.concatenate([ids, np.array(add_ids, dtype=np.int64)])
 
     def window(self, grey: np.ndarray, min_perimeter_rate: float) -> tuple[np.ndarray, np.ndarray]:
-        """The markers in a tracking window expected to hold a marker of half the perimeter the rate floors
-        (marker_tracking.Window): searched scaled down so that marker is WINDOW_SIDE_PX wide, with one
-        threshold window. Its quads are ~0.5 / scale px off, for a refiner working at full resolution
-        (corner_refinement.py) to finish; at that size OpenCV's default keeps every marker (#2913 is a
-        large-marker fault), so no rescue pass."""
-        h, w = grey.shape[:2]
-        expected_side = 0.5 * min_perimeter_rate * max(h, w)
-        scale = min(1.0, WINDOW_SIDE_PX / max(expected_side, 1.0))
-        small = grey if scale == 1.0 else cv2.resize(grey, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-        sh, sw = small.shape[:2]
-        quads, ids = self._detect(self._window, self._window_params, small, min_perimeter_rate)
-        return (quads + 0.5) * np.array([w / sw, h / sh]) - 0.5, ids
+        """The markers in tracking windows scaled so their marker is WINDOW_SIDE_PX wide (marker_tracking):
+        one threshold window, and no rescue pass — at that size OpenCV's default keeps every marker (#2913 is
+        a large-marker fault). The quads are ~0.5 / scale px off, for a refiner at full resolution to finish."""
+        return self._detect(self._window, self._window_params, grey, min_perimeter_rate)
 
     def search(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tracking's search pass (marker_tracking.detect_tracked): the markers in the whole frame sampled down

@@ -72,12 +72,12 @@ def test_a_marker_lost_from_its_window_sends_the_same_frame_to_the_full_detector
 def test_windows_are_sized_for_the_marker_they_expect_and_joined_when_they_overlap():
     tracker = RegionTracker(full_frame_every=10)
     quad = np.array([[100, 100], [200, 100], [200, 200], [100, 200]], dtype=np.float64)
-    shift = np.array([[130.0, 0.0]]), np.array([[600.0, 300.0]])
+    shift = np.array([[110.0, 0.0]]), np.array([[600.0, 300.0]])
     tracker.found(np.stack([quad, quad + shift[0], quad + shift[1]]), np.array([1, 2, 3]), full=True)
     wins = tracker.windows(1280, 720)
     assert wins is not None and len(wins) == 2  # 1 and 2 overlap: one window; 3 apart
     joined = next(w for w in wins if w.x0 < 100)
-    assert (joined.x0, joined.y0, joined.x1, joined.y1) == (50, 50, 380, 250)  # half a side round both
+    assert (joined.x0, joined.y0, joined.x1, joined.y1) == (60, 60, 350, 240)  # 0.4 of a side round both
     assert joined.min_perimeter_px == pytest.approx(200.0)  # half the 400-px perimeter it expects
     assert Window(0, 0, 400, 200, 200.0).min_perimeter_rate == pytest.approx(0.5)
 
