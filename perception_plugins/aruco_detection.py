@@ -28,7 +28,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mission.perception_plugins.marker_quads import one_quad_per_marker
+from mission.perception_plugins.marker_quads import one_quad_per_marker, side
 
 RESCUE_SCALE = 3  # the rescue pass looks at 1 / RESCUE_SCALE of the image's width and height
 RESCUE_MIN_SIDE_PX = 60.0  # markers smaller than this (full-resolution px) are never dropped by the default
@@ -57,10 +57,6 @@ def _as_arrays(corners: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
     if ids is None or len(ids) == 0:
         return np.zeros((0, 4, 2)), np.zeros(0, dtype=np.int64)
     return np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2), np.asarray(ids, dtype=np.int64).reshape(-1)
-
-
-def _side(quad: np.ndarray) -> float:
-    return float(np.mean(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)))
 
 
 class QuadDetector:
@@ -151,25 +147,25 @@ class QuadDetector:
     def _full_resolution(self, grey: np.ndarray, quad: np.ndarray, marker_id: int) -> np.ndarray | None:
         """The quad of `marker_id` near `quad`, detected again at full resolution in a window round it."""
         h, w = grey.shape[:2]
-        reach = WINDOW_MARGIN * _side(quad)
+        reach = WINDOW_MARGIN * side(quad)
         lo, hi = quad.min(axis=0) - reach, quad.max(axis=0) + reach
         x0, y0 = max(0, int(np.floor(lo[0]))), max(0, int(np.floor(lo[1])))
         x1, y1 = min(w, int(np.ceil(hi[0]))), min(h, int(np.ceil(hi[1])))
         window = grey[y0:y1, x0:x1]
-        rate = 0.5 * 4 * _side(quad) / max(x1 - x0, y1 - y0, 1)  # half the rescued marker's perimeter
+        rate = 0.5 * 4 * side(quad) / max(x1 - x0, y1 - y0, 1)  # half the rescued marker's perimeter
         quads, ids = self._detect(self._rescue, self._rescue_params, window, rate)
         quads = quads + np.array([x0, y0], dtype=np.float64)
         best = None
         for q, i in zip(quads, ids, strict=True):
             offset = float(np.linalg.norm(q.mean(axis=0) - quad.mean(axis=0)))
-            if i == marker_id and offset < 0.25 * _side(quad) and (best is None or offset < best[0]):
+            if i == marker_id and offset < 0.25 * side(quad) and (best is None or offset < best[0]):
                 best = (offset, q)
         return None if best is None else outline(grey, best[1], self._cells)
 
 
 def _already_found(quad: np.ndarray, marker_id: int, quads: np.ndarray, ids: np.ndarray) -> bool:
-    centre, side = quad.mean(axis=0), _side(quad)
-    near = [np.linalg.norm(q.mean(axis=0) - centre) < 0.5 * side for q in quads]
+    centre, reach = quad.mean(axis=0), 0.5 * side(quad)
+    near = [np.linalg.norm(q.mean(axis=0) - centre) < reach for q in quads]
     return any(i == marker_id and close for i, close in zip(ids, near, strict=True))
 
 

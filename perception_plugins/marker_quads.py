@@ -13,14 +13,22 @@ from __future__ import annotations
 
 import numpy as np
 
+_NEXT = [1, 2, 3, 0]  # each corner's successor round the quad
+
 
 def _area(quad: np.ndarray) -> float:
     x, y = quad[:, 0], quad[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    return 0.5 * abs(float(np.dot(x, y[_NEXT]) - np.dot(y, x[_NEXT])))
 
 
-def _side(quad: np.ndarray) -> float:
-    return float(np.mean(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1)))
+def perimeter(quad: np.ndarray) -> float:
+    """The length (px) round a 4×2 quad."""
+    return float(np.linalg.norm(quad[_NEXT] - quad, axis=1).sum())
+
+
+def side(quad: np.ndarray) -> float:
+    """The mean side (px) of a 4×2 quad."""
+    return perimeter(quad) / 4
 
 
 def one_quad_per_marker(quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
@@ -30,7 +38,7 @@ def one_quad_per_marker(quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
     ids = np.asarray(ids).reshape(-1)
     centres = quads.mean(axis=1)
     areas = [_area(q) for q in quads]
-    sides = [_side(q) for q in quads]
+    sides = [side(q) for q in quads]
     dropped: set[int] = set()
     for i in sorted(range(len(ids)), key=lambda k: -areas[k]):  # largest first: it absorbs what lies inside it
         if i in dropped:

@@ -26,6 +26,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from mission.perception_plugins.marker_quads import perimeter
+
 MARGIN = 0.4  # a window reaches this many marker sides beyond the predicted quad (the quiet zone, ≤ 0.17, and some)
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
 FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker waits at most 9 frames
@@ -132,7 +134,7 @@ def window_round(quad: np.ndarray, motion: np.ndarray, width: int, height: int) 
         max(0, int(np.floor(lo[1] - reach))),
         min(width, int(np.ceil(hi[0] + reach))),
         min(height, int(np.ceil(hi[1] + reach))),
-        MIN_PERIMETER_FRACTION * _perimeter(quad),
+        MIN_PERIMETER_FRACTION * perimeter(quad),
     )
     if win.x1 - win.x0 < MIN_WINDOW_PX or win.y1 - win.y0 < MIN_WINDOW_PX:
         return None
@@ -204,7 +206,7 @@ def _new_markers(
 
 
 def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
-    return float(np.linalg.norm(a.mean(axis=0) - b.mean(axis=0))) < 0.125 * max(_perimeter(a), _perimeter(b))
+    return float(np.linalg.norm(a.mean(axis=0) - b.mean(axis=0))) < 0.125 * max(perimeter(a), perimeter(b))
 
 
 def _in_windows(
@@ -258,10 +260,6 @@ def _quads(found: list[Found]) -> np.ndarray:
 
 def _ids(found: list[Found]) -> np.ndarray:
     return np.array([f.marker_id for f in found], dtype=np.int64)
-
-
-def _perimeter(quad: np.ndarray) -> float:
-    return float(np.linalg.norm(quad - np.roll(quad, -1, axis=0), axis=1).sum())
 
 
 def _merged(wins: list[Window]) -> list[Window]:
