@@ -9,10 +9,10 @@ Per resolution (640×480, 1280×720, 1920×1080) and marker count (1, 8):
   off;
 * ``apriltag`` (each backend), tracking on, against the same source and backend with tracking off.
 
-Reported: mean ms per frame (the full-frame passes included) and the speed-up, and the medians; recall (markers found with tracking ÷ markers the baseline
-found, matched by id per frame); corner error against the truth (p95 and worst) for both; and the new-marker
-latency: for each marker the baseline finds after a frame without it, how many frames later the tracked
-source first reports it (bounded by ``full_frame_every − 1``).
+Reported: mean ms per frame (the full-frame passes included), the speed-up, and the medians; recall (markers
+found with tracking ÷ markers the baseline found, matched by id per frame); corner error against the truth
+(p95 and worst) for both; and the new-marker latency: for each marker the baseline finds after a frame
+without it, how many frames later the tracked source first reports it (bounded by ``full_frame_every − 1``).
 """
 
 from __future__ import annotations
