@@ -39,6 +39,17 @@ def _in_view(corners: np.ndarray, k: CameraIntrinsics, margin_px: float = 2.0) -
     )
 
 
+def _quiet_box(corners: np.ndarray) -> tuple[float, float, float, float]:
+    """The marker's bounding box grown by its quiet zone and then some (half a side)."""
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    grow = 0.5 * float(np.max(hi - lo))
+    return (lo[0] - grow, lo[1] - grow, hi[0] + grow, hi[1] + grow)
+
+
+def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
 def panning_sequence(
     width: int, height: int, n_frames: int, n_markers: int, *, dictionary: int, seed: int = 0
 ) -> tuple[CameraIntrinsics, list[SequenceFrame]]:
@@ -59,12 +70,14 @@ def panning_sequence(
     frames: list[SequenceFrame] = []
     for f in range(n_frames):
         T_cam_world = np.linalg.inv(se3.transform(se3.rot_y(PAN_RAD_PER_FRAME * f)))
-        placements = []
-        for marker_id, T_world_marker in markers:
+        placements, boxes = [], []
+        for marker_id, T_world_marker in sorted(markers, key=lambda m: m[1][2, 3]):  # nearest first
             T = T_cam_world @ T_world_marker
             corners = k.project(se3.apply(T, sv.marker_corners_3d(MARKER_SIZE_M)))
-            if T[2, 3] > 0.3 and _in_view(corners, k):
-                placements.append((marker_id, T))
+            box = _quiet_box(corners)
+            if T[2, 3] > 0.3 and _in_view(corners, k) and not any(_overlap(box, b) for b in boxes):
+                placements.append((marker_id, T))  # a marker another hides is not in this frame's truth
+                boxes.append(box)
         if placements:
             views = sv.render_markers_view(
                 placements, marker_size_m=MARKER_SIZE_M, intrinsics=k, rng=rng, dictionary=dictionary

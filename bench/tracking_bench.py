@@ -149,13 +149,14 @@ def track_sequence(frames: list[SequenceFrame], intrinsics: Any, tracked: Any, b
 
 def run_tracking(quick: bool) -> tuple[list[dict[str, Any]], list[Figure]]:
     """The tracking rows and figures of the perception benchmark."""
-    n_frames = 20 if quick else 90
-    resolutions = RESOLUTIONS[1:2] if quick else RESOLUTIONS
+    n_frames = 12 if quick else 90
+    resolutions = RESOLUTIONS[:1] if quick else RESOLUTIONS  # quick: a smoke test of every case, at 640×480
+    counts = MARKER_COUNTS[1:] if quick else MARKER_COUNTS
     rows: list[dict[str, Any]] = []
     figures: list[Figure] = []
     for label, dictionary, make_tracked, baselines, target in _cases():
         for w, h in resolutions:
-            for n in MARKER_COUNTS:
+            for n in counts:
                 k, frames = panning_sequence(w, h, n_frames, n, dictionary=dictionary, seed=w + n)
                 for base_label, make_base in baselines:
                     tracked = make_tracked()
