@@ -50,7 +50,8 @@ from mission.perception_plugins.apriltag_backends import (
     RawTag,
 )
 from mission.perception_plugins.aruco import to_grey
-from mission.perception_plugins.aruco_detection import QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
+from mission.perception_plugins.corner_refinement import refine_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
 
@@ -205,9 +206,7 @@ class AprilTagSource:
         self.params = p = _params(params)
         _check_backend(p)
         self.T_base_camera = p.camera_mount.matrix() if p.camera_mount is not None else None
-        self._T_tag_entity = {
-            i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None
-        }
+        self._T_tag_entity = {i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None}
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
                 p.family,
@@ -240,9 +239,22 @@ class AprilTagSource:
     def _count(self, key: str) -> None:
         self.counters[key] = self.counters.get(key, 0) + 1
 
+    def _tracked(self, grey: np.ndarray) -> list[RawTag]:
+        """This frame's tags through the tracker. With edges refinement its windows are searched scaled down
+        (as the aruco source's) and every tag's corners are refined here, in the frame, at full resolution."""
+        edges = self.params.corner_refinement == "edges"
+        side = WINDOW_SIDE_PX if edges else None
+        found = detect_tracked(grey, self.tracker, self._found, self._search, side)
+        tags = [replace(f.extra, corners=f.quad) for f in found]
+        if edges and tags:
+            quads = refine_corners(grey, np.stack([t.corners for t in tags]), self._backend.cells)
+            tags = [replace(t, corners=q) for t, q in zip(tags, quads, strict=True)]
+        return tags
+
     def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
-        """The backend's tags in `grey` as the tracker takes them (a window's own tags, moved to the frame)."""
-        return [Found(t.corners, t.tag_id, t) for t in self._backend.detect(grey, min_perimeter_rate)]
+        """The backend's tags in `grey` (a frame, or tracking's mosaic of windows), corners unrefined."""
+        tags = self._backend.detect(grey, min_perimeter_rate, refine=False)
+        return [Found(t.corners, t.tag_id, t) for t in tags]
 
     def _search(self, grey: np.ndarray) -> list[Found]:
         """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;
@@ -256,11 +268,7 @@ class AprilTagSource:
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
         grey = to_grey(frame.image)
-        if self.tracker is not None:
-            found = detect_tracked(grey, self.tracker, self._found, self._search)
-            raw = [replace(f.extra, corners=f.quad) for f in found]
-        else:
-            raw = self._backend.detect(grey)
+        raw = self._tracked(grey) if self.tracker is not None else self._backend.detect(grey)
         if not raw:
             return []
         intr, degraded = self._intrinsics(frame)
@@ -272,9 +280,7 @@ class AprilTagSource:
                 out.append(det)
         return out
 
-    def _detection(
-        self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]
-    ) -> Detection | None:
+    def _detection(self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]) -> Detection | None:
         """`camera`: (K, distortion, degraded) of this frame's intrinsics."""
         p = self.params
         K, dist, degraded = camera

@@ -227,7 +227,7 @@ class Apriltag3Backend:
         self._detector = SafeDetector(
             families=family, nthreads=threads, quad_decimate=decimate, refine_edges=int(refine_edges and decimate > 1)
         )
-        self._cells = int(self._detector.tag_families[family].contents.width_at_border)  # the black square, in cells
+        self.cells = int(self._detector.tag_families[family].contents.width_at_border)  # the black square, in cells
         self.min_contrast = min_contrast
         head = detector_head(self._detector)
         self._qtp = None if head is None else head.qtp
@@ -242,8 +242,9 @@ class Apriltag3Backend:
                 head.qtp.min_cluster_pixels = int(min_cluster_pixels)
         self.last_min_contrast: int | None = None  # what the last frame used (for reports and tests)
 
-    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None) -> list[RawTag]:
-        """The tags in `gray`. AprilTag 3 has no perimeter floor to set; a tracking window's is not used."""
+    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None, refine: bool = True) -> list[RawTag]:
+        """The tags in `gray`. AprilTag 3 has no perimeter floor to set; a tracking window's is not used.
+        `refine` False leaves the corners to the caller (tracking refines them in the frame, not a window)."""
         out = []
         order = list(pupil_corner_order())
         gray = np.ascontiguousarray(gray)
@@ -255,8 +256,8 @@ class Apriltag3Backend:
         if not found:
             return out
         quads = np.stack([np.asarray(d.corners, dtype=np.float64)[order] - 0.5 for d in found])
-        if self.refine_edges:
-            quads = refine_corners(gray, quads, self._cells)
+        if self.refine_edges and refine:
+            quads = refine_corners(gray, quads, self.cells)
         for d, corners in zip(found, quads, strict=True):
             out.append(RawTag(int(d.tag_id), corners, int(d.hamming), float(d.decision_margin)))
         return out
@@ -287,22 +288,21 @@ class OpenCvBackend:
         # The marker's own quad, not an inner contour, and large markers kept (aruco_detection.py).
         self._detector = QuadDetector(self.dictionary, configure)
         self._n = int(self.dictionary.markerSize)
+        self.cells = self._n + 2  # data bits + the black border
         self._codes = dictionary_codes(OPENCV_DICTIONARIES[family])
 
-    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None) -> list[RawTag]:
-        """The tags in `gray`; `min_perimeter_rate` is what a tracking window sets (marker_tracking.py)."""
+    def detect(self, gray: np.ndarray, min_perimeter_rate: float | None = None, refine: bool = True) -> list[RawTag]:
+        """The tags in `gray`; `min_perimeter_rate` is what a tracking window sets (marker_tracking.py). `refine`
+        False leaves the corners to the caller (tracking refines them in the frame, not a window)."""
         quads, ids = self._detector(gray, min_perimeter_rate)
         if len(ids) == 0:
             return []
-        if self.refine_edges:
-            quads = refine_corners(gray, quads, self._n + 2)
+        if self.refine_edges and refine:
+            quads = refine_corners(gray, quads, self.cells)
         corners = quads
         bits, margins = sample_bits(gray, corners, self._n)
         hamming = np.count_nonzero(bits != self._codes[ids], axis=(1, 2)).tolist()
-        return [
-            RawTag(i, c, h, m)
-            for c, i, h, m in zip(corners, ids.tolist(), hamming, margins.tolist(), strict=True)
-        ]
+        return [RawTag(i, c, h, m) for c, i, h, m in zip(corners, ids.tolist(), hamming, margins.tolist(), strict=True)]
 
     def close(self) -> None:
         self._detector = None
