@@ -80,16 +80,21 @@ class RegionTracker:
     window_passes: int = 0
     rescues: int = 0  # full-frame passes run because a tracked marker was not in its window
     discovered: int = 0  # markers the search pass found between full-frame passes
+    leaving: set[int] = field(default_factory=set)  # tracked markers this frame's windows left out (off the edge)
 
     def windows(self, width: int, height: int) -> list[Window] | None:
         """The windows to detect in this frame, or None for a full-frame pass."""
         if not self.tracks or self.since_full + 1 >= self.full_frame_every:
             return None
         wins: list[Window] = []
-        for tr in self.tracks.values():
+        self.leaving = set()
+        for mid, tr in self.tracks.items():
+            if _leaves(tr.quad + tr.motion, width, height):
+                self.leaving.add(mid)  # predicted partly off the image: not looked for, not missed
+                continue
             win = window_round(tr.quad, tr.motion, width, height)
             if win is None:
-                return None  # at the image's edge, or tiny: the full frame is as cheap and surer
+                return None  # tiny: the full frame is as cheap and surer
             wins.append(win)
         return _merged(wins)
 
@@ -97,7 +102,7 @@ class RegionTracker:
         """Take this frame's detections (M×4×2, M); False when a window pass missed a tracked marker (the
         caller then runs the full frame and calls again with ``full=True``)."""
         seen = {int(i) for i in ids}
-        if not full and any(mid not in seen for mid in self.tracks):
+        if not full and any(mid not in seen and mid not in self.leaving for mid in self.tracks):
             self.rescues += 1
             return False
         if full:
@@ -121,6 +126,11 @@ class RegionTracker:
     def reset(self) -> None:
         self.tracks.clear()
         self.since_full = 0
+
+
+def _leaves(quad: np.ndarray, width: int, height: int) -> bool:
+    """Whether a predicted quad reaches off the image: a marker leaving the view, which no detector finds whole."""
+    return bool((quad < 0).any() or (quad[:, 0] > width - 1).any() or (quad[:, 1] > height - 1).any())
 
 
 def window_round(quad: np.ndarray, motion: np.ndarray, width: int, height: int) -> Window | None:
@@ -175,7 +185,7 @@ def detect_tracked(
     if wins is not None:
         found = _in_windows(grey, wins, detect, window_side_px)
         if search is not None and tracker.tracks.keys() <= {f.marker_id for f in found}:
-            new = _new_markers(grey, found, search, detect, window_side_px)
+            new = _new_markers(grey, _masked(grey, wins), found, search, detect, window_side_px)
             tracker.discovered += len(new)
             found += new
         if tracker.found(_quads(found), _ids(found), full=False):
@@ -185,13 +195,29 @@ def detect_tracked(
     return found
 
 
+def _masked(grey: np.ndarray, wins: list[Window]) -> np.ndarray:
+    """`grey` with the windows just searched filled flat (each with its own mean), so the search pass spends
+    nothing on the markers already found there (a marker costs it ~0.1 ms; a flat window one candidate)."""
+    out = grey.copy()
+    for win in wins:
+        region = out[win.y0 : win.y1, win.x0 : win.x1]
+        region[...] = int(region.mean())
+    return out
+
+
 def _new_markers(
-    grey: np.ndarray, found: list[Found], search: Search, detect: Detect, window_side_px: float | None
+    grey: np.ndarray,
+    searched: np.ndarray,
+    found: list[Found],
+    search: Search,
+    detect: Detect,
+    window_side_px: float | None,
 ) -> list[Found]:
-    """Markers `search` finds that are not among `found`, each detected again in its own full-resolution window."""
+    """Markers `search` finds in `searched` (the frame with the tracked windows masked) that are not among
+    `found`, each detected again in its own full-resolution window of `grey`."""
     h, w = grey.shape[:2]
     new: list[Found] = []
-    for candidate in search(grey):
+    for candidate in search(searched):
         if any(f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad) for f in found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)
@@ -216,6 +242,8 @@ def _in_windows(
     a fixed cost, ~0.2 ms for OpenCV and ~0.4 ms for AprilTag 3, that eight windows would pay eight times).
     Each window is padded by replicating its border, so no edge — and no quad — crosses between two; with
     `window_side_px`, each is scaled down so its expected marker is at most that wide."""
+    if not wins:
+        return []
     tiles: list[np.ndarray] = []
     placed: list[tuple[Window, float, int]] = []  # window, scale, left edge of its crop in the mosaic
     floor_px = np.inf
