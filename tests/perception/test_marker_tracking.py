@@ -105,3 +105,15 @@ def test_apriltag_tracking_finds_what_the_full_frame_finds_with_the_same_decodes
         found += len(a)
     assert found == 60
     assert tracked.tracker is not None and tracked.tracker.window_passes >= 15 and tracked.tracker.full_passes == 2
+
+
+def test_a_marker_leaving_the_view_costs_no_full_frame_pass():
+    # marker 11 slides out through the right edge of the image from frame ~15; the full frame stops finding it
+    # as it is cut, and its window is not looked at once its predicted quad reaches off the image
+    tracked = ArucoSource({"tracking": True, "full_frame_every": 100, "marker_size_m": 0.15})
+    full = ArucoSource({"marker_size_m": 0.15})
+    for i, (image, _) in enumerate(sliding(30, ids=(3, 7, 11), step_px=20.0)):
+        a = {d.marker_id for d in tracked.process(frame(image, i))}
+        assert a == {d.marker_id for d in full.process(frame(image, i))}
+    assert 11 not in a
+    assert tracked.tracker is not None and tracked.tracker.full_passes == 1 and tracked.tracker.rescues == 0
