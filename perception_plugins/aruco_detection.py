@@ -41,6 +41,7 @@ WINDOW_THRESHOLD_PX = 13  # and thresholded with this one window (OpenCV's defau
 
 SEARCH_SIDE_PX = 480  # tracking's search pass looks at the frame sampled down to about this on its longer side
 SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
+SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 px at 1280×720, 48 at 1920×1080
 
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
@@ -118,7 +119,9 @@ class QuadDetector:
         (search_step) with one threshold window, in the frame's pixels — for finding markers that came into
         view, not for their corners (they are detected again at full resolution)."""
         step = search_step(grey)
-        quads, ids = self._detect(self._search, self._search_params, sampled(grey, step), self._default_rate)
+        small = sampled(grey, step)
+        rate = 4 * SEARCH_MIN_SIDE_PX / max(small.shape)  # no smaller candidate: noise contours cost most
+        quads, ids = self._detect(self._search, self._search_params, small, rate)
         return quads * step + step // 2, ids
 
     @staticmethod

@@ -31,6 +31,7 @@ from mission.perception_plugins.marker_quads import perimeter
 MARGIN = 0.4  # a window reaches this many marker sides beyond the predicted quad (the quiet zone, ≤ 0.17, and some)
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
 FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker waits at most 9 frames
+SEARCH_EVERY = 1  # the search pass runs on every window frame (every third: ~15 % faster, recall 98.6 %)
 GUTTER_PX = 8  # each window's replicated border in the mosaic the windows are detected in
 MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
 
@@ -184,7 +185,8 @@ def detect_tracked(
     wins = tracker.windows(w, h)
     if wins is not None:
         found = _in_windows(grey, wins, detect, window_side_px)
-        if search is not None and tracker.tracks.keys() <= {f.marker_id for f in found}:
+        due = tracker.window_passes % SEARCH_EVERY == 0
+        if search is not None and due and tracker.tracks.keys() <= {f.marker_id for f in found}:
             new = _new_markers(grey, _masked(grey, wins), found, search, detect, window_side_px)
             tracker.discovered += len(new)
             found += new
