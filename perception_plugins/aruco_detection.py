@@ -14,10 +14,10 @@ of each group. Two settings each fail somewhere:
   where raw OpenCV is within 1.8 px.
 
 So :class:`QuadDetector` takes OpenCV's default quads, and then looks for what only the default drops: a
-*rescue pass* at a third of the resolution, at 0.025, keeping only markers of at least
-:data:`RESCUE_MIN_SIDE_PX` (the only ones the default loses; at a third of the pixels it costs about a tenth of
-the full pass). A marker it finds that the default did not is detected again at full resolution in a window
-round it, where — large as it is — 0.025 still groups its border's inner edge with its outline.
+*rescue pass* on every third pixel, at 0.025, keeping only markers of at least :data:`RESCUE_MIN_SIDE_PX`
+(the only ones the default loses), with the markers the default found filled flat: ~5 % of the full pass. A
+marker it finds that the default did not is detected again at full resolution in a window round it, and moved
+out to its outline (:func:`outline`): at 0.025 OpenCV may report it by the inner edge of its border.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from mission.perception_plugins.marker_quads import one_quad_per_marker, side
 RESCUE_SCALE = 3  # the rescue pass looks at 1 / RESCUE_SCALE of the image's width and height
 RESCUE_MIN_SIDE_PX = 60.0  # markers smaller than this (full-resolution px) are never dropped by the default
 RESCUE_RATE = 0.025  # minMarkerDistanceRate of the rescue pass and its windows (what #2913 needs)
-RESCUE_THRESHOLD_PX = 7  # the rescue pass's one adaptive-threshold window (px of the third-resolution image)
+RESCUE_THRESHOLD_PX = 7  # the rescue pass's one adaptive-threshold window (px of the sampled image)
 WINDOW_MARGIN = 0.5  # a rescued marker is re-detected in a window this many sides beyond its quad
 
 WINDOW_SIDE_PX = 64.0  # a tracking window is searched scaled so its expected marker is at most this wide
@@ -74,8 +74,8 @@ class QuadDetector:
         self._detector = cv2.aruco.ArucoDetector(dictionary, self._params)
         self._rescue_params = _parameters(configure, RESCUE_RATE)
         self._rescue = cv2.aruco.ArucoDetector(dictionary, self._rescue_params)
-        # The third-resolution pass thresholds with one window (OpenCV's default tries 3, 13 and 23 px): a
-        # marker of RESCUE_MIN_SIDE_PX or more has cells of 3+ px there, and one pass costs a third as much.
+        # The sampled pass thresholds with one window (OpenCV's default tries 3, 13 and 23 px): a marker of
+        # RESCUE_MIN_SIDE_PX or more has cells of 3+ px there, and one pass costs a third as much.
         self._small_params = _parameters(configure, RESCUE_RATE)
         self._small_params.adaptiveThreshWinSizeMin = self._small_params.adaptiveThreshWinSizeMax = RESCUE_THRESHOLD_PX
         self._small = cv2.aruco.ArucoDetector(dictionary, self._small_params)
@@ -93,7 +93,7 @@ class QuadDetector:
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
         quads, ids = self._detect(self._detector, self._params, grey, rate)
-        rescued_quads, rescued_ids = self._rescue_pass(grey, rate)
+        rescued_quads, rescued_ids = self._rescue_pass(grey, rate, quads)
         extra = [k for k in range(len(rescued_ids)) if not _already_found(rescued_quads[k], rescued_ids[k], quads, ids)]
         if not extra:
             return quads, ids
@@ -136,13 +136,22 @@ class QuadDetector:
             quads, ids = quads[keep], ids[keep]
         return quads, ids
 
-    def _rescue_pass(self, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:
-        """Markers of at least RESCUE_MIN_SIDE_PX at 1/RESCUE_SCALE resolution, at RESCUE_RATE, in full-res px."""
+    def _rescue_pass(self, grey: np.ndarray, rate: float, found: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Markers of at least RESCUE_MIN_SIDE_PX at 1/RESCUE_SCALE resolution, at RESCUE_RATE, in full-res px.
+        The markers the default `found` (N×4×2) are filled flat first: decoding them again would cost the
+        pass more than its pixels do."""
         h, w = grey.shape[:2]
         longest = max(h, w)
         if longest * 0.9 < 4 * RESCUE_MIN_SIDE_PX:  # no marker that large fits: nothing the default can drop
             return _as_arrays(None, None)
         small = sampled(grey, RESCUE_SCALE)
+        for quad in found:
+            lo, hi = quad.min(axis=0), quad.max(axis=0)
+            x0, y0 = np.maximum((lo - 0.25 * (hi - lo)) // RESCUE_SCALE, 0).astype(int)
+            x1, y1 = ((hi + 0.25 * (hi - lo)) // RESCUE_SCALE + 1).astype(int)
+            region = small[y0:y1, x0:x1]
+            if region.size:
+                region[...] = int(region.mean())
         min_rate = max(rate, 4 * RESCUE_MIN_SIDE_PX / longest)  # a perimeter rate is scale-free
         quads, ids = self._detect(self._small, self._small_params, small, min_rate)
         return quads * RESCUE_SCALE + RESCUE_SCALE // 2, ids

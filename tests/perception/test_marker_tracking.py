@@ -91,16 +91,17 @@ def test_nothing_tracked_means_the_full_frame():
 
 
 @pytest.mark.parametrize("backend", ["apriltag3", "opencv"])
-def test_apriltag_tracking_finds_what_the_full_frame_finds_with_the_same_decodes(backend):
+def test_apriltag_tracking_finds_what_the_full_frame_finds_as_accurately_with_the_same_decodes(backend):
     params = {"family": "tag36h11", "backend": backend, "marker_size_m": 0.15}
     tracked, full = AprilTagSource({**params, "tracking": True}), AprilTagSource(params)
     found = 0
-    for i, (image, _) in enumerate(sliding(20, ids=(3, 7, 11), dictionary=cv2.aruco.DICT_APRILTAG_36h11)):
+    for i, (image, truth) in enumerate(sliding(20, ids=(3, 7, 11), dictionary=cv2.aruco.DICT_APRILTAG_36h11)):
         a = {d.marker_id: d for d in tracked.process(frame(image, i))}
         b = {d.marker_id: d for d in full.process(frame(image, i))}
         assert a.keys() >= b.keys()
-        for m in b:
-            assert np.abs(a[m].corners - b[m].corners).max() < 0.05
+        for m in b:  # windows searched scaled down, corners refined in the frame
+            assert np.linalg.norm(a[m].corners - truth[m], axis=1).max() < 0.3
+            assert np.abs(a[m].corners - b[m].corners).max() < 0.2
             assert a[m].extra["hamming"] == b[m].extra["hamming"]  # the decode travels with the window's tag
         found += len(a)
     assert found == 60
