@@ -53,7 +53,13 @@ from mission.perception_plugins.aruco import to_grey
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
-from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
+from mission.perception_plugins.marker_tracking import (
+    FULL_FRAME_EVERY,
+    Found,
+    RegionTracker,
+    as_found,
+    detect_tracked,
+)
 
 log = logging.getLogger(__name__)
 
@@ -206,7 +212,9 @@ class AprilTagSource:
         self.params = p = _params(params)
         _check_backend(p)
         self.T_base_camera = p.camera_mount.matrix() if p.camera_mount is not None else None
-        self._T_tag_entity = {i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None}
+        self._T_tag_entity = {
+            i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None
+        }
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
                 p.family,
@@ -262,8 +270,7 @@ class AprilTagSource:
         detected again by the backend, at full resolution, in a window of its own."""
         if self._searcher is None:
             return []
-        quads, ids = self._searcher.search(grey)
-        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+        return as_found(*self._searcher.search(grey))
 
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
@@ -280,7 +287,9 @@ class AprilTagSource:
                 out.append(det)
         return out
 
-    def _detection(self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]) -> Detection | None:
+    def _detection(
+        self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]
+    ) -> Detection | None:
         """`camera`: (K, distortion, degraded) of this frame's intrinsics."""
         p = self.params
         K, dist, degraded = camera

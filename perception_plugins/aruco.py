@@ -32,7 +32,14 @@ from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetec
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
-from mission.perception_plugins.marker_tracking import FULL_FRAME_EVERY, Found, RegionTracker, detect_tracked
+from mission.perception_plugins.marker_tracking import (
+    FULL_FRAME_EVERY,
+    Found,
+    RegionTracker,
+    as_arrays,
+    as_found,
+    detect_tracked,
+)
 
 log = logging.getLogger(__name__)
 
@@ -148,11 +155,10 @@ class ArucoSource:
             quads, ids = self._detect.window(grey, min_perimeter_rate)
         else:
             quads, ids = self._detect(grey, min_perimeter_rate)
-        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+        return as_found(quads, ids)
 
     def _search(self, grey: np.ndarray) -> list[Found]:
-        quads, ids = self._detect.search(grey)
-        return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
+        return as_found(*self._detect.search(grey))
 
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
@@ -163,9 +169,7 @@ class ArucoSource:
         if self.tracker is not None:
             edges = self.params.corner_refinement == "edges"
             side = WINDOW_SIDE_PX if edges else None
-            found = detect_tracked(grey, self.tracker, self._found, self._search, side)
-            corners_list = np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
-            ids = np.array([f.marker_id for f in found], dtype=np.int64)
+            corners_list, ids = as_arrays(detect_tracked(grey, self.tracker, self._found, self._search, side))
         else:
             corners_list, ids = self._detect(grey, None)
         if len(ids) == 0:

@@ -46,12 +46,22 @@ SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 p
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
 
-def _parameters(configure: Configure, distance_rate: float | None = None) -> Any:
+def _detector(
+    dictionary: cv2.aruco.Dictionary,
+    configure: Configure,
+    distance_rate: float | None = None,
+    threshold_px: int | None = None,
+) -> tuple[Any, Any]:
+    """An ArucoDetector and its DetectorParameters (kept, to change its perimeter floor): `configure`'s
+    fields, then `distance_rate` as minMarkerDistanceRate and `threshold_px` as its one adaptive-threshold
+    window where given."""
     params = cv2.aruco.DetectorParameters()
     configure(params)
     if distance_rate is not None:
         params.minMarkerDistanceRate = distance_rate
-    return params
+    if threshold_px is not None:
+        params.adaptiveThreshWinSizeMin = params.adaptiveThreshWinSizeMax = threshold_px
+    return cv2.aruco.ArucoDetector(dictionary, params), params
 
 
 def _as_arrays(corners: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -69,25 +79,15 @@ class QuadDetector:
     """
 
     def __init__(self, dictionary: cv2.aruco.Dictionary, configure: Configure) -> None:
-        self._params = _parameters(configure)
+        self._detector, self._params = _detector(dictionary, configure)
         self._default_rate = float(self._params.minMarkerPerimeterRate)
-        self._detector = cv2.aruco.ArucoDetector(dictionary, self._params)
-        self._rescue_params = _parameters(configure, RESCUE_RATE)
-        self._rescue = cv2.aruco.ArucoDetector(dictionary, self._rescue_params)
+        self._rescue, self._rescue_params = _detector(dictionary, configure, RESCUE_RATE)
         # The sampled pass thresholds with one window (OpenCV's default tries 3, 13 and 23 px): a marker of
         # RESCUE_MIN_SIDE_PX or more has cells of 3+ px there, and one pass costs a third as much.
-        self._small_params = _parameters(configure, RESCUE_RATE)
-        self._small_params.adaptiveThreshWinSizeMin = self._small_params.adaptiveThreshWinSizeMax = RESCUE_THRESHOLD_PX
-        self._small = cv2.aruco.ArucoDetector(dictionary, self._small_params)
+        self._small, self._small_params = _detector(dictionary, configure, RESCUE_RATE, RESCUE_THRESHOLD_PX)
+        self._window, self._window_params = _detector(dictionary, configure, threshold_px=WINDOW_THRESHOLD_PX)
+        self._search, self._search_params = _detector(dictionary, configure, threshold_px=SEARCH_THRESHOLD_PX)
         self._cells = int(dictionary.markerSize) + 2  # data bits + the black border, in modules
-        self._window_params = _parameters(configure)
-        self._window_params.adaptiveThreshWinSizeMin = WINDOW_THRESHOLD_PX
-        self._window_params.adaptiveThreshWinSizeMax = WINDOW_THRESHOLD_PX
-        self._window = cv2.aruco.ArucoDetector(dictionary, self._window_params)
-        self._search_params = _parameters(configure)
-        self._search_params.adaptiveThreshWinSizeMin = SEARCH_THRESHOLD_PX
-        self._search_params.adaptiveThreshWinSizeMax = SEARCH_THRESHOLD_PX
-        self._search = cv2.aruco.ArucoDetector(dictionary, self._search_params)
         self.rescues = 0
 
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:

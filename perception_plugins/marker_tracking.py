@@ -190,10 +190,10 @@ def detect_tracked(
             new = _new_markers(grey, _masked(grey, wins), found, search, detect, window_side_px)
             tracker.discovered += len(new)
             found += new
-        if tracker.found(_quads(found), _ids(found), full=False):
+        if tracker.found(*as_arrays(found), full=False):
             return found
     found = detect(grey, None)
-    tracker.found(_quads(found), _ids(found), full=True)
+    tracker.found(*as_arrays(found), full=True)
     return found
 
 
@@ -284,12 +284,15 @@ def _in_windows(
     return out
 
 
-def _quads(found: list[Found]) -> np.ndarray:
-    return np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
+def as_found(quads: np.ndarray, ids: np.ndarray) -> list[Found]:
+    """A detector's (N×4×2 quads, N ids) as the tracker takes them."""
+    return [Found(q, int(i)) for q, i in zip(quads, ids, strict=True)]
 
 
-def _ids(found: list[Found]) -> np.ndarray:
-    return np.array([f.marker_id for f in found], dtype=np.int64)
+def as_arrays(found: list[Found]) -> tuple[np.ndarray, np.ndarray]:
+    """The tracker's markers as (N×4×2 quads, N ids)."""
+    quads = np.stack([f.quad for f in found]) if found else np.zeros((0, 4, 2))
+    return quads, np.array([f.marker_id for f in found], dtype=np.int64)
 
 
 def _merged(wins: list[Window]) -> list[Window]:
