@@ -39,8 +39,15 @@ STATUS = {
 }
 
 
+_EMIT_LOCK = threading.Lock()
+
+
 def emit(**event) -> None:
-    print(json.dumps(event), flush=True)
+    """One JSON line. The executor's thread (feedback) and the plan's (results) both emit: unlocked, print's
+    text and its newline are two writes, and two events could share a line (seen once in CI)."""
+    with _EMIT_LOCK:
+        sys.stdout.write(json.dumps(event) + "\n")
+        sys.stdout.flush()
 
 
 class Client:
