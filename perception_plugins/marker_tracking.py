@@ -203,7 +203,7 @@ def _masked(grey: np.ndarray, wins: list[Window]) -> np.ndarray:
     out = grey.copy()
     for win in wins:
         region = out[win.y0 : win.y1, win.x0 : win.x1]
-        region[...] = int(region.mean())
+        region[...] = int(region[::4, ::4].mean())  # every 16th pixel: the mean of a flat fill, at a tenth of the cost
     return out
 
 
@@ -254,10 +254,7 @@ def _in_windows(
         crop = grey[win.y0 : win.y1, win.x0 : win.x1]
         scale = 1.0
         if window_side_px is not None:
-            expected_side = win.min_perimeter_px / (4 * MIN_PERIMETER_FRACTION)
-            scale = min(1.0, window_side_px / max(expected_side, 1.0))
-            if scale < 1.0:
-                crop = cv2.resize(crop, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+            crop, scale = _shrunk(crop, win.min_perimeter_px / (4 * MIN_PERIMETER_FRACTION), window_side_px)
         tiles.append(crop)
         placed.append((win, scale, x + GUTTER_PX))
         x += crop.shape[1] + 2 * GUTTER_PX
@@ -282,6 +279,23 @@ def _in_windows(
                 out.append(Found(frame_px, f.marker_id, f.extra))
                 break
     return out
+
+
+def _shrunk(crop: np.ndarray, expected_side: float, side_px: float) -> tuple[np.ndarray, float]:
+    """`crop` scaled so a marker `expected_side` px wide becomes `side_px` wide (never enlarged), and the scale.
+
+    In two steps, because INTER_AREA at a fractional scale costs ~150 µs a window, more than the detection
+    it feeds: INTER_AREA by a whole number (it then averages whole blocks: ~10 µs) to within 2× of the size,
+    then INTER_LINEAR for the rest (a scale in (0.5, 1], where it does not alias). The marker must come out
+    the same size every time: OpenCV's one threshold window (QuadDetector.window) reads markers of that size
+    and misses some at half of it."""
+    step = max(1, int(expected_side // side_px))
+    if step > 1:
+        crop = cv2.resize(crop, None, fx=1 / step, fy=1 / step, interpolation=cv2.INTER_AREA)
+    rest = min(1.0, side_px * step / max(expected_side, 1.0))
+    if rest < 1.0:
+        crop = cv2.resize(crop, None, fx=rest, fy=rest, interpolation=cv2.INTER_LINEAR)
+    return crop, rest / step
 
 
 def as_found(quads: np.ndarray, ids: np.ndarray) -> list[Found]:
