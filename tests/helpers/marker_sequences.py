@@ -20,15 +20,27 @@ def sliding(
     step_px: float = 6.0,
     appear_at: dict[int, int] | None = None,
     dictionary: int = cv2.aruco.DICT_4X4_250,
+    distance_m: float = 1.5,
 ) -> Iterator[tuple[np.ndarray, dict[int, np.ndarray]]]:
     """`n` frames (1280×720) of 0.15 m markers 1.5 m ahead sliding sideways `step_px` a frame (a turning robot's
-    view); a marker in `appear_at` comes into the picture at that frame. Yields (image, {id: true corners})."""
+    view); a marker in `appear_at` comes into the picture at that frame. At another `distance_m` the picture is the
+    same, scaled. Yields (image, {id: true corners})."""
     rng = np.random.default_rng(3)
     appear_at = appear_at or {}
     for i in range(n):
         shown = [m for m in ids if appear_at.get(m, 0) <= i]
         placements = [
-            (m, se3.transform(sv.R_FRONTAL, ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx, 0.1 * j - 0.1, 1.5)))
+            (
+                m,
+                se3.transform(
+                    sv.R_FRONTAL,
+                    (
+                        ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx) * distance_m / 1.5,
+                        (0.1 * j - 0.1) * distance_m / 1.5,
+                        distance_m,
+                    ),
+                ),
+            )
             for j, m in enumerate(shown)
         ]
         views = sv.render_markers_view(placements, marker_size_m=0.15, intrinsics=K, rng=rng, dictionary=dictionary)

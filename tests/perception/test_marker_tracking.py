@@ -69,6 +69,18 @@ def test_a_marker_lost_from_its_window_sends_the_same_frame_to_the_full_detector
     assert source.tracker is not None and source.tracker.rescues == 1
 
 
+@pytest.mark.parametrize("distance_m", [1.5, 0.95, 0.7, 0.45])  # markers ~87, ~137, ~186 and ~290 px wide
+def test_a_tracked_marker_of_any_size_is_found_in_its_window_without_a_full_frame_pass(distance_m):
+    # windows are shrunk so their marker is 64 px wide; a marker shrunk to some other size (a whole-number
+    # shrink alone leaves 32–64 px) can fall outside what the window detector's one threshold reads, and each
+    # miss costs a full-frame pass
+    tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15})
+    for i, (image, truth) in enumerate(sliding(20, ids=(7,), distance_m=distance_m)):
+        (d,) = tracked.process(frame(image, i))
+        assert np.linalg.norm(d.corners - truth[7], axis=1).max() < 0.3
+    assert tracked.tracker is not None and tracked.tracker.rescues == 0 and tracked.tracker.window_passes == 18
+
+
 def test_windows_are_sized_for_the_marker_they_expect_and_joined_when_they_overlap():
     tracker = RegionTracker(full_frame_every=10)
     quad = np.array([[100, 100], [200, 100], [200, 200], [100, 200]], dtype=np.float64)
