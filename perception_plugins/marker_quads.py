@@ -34,8 +34,10 @@ def side(quad: np.ndarray) -> float:
 def one_quad_per_marker(quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
     """Indices (in input order) of the quads to keep: of the same id's quads whose centres lie within half the
     larger one's side of each other, only the largest. `quads` is N×4×2 px, `ids` N ints."""
-    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     ids = np.asarray(ids).reshape(-1)
+    if len(np.unique(ids)) == len(ids):
+        return np.arange(len(ids))  # no id twice: nothing to choose between (the usual frame)
+    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     centres = quads.mean(axis=1)
     areas = [_area(q) for q in quads]
     sides = [side(q) for q in quads]
