@@ -5,11 +5,13 @@ id reported twice."""
 
 from __future__ import annotations
 
+import json
+
 import cv2
 import numpy as np
 import pytest
 
-from bench.charuco_truth import TUTORIAL_BOARD, charuco_truth, corner_errors, duplicates
+from bench.charuco_truth import TUTORIAL_BOARD, charuco_truth, corner_errors, duplicates, main
 from bench.real_images import shared_data_dir
 from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Frame
@@ -63,3 +65,31 @@ def test_never_wrong_where_opencv_is_right_against_charuco_truth(name):
             assert marker_id in mine_by_id, f"marker {marker_id}: OpenCV finds it, we do not"
             assert corner_errors([(marker_id, mine_by_id[marker_id])], truth).max() <= 3.5
     assert np.percentile(corner_errors(mine, truth), 95) <= np.percentile(corner_errors(raw, truth), 95)
+
+
+def test_the_command_line_measures_the_tutorial_photos(tmp_path, capsys):
+    """`python -m bench.charuco_truth` (for public ChArUco sets kept off the repository) gives the figures
+    the tests above check, for both photos at once; a file it cannot read is a line naming it."""
+    for name in PHOTOS:
+        photo(name)  # skips when ../shared/data is not there
+    paths = [str(shared_data_dir() / "real-aruco" / name) for name in PHOTOS]
+    (tmp_path / "broken.jpg").write_bytes(b"not a jpeg")
+    out = tmp_path / "figures.json"
+    argv = ["--board", "5x7", "--square-m", "0.04", "--marker-m", "0.02", "--dictionary", "dict_6x6_250"]
+    assert main([*paths, str(tmp_path / "broken.jpg"), *argv, "--json", str(out)]) == 1  # the rest still measured
+    printed = capsys.readouterr()
+    assert printed.err.strip() == f"{tmp_path / 'broken.jpg'}: cannot be read as an image"
+    figures = json.loads(out.read_text())
+    assert figures["images"] == 2 and figures["images_without_board"] == []
+    assert figures["markers_with_truth"] == 17 + 10  # the occluded photo: 10 markers with saddle points round them
+    ours, raw = figures["ours"], figures["raw_opencv"]
+    assert ours["corners"] == raw["corners"] == 4 * 27
+    assert ours["p95_px"] <= raw["p95_px"] < 2.0 and ours["worst_px"] < 2.0
+    assert ours["duplicates"] == ours["off_board"] == 0
+    assert figures["ours_corners_over_3_5px_where_raw_within_2px"] == 0 and figures["cases"] == []
+    assert all(figures["acceptance"].values())
+    assert "acceptance: never wrong where OpenCV is right: yes; p95 no worse: yes; no duplicates: yes" in printed.out
+
+    assert main([paths[0], *argv[:-1], "DICT_6X6_2500"]) == 2  # one line naming the bad name, and no figures
+    printed = capsys.readouterr()
+    assert printed.out == "" and printed.err.startswith("--dictionary DICT_6X6_2500: unknown; one of DICT_4X4_50")
