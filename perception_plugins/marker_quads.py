@@ -26,6 +26,11 @@ def perimeter(quad: np.ndarray) -> float:
     return float(np.linalg.norm(quad[_NEXT] - quad, axis=1).sum())
 
 
+def shortest_side(quad: np.ndarray) -> float:
+    """The shortest of a 4×2 quad's sides (px): how narrow a marker seen obliquely is."""
+    return float(np.linalg.norm(quad[_NEXT] - quad, axis=1).min())
+
+
 def side(quad: np.ndarray) -> float:
     """The mean side (px) of a 4×2 quad."""
     return perimeter(quad) / 4

@@ -15,10 +15,14 @@ A window is sized for the marker it expects: OpenCV's size thresholds are fracti
 given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
 speck, and the window would cost more than the full frame did. :attr:`Window.min_perimeter_rate` sets
 the window's floor at half the expected marker's perimeter instead.
+
+A track is a quad, not an id: an id printed more than once (the sim's target wears its id on every face, and
+two faces are often in view) is one track per copy, each moving on from the nearest of its id's last quads.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,7 +30,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mission.perception_plugins.marker_quads import perimeter
+from mission.perception_plugins.marker_quads import perimeter, shortest_side
 
 MARGIN = 0.4  # a window reaches this many marker sides beyond the predicted quad (the quiet zone, ≤ 0.17, and some)
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
@@ -38,13 +42,16 @@ MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detecto
 
 @dataclass(frozen=True)
 class Window:
-    """A region of the frame to detect in, and the smallest marker perimeter (px) worth keeping there."""
+    """A region of the frame to detect in, the smallest marker perimeter (px) worth keeping there, and the
+    shortest side (px) of the marker expected in it (what the window may be shrunk by: a marker seen
+    obliquely is narrow one way, and its modules must stay readable that way)."""
 
     x0: int
     y0: int
     x1: int
     y1: int
     min_perimeter_px: float
+    marker_side_px: float = 0.0  # 0: not known, the window is not shrunk
 
     @property
     def min_perimeter_rate(self) -> float:
@@ -61,37 +68,44 @@ class Window:
             max(self.x1, other.x1),
             max(self.y1, other.y1),
             min(self.min_perimeter_px, other.min_perimeter_px),
+            min(self.marker_side_px, other.marker_side_px),
         )
 
 
-@dataclass
+@dataclass(eq=False)
 class _Track:
+    marker_id: int
     quad: np.ndarray  # 4×2 px, the last one found
     motion: np.ndarray  # 2, px per frame: how far its centre moved between the last two frames it was found in
+
+    @property
+    def centre(self) -> np.ndarray:
+        return self.quad.mean(axis=0)
 
 
 @dataclass
 class RegionTracker:
-    """Where to look in the next frame, from where the markers were (per marker id and quad)."""
+    """Where to look in the next frame, from where the markers were: one track per quad, so an id printed more
+    than once (a target wearing its id on every face) is one track per copy."""
 
     full_frame_every: int = FULL_FRAME_EVERY
-    tracks: dict[int, _Track] = field(default_factory=dict)
+    tracks: list[_Track] = field(default_factory=list)
     since_full: int = 0  # frames since the last full-frame pass
     full_passes: int = 0
     window_passes: int = 0
     rescues: int = 0  # full-frame passes run because a tracked marker was not in its window
     discovered: int = 0  # markers the search pass found between full-frame passes
-    leaving: set[int] = field(default_factory=set)  # tracked markers this frame's windows left out (off the edge)
+    leaving: list[_Track] = field(default_factory=list)  # tracks this frame's windows left out (off the edge)
 
     def windows(self, width: int, height: int) -> list[Window] | None:
         """The windows to detect in this frame, or None for a full-frame pass."""
         if not self.tracks or self.since_full + 1 >= self.full_frame_every:
             return None
         wins: list[Window] = []
-        self.leaving = set()
-        for mid, tr in self.tracks.items():
+        self.leaving = []
+        for tr in self.tracks:
             if _leaves(tr.quad + tr.motion, width, height):
-                self.leaving.add(mid)  # predicted partly off the image: not looked for, not missed
+                self.leaving.append(tr)  # predicted partly off the image: not looked for, not missed
                 continue
             win = window_round(tr.quad, tr.motion, width, height)
             if win is None:
@@ -99,11 +113,17 @@ class RegionTracker:
             wins.append(win)
         return _merged(wins)
 
+    def all_found(self, ids: list[int]) -> bool:
+        """Whether a window pass that found `ids` found every marker it looked for (as many copies of each id
+        as are tracked and not leaving)."""
+        expected = Counter(tr.marker_id for tr in self.tracks if not any(tr is t for t in self.leaving))
+        found = Counter(ids)
+        return all(found[mid] >= n for mid, n in expected.items())
+
     def found(self, quads: np.ndarray, ids: np.ndarray, full: bool) -> bool:
         """Take this frame's detections (M×4×2, M); False when a window pass missed a tracked marker (the
         caller then runs the full frame and calls again with ``full=True``)."""
-        seen = {int(i) for i in ids}
-        if not full and any(mid not in seen and mid not in self.leaving for mid in self.tracks):
+        if not full and not self.all_found([int(i) for i in ids]):
             self.rescues += 1
             return False
         if full:
@@ -112,15 +132,16 @@ class RegionTracker:
         else:
             self.window_passes += 1
             self.since_full += 1
-        tracks: dict[int, _Track] = {}
+        old = list(self.tracks)
+        tracks: list[_Track] = []
         for quad, mid in zip(quads, ids, strict=True):
-            mid = int(mid)
-            if mid in tracks:  # the same id twice (two printed copies): both are looked for next frame by full pass
-                self.since_full = self.full_frame_every
-                continue
-            old = self.tracks.get(mid)
-            motion = quad.mean(axis=0) - old.quad.mean(axis=0) if old is not None else np.zeros(2)
-            tracks[mid] = _Track(np.asarray(quad, dtype=np.float64).copy(), motion)
+            quad = np.asarray(quad, dtype=np.float64).copy()
+            centre = quad.mean(axis=0)
+            same = [tr for tr in old if tr.marker_id == int(mid)]
+            prev = min(same, key=lambda tr: float(np.linalg.norm(tr.centre + tr.motion - centre)), default=None)
+            if prev is not None:
+                old = [tr for tr in old if tr is not prev]  # each copy moves on from the nearest of its id's quads
+            tracks.append(_Track(int(mid), quad, centre - prev.centre if prev is not None else np.zeros(2)))
         self.tracks = tracks
         return True
 
@@ -146,6 +167,7 @@ def window_round(quad: np.ndarray, motion: np.ndarray, width: int, height: int) 
         min(width, int(np.ceil(hi[0] + reach))),
         min(height, int(np.ceil(hi[1] + reach))),
         MIN_PERIMETER_FRACTION * perimeter(quad),
+        shortest_side(quad),
     )
     if win.x1 - win.x0 < MIN_WINDOW_PX or win.y1 - win.y0 < MIN_WINDOW_PX:
         return None
@@ -186,7 +208,7 @@ def detect_tracked(
     if wins is not None:
         found = _in_windows(grey, wins, detect, window_side_px)
         due = tracker.window_passes % SEARCH_EVERY == 0
-        if search is not None and due and tracker.tracks.keys() <= {f.marker_id for f in found}:
+        if search is not None and due and tracker.all_found([f.marker_id for f in found]):
             new = _new_markers(grey, _masked(grey, wins), found, search, detect, window_side_px)
             tracker.discovered += len(new)
             found += new
@@ -254,7 +276,7 @@ def _in_windows(
         crop = grey[win.y0 : win.y1, win.x0 : win.x1]
         scale = 1.0
         if window_side_px is not None:
-            crop, scale = _shrunk(crop, win.min_perimeter_px / (4 * MIN_PERIMETER_FRACTION), window_side_px)
+            crop, scale = _shrunk(crop, win.marker_side_px, window_side_px)
         tiles.append(crop)
         placed.append((win, scale, x + GUTTER_PX))
         x += crop.shape[1] + 2 * GUTTER_PX

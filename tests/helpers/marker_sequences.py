@@ -21,10 +21,13 @@ def sliding(
     appear_at: dict[int, int] | None = None,
     dictionary: int = cv2.aruco.DICT_4X4_250,
     distance_m: float = 1.5,
+    turned_deg: float = 0.0,
 ) -> Iterator[tuple[np.ndarray, dict[int, np.ndarray]]]:
     """`n` frames (1280×720) of 0.15 m markers 1.5 m ahead sliding sideways `step_px` a frame (a turning robot's
     view); a marker in `appear_at` comes into the picture at that frame. At another `distance_m` the picture is the
-    same, scaled. Yields (image, {id: true corners})."""
+    same, scaled. Markers `turned_deg` about the vertical are seen obliquely (narrow across, full height).
+    Yields (image, {id: true corners})."""
+    turned = se3.rot_y(np.radians(turned_deg)) @ sv.R_FRONTAL
     rng = np.random.default_rng(3)
     appear_at = appear_at or {}
     for i in range(n):
@@ -33,7 +36,7 @@ def sliding(
             (
                 m,
                 se3.transform(
-                    sv.R_FRONTAL,
+                    turned,
                     (
                         ((-0.6 + 0.5 * j) + i * step_px * 1.5 / K.fx) * distance_m / 1.5,
                         (0.1 * j - 0.1) * distance_m / 1.5,
