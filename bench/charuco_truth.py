@@ -30,6 +30,7 @@ from mission.perception_plugins.aruco import ArucoSource
 
 NEAREST = 6  # saddle points a marker's homography is fitted to
 REACH_SQUARES = 1.6  # ... all within this many squares of its centre (else the marker has no truth)
+MIN_SPREAD_SQUARES = 0.5  # ... and spread over at least this area (square²): not nearly on one line
 
 
 @dataclass(frozen=True)
@@ -66,10 +67,16 @@ def charuco_truth(grey: np.ndarray, board: Board) -> dict[int, np.ndarray]:
         near = sorted(saddles, key=lambda i: float(np.hypot(*(chess[i] - centre))))[:NEAREST]
         if len(near) < 4 or np.hypot(*(chess[near[3]] - centre)) > REACH_SQUARES * board.square_m:
             continue
+        spread = cv2.contourArea(cv2.convexHull(chess[near].astype(np.float32)))
+        if spread < MIN_SPREAD_SQUARES * board.square_m**2:
+            continue  # the saddle points nearly on one line (a board's visible edge): no homography to trust
         H, _ = cv2.findHomography(chess[near], np.array([saddles[i] for i in near]))
         if H is None:
             continue
-        truth[int(marker_id)] = cv2.perspectiveTransform(square.reshape(-1, 1, 2), H).reshape(4, 2)
+        quad = cv2.perspectiveTransform(square.reshape(-1, 1, 2), H).reshape(4, 2)
+        if not cv2.isContourConvex(quad.astype(np.float32)) or cv2.contourArea(quad.astype(np.float32)) < 4.0:
+            continue  # a degenerate fit (seen once: all four corners on one point)
+        truth[int(marker_id)] = quad
     return truth
 
 
