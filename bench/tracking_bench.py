@@ -9,6 +9,10 @@ Per resolution (640×480, 1280×720, 1920×1080) and marker count (1, 8):
   off;
 * ``apriltag`` (each backend), tracking on, against the same source and backend with tracking off.
 
+Then the same on the camera frames of rendered scenario runs (bench/mission_sequences.py: follow_occlusion and
+explore_dock at 1280×720 and 1920×1080, the sim's exact corners as truth): ``aruco`` against OpenCV's default
+detector and ``apriltag`` (apriltag3) against itself with tracking off.
+
 Reported: mean ms per frame (the full-frame passes included), the speed-up, and the medians; recall (markers
 found with tracking ÷ markers the baseline found, matched by id per frame); corner error against the truth
 (p95 and worst) for both; and the new-marker latency: for each marker the baseline finds after a frame
