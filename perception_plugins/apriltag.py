@@ -57,6 +57,7 @@ from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
     Found,
     RegionTracker,
+    Shrink,
     as_found,
     detect_tracked,
 )
@@ -251,8 +252,8 @@ class AprilTagSource:
         """This frame's tags through the tracker. With edges refinement its windows are searched scaled down
         (as the aruco source's) and every tag's corners are refined here, in the frame, at full resolution."""
         edges = self.params.corner_refinement == "edges"
-        side = WINDOW_SIDE_PX if edges else None
-        found = detect_tracked(grey, self.tracker, self._found, self._search, side)
+        shrink = Shrink(WINDOW_SIDE_PX) if edges else None
+        found = detect_tracked(grey, self.tracker, self._found, self._search, shrink)
         tags = [replace(f.extra, corners=f.quad) for f in found]
         if edges and tags:
             quads = refine_corners(grey, np.stack([t.corners for t in tags]), self._backend.cells)

@@ -36,6 +36,7 @@ from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
     Found,
     RegionTracker,
+    Shrink,
     as_arrays,
     as_found,
     detect_tracked,
@@ -149,13 +150,12 @@ class ArucoSource:
         return quads
 
     def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
-        """A frame's (rate None) or tracking windows' markers; windows scaled down for the edges refiner
-        (QuadDetector.window) are searched with one threshold window."""
-        if min_perimeter_rate is not None and self.params.corner_refinement == "edges":
-            quads, ids = self._detect.window(grey, min_perimeter_rate)
-        else:
-            quads, ids = self._detect(grey, min_perimeter_rate)
-        return as_found(quads, ids)
+        """A frame's (rate None) or tracking windows' markers, as the full frame finds them."""
+        return as_found(*self._detect(grey, min_perimeter_rate))
+
+    def _found_shrunk(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
+        """Tracking windows scaled down for the edges refiner: one threshold window (QuadDetector.window)."""
+        return as_found(*self._detect.window(grey, min_perimeter_rate or 0.0))
 
     def _search(self, grey: np.ndarray) -> list[Found]:
         return as_found(*self._detect.search(grey))
@@ -168,8 +168,8 @@ class ArucoSource:
         grey = to_grey(frame.image)
         if self.tracker is not None:
             edges = self.params.corner_refinement == "edges"
-            side = WINDOW_SIDE_PX if edges else None
-            corners_list, ids = as_arrays(detect_tracked(grey, self.tracker, self._found, self._search, side))
+            shrink = Shrink(WINDOW_SIDE_PX, self._found_shrunk) if edges else None
+            corners_list, ids = as_arrays(detect_tracked(grey, self.tracker, self._found, self._search, shrink))
         else:
             corners_list, ids = self._detect(grey, None)
         if len(ids) == 0:
