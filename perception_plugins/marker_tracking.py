@@ -44,6 +44,7 @@ FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker w
 COAST_FRAMES = 3  # a marker not found is still looked for in its window this many frames (it flickers)
 SEARCH_EVERY = 1  # the search pass runs on every window frame (every third: ~15 % faster, recall 98.6 %)
 GUTTER_PX = 8  # each window's replicated border in the mosaic the windows are detected in
+MIN_SHRINK = 0.4  # a window is never shrunk further: a pixel of it is 2.5 px of the frame, half the refiner's reach
 MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
 
 
@@ -353,6 +354,7 @@ def _shrunk(crop: np.ndarray, expected_side: float, side_px: float) -> tuple[np.
     then INTER_LINEAR for the rest (a scale in (0.5, 1], where it does not alias). The marker must come out
     the same size every time: OpenCV's one threshold window (QuadDetector.window) reads markers of that size
     and misses some at half of it."""
+    side_px = max(side_px, MIN_SHRINK * expected_side)
     step = max(1, int(expected_side // side_px))
     if step > 1:
         crop = cv2.resize(crop, None, fx=1 / step, fy=1 / step, interpolation=cv2.INTER_AREA)

@@ -81,6 +81,22 @@ def test_a_tracked_marker_of_any_size_is_found_in_its_window_without_a_full_fram
     assert tracked.tracker is not None and tracked.tracker.rescues == 0 and tracked.tracker.window_passes == 18
 
 
+def test_a_marker_filling_much_of_the_picture_is_tracked_as_accurately_as_the_full_frame_finds_it():
+    # a dock 0.3 m ahead: a ~435 px tag36h11 marker; shrunk to 64 px its window's corners are ~5 px off, more than
+    # the refiner reaches, so a window is never shrunk below MIN_SHRINK
+    params = {"marker_size_m": 0.15, "dictionary": "DICT_APRILTAG_36h11"}
+    tracked, full = ArucoSource({**params, "tracking": True}), ArucoSource(params)
+    frames = sliding(12, ids=(7,), distance_m=0.3, step_px=3.0, dictionary=cv2.aruco.DICT_APRILTAG_36h11)
+    for i, (image, truth) in enumerate(frames):
+        (a,) = tracked.process(frame(image, i))
+        (b,) = full.process(frame(image, i))
+        assert (
+            np.linalg.norm(a.corners - truth[7], axis=1).max()
+            < np.linalg.norm(b.corners - truth[7], axis=1).max() + 0.3
+        )
+    assert tracked.tracker is not None and tracked.tracker.window_passes >= 9
+
+
 @pytest.mark.parametrize("distance_m", [0.7, 0.5])  # ~66 × 204 px and ~94 × 297 px
 def test_a_marker_seen_obliquely_is_tracked_as_accurately_as_the_full_frame_finds_it(distance_m):
     # turned 55° away, the marker is three times taller than wide: its window is shrunk by its narrow side, so
