@@ -186,24 +186,8 @@ def run_tracking(quick: bool) -> tuple[list[dict[str, Any]], list[Figure]]:
                     )
                     if base_label == baselines[0][0]:
                         gated = w >= 1280 or label != "aruco"
-                        figures.append(
-                            Figure(
-                                f"tracking {label} {w}×{h}, {n} marker{'s' if n > 1 else ''}: speed-up "
-                                f"(recall {r['recall']}, corners p95 {r['corner_p95_tracked_px']} px vs "
-                                f"{r['corner_p95_baseline_px']}, new marker ≤ "
-                                f"{r['new_marker_wait_max_frames']} frames)",
-                                r["speedup"],
-                                "×",
-                                baseline=base_label,
-                                baseline_value=r["baseline_ms"],
-                                target=f"≥ {target:.1f}× and recall ≥ {RECALL_TARGET}" if gated else None,
-                                meets_target=(
-                                    (r["speedup"] or 0) >= target and (r["recall"] or 0) >= RECALL_TARGET
-                                    if gated
-                                    else None
-                                ),
-                            )
-                        )
+                        what = f"{label} {w}×{h}, {n} marker{'s' if n > 1 else ''}"
+                        figures.append(_speedup_figure(what, r, base_label, target if gated else None))
     mission_rows, mission_figures = run_mission_tracking(quick)
     return rows + mission_rows, figures + mission_figures
 
@@ -269,20 +253,23 @@ def run_mission_tracking(quick: bool) -> tuple[list[dict[str, Any]], list[Figure
                 f"perception: tracking {label} on {scenario} {w}x{h} ({len(frames)} frames) vs {base_label}: "
                 f"{r['tracked_ms']} vs {r['baseline_ms']} ms ({r['speedup']}×), recall {r['recall']}"
             )
-            gated = not quick
-            figures.append(
-                Figure(
-                    f"tracking {label} on a rendered {scenario} run, {w}×{h}: speed-up (recall {r['recall']}, "
-                    f"corners p95 {r['corner_p95_tracked_px']} px vs {r['corner_p95_baseline_px']}, new marker ≤ "
-                    f"{r['new_marker_wait_max_frames']} frames)",
-                    r["speedup"],
-                    "×",
-                    baseline=base_label,
-                    baseline_value=r["baseline_ms"],
-                    target=f"≥ {target:.1f}× and recall ≥ {RECALL_TARGET}" if gated else None,
-                    meets_target=(
-                        (r["speedup"] or 0) >= target and (r["recall"] or 0) >= RECALL_TARGET if gated else None
-                    ),
-                )
-            )
+            what = f"{label} on a rendered {scenario} run, {w}×{h}"
+            figures.append(_speedup_figure(what, r, base_label, None if quick else target))
     return rows, figures
+
+
+def _speedup_figure(what: str, r: dict[str, Any], base_label: str, target: float | None) -> Figure:
+    """One case's speed-up figure (recall, corners and the new-marker wait in its title), gated on `target` and
+    the recall target when a target is given."""
+    return Figure(
+        f"tracking {what}: speed-up (recall {r['recall']}, corners p95 {r['corner_p95_tracked_px']} px vs "
+        f"{r['corner_p95_baseline_px']}, new marker ≤ {r['new_marker_wait_max_frames']} frames)",
+        r["speedup"],
+        "×",
+        baseline=base_label,
+        baseline_value=r["baseline_ms"],
+        target=None if target is None else f"≥ {target:.1f}× and recall ≥ {RECALL_TARGET}",
+        meets_target=(
+            None if target is None else (r["speedup"] or 0) >= target and (r["recall"] or 0) >= RECALL_TARGET
+        ),
+    )

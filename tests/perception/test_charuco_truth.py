@@ -12,22 +12,15 @@ import numpy as np
 import pytest
 
 from bench.charuco_truth import TUTORIAL_BOARD, charuco_truth, corner_errors, duplicates, main
-from bench.real_images import shared_data_dir
-from mission.core.errors import MissionError
 from mission.core.types import CameraIntrinsics, Frame
 from mission.perception_plugins.aruco import ArucoSource
+from tests.helpers.shared_photos import real_aruco_photo
 
 PHOTOS = ("contrib__choriginal.jpg", "contrib__chocclusion_original.jpg")
 
 
 def photo(name: str) -> np.ndarray:
-    try:
-        path = shared_data_dir() / "real-aruco" / name
-    except MissionError as err:  # no ../shared/data beside this checkout (CI has it)
-        pytest.skip(str(err))
-    if not path.is_file():
-        pytest.skip(f"{path} not present (../shared/data)")
-    return cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    return cv2.imread(str(real_aruco_photo(name)), cv2.IMREAD_GRAYSCALE)
 
 
 def raw_opencv(grey: np.ndarray) -> list[tuple[int, np.ndarray]]:
@@ -70,9 +63,7 @@ def test_never_wrong_where_opencv_is_right_against_charuco_truth(name):
 def test_the_command_line_measures_the_tutorial_photos(tmp_path, capsys):
     """`python -m bench.charuco_truth` (for public ChArUco sets kept off the repository) gives the figures
     the tests above check, for both photos at once; a file it cannot read is a line naming it."""
-    for name in PHOTOS:
-        photo(name)  # skips when ../shared/data is not there
-    paths = [str(shared_data_dir() / "real-aruco" / name) for name in PHOTOS]
+    paths = [str(real_aruco_photo(name)) for name in PHOTOS]  # skips when ../shared/data is not there
     (tmp_path / "broken.jpg").write_bytes(b"not a jpeg")
     out = tmp_path / "figures.json"
     argv = ["--board", "5x7", "--square-m", "0.04", "--marker-m", "0.02", "--dictionary", "dict_6x6_250"]

@@ -11,22 +11,15 @@ from pathlib import Path
 import cv2
 import pytest
 
-from bench.real_images import shared_data_dir
 from bench.real_sequences import main
-from mission.core.errors import MissionError
+from tests.helpers.shared_photos import real_aruco_photo
 
 BOARD = ["--dictionary", "DICT_6X6_250", "--board", "5x7", "--square-m", "0.04", "--marker-m", "0.02"]
 ORIGINAL, OCCLUDED = "contrib__choriginal.jpg", "contrib__chocclusion_original.jpg"
 
 
 def photo(name: str) -> Path:
-    try:
-        path = shared_data_dir() / "real-aruco" / name
-    except MissionError as err:  # no ../shared/data beside this checkout (CI has it)
-        pytest.skip(str(err))
-    if not path.is_file():
-        pytest.skip(f"{path} not present (../shared/data)")
-    return path
+    return real_aruco_photo(name)
 
 
 def run(args: list[str], out: Path) -> dict:
