@@ -122,7 +122,7 @@ class AprilTagParams(StrictModel):
     report_frame: Literal["camera", "base"] = "camera"  # base: robot base → entity base (camera_mount)
     base_frame: str = Field("base_link", min_length=1)  # frame_id of detections when report_frame is base
     decimate: float = Field(1.0, ge=1.0, le=8.0)  # apriltag3 quad_decimate; 1 = full resolution (opencv: not used)
-    threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (opencv: OpenCV's own thread pool)
+    threads: int = Field(1, ge=1, le=64)  # apriltag3 nthreads (>1: known data races, troubleshooting); opencv: own pool
     corner_refinement: Literal["edges", "none"] = "edges"  # edges: on their fitted edges (corner_refinement.py)
     min_contrast: Literal["auto"] | int = "auto"  # apriltag3 min_white_black_diff, 0–255; auto: 0.4 × frame spread
     max_hamming: int = Field(2, ge=0, le=5)  # corrected bits accepted (apriltag3 decodes at most 2)
