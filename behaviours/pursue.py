@@ -178,7 +178,7 @@ class PursueLastSeen(SearchLeaf):
         xs, ys = sg.centres()
         near = np.hypot(xs - aim[0], ys - aim[1])
         drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
-        candidates = drivable & sees & (near >= MIN_STANDOFF_M)
+        candidates = drivable & sees & (near >= MIN_STANDOFF_M) & ~self.in_movers_way(sg, p.clearance_m)
         if not candidates.any():
             return None, 0.0, None
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
@@ -268,6 +268,7 @@ class PursueLastSeen(SearchLeaf):
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
         step = max(1, round(PEEK_SPACING_M / sg.resolution))
         cand = drivable & (rows % step == 0) & (cols % step == 0) & (dist <= PEEK_MAX_TRAVEL_M)
+        cand &= ~self.in_movers_way(sg, p.clearance_m)
         idx = np.argwhere(cand)
         if not len(idx):
             return None

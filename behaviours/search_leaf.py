@@ -120,13 +120,20 @@ class SearchLeaf(MissionLeaf):
                 paths |= sg.point_cells(mover.swept(MOVER_HORIZON_S))
         return paths
 
-    def ahead_of_movers(self, sg: SearchGrid, robot: Pose2D, clearance_m: float) -> np.ndarray:
-        """mover_paths grown by the robot's `clearance_m`: where not to drive. The robot's own surroundings are
-        left out (it must be able to drive off from where it stands, even just in front of a cart)."""
+    def in_movers_way(self, sg: SearchGrid, clearance_m: float) -> np.ndarray:
+        """mover_paths grown by the robot's `clearance_m`: no place to stop and look from, the robot's own
+        included (a viewpoint beside the robot in a cart's path had it drive along in front of the cart)."""
         paths = self.mover_paths(sg)
         if not paths.any():
             return paths
-        ahead = dilate(paths, math.ceil(clearance_m / sg.resolution))
+        return dilate(paths, math.ceil(clearance_m / sg.resolution))
+
+    def ahead_of_movers(self, sg: SearchGrid, robot: Pose2D, clearance_m: float) -> np.ndarray:
+        """in_movers_way without the robot's own surroundings: where not to drive (it must be able to drive
+        off from where it stands, even just in front of a cart)."""
+        ahead = self.in_movers_way(sg, clearance_m)
+        if not ahead.any():
+            return ahead
         xs, ys = sg.centres()
         return ahead & (np.hypot(xs - robot.x, ys - robot.y) > clearance_m + sg.resolution)
 
