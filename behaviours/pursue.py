@@ -37,7 +37,7 @@ import py_trees
 from mission.behaviours.approach import approach_goal, bearing_to
 from mission.behaviours.ports import port
 from mission.behaviours.search_grid import SearchGrid, dilate, ray_masses, travel_distances, view_cells
-from mission.behaviours.search_leaf import SearchLeaf, predicted_walk, turn_rate
+from mission.behaviours.search_leaf import MOVER_HORIZON_S, SearchLeaf, predicted_walk, turn_rate
 from mission.core import se3
 from mission.core.blackboard import MissionState
 from mission.core.types import NavGoal, NavStatus, Pose2D, TargetTrack
@@ -60,6 +60,7 @@ PEEK_ARC_FRACTION = 0.05  # directions seeing this fraction of the best one's hi
 PEEK_EDGE_RAD = math.radians(10.0)  # a sweep ends this far inside the view past the arc's edge: a marker must
 # be whole in the image to be read, so the image's outer strip does not count as seeing
 RAYS = 72
+WAIT_STEP_S = 0.5  # a view a mover hides is tried again every this much of its predicted passing
 
 
 @dataclass
@@ -79,6 +80,7 @@ class Pursuit:
     done: str = ""  # why this loss's pursuit is over ('' while it goes on)
     fallback: bool = False  # no place sees `aim`: heading for the last position instead
     glance_to: float | None = None  # it left through the view's side: first turn to this heading, where it was
+    opens_at: float | None = None  # a mover hides `aim` from `view` until about then: look on until then + look_s
 
 
 class PursueLastSeen(SearchLeaf):
@@ -123,20 +125,22 @@ class PursueLastSeen(SearchLeaf):
             goal = approach_goal((robot.x, robot.y), last, 0.5)
             return Pursuit(track.last_seen, last, last, goal, 0.0, now + p.min_timeout_s, now, fallback=True)
         _, aim = predicted_walk(sg, sg.target_free(), track, p.horizon_s)
-        view, path_m, sweep_to = None, 0.0, None
+        view, path_m, sweep_to, open_s = None, 0.0, None, 0.0
         if aim != last:
-            view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
+            view, path_m, sweep_to, open_s = self._viewpoint(sg, robot, last, aim)
             if sweep_to is not None or (view is not None and abs(bearing_to(view, aim)) > FACING_RAD):
                 aim = _faced(view)  # type: ignore[arg-type]
         # No heading, or one whose walk is seen from where the robot stands already (it ended at the corner):
-        # look round the edge it vanished behind.
-        if view is None or path_m < STAY_M:
+        # look round the edge it vanished behind. (Not when a passing mover is what hides it: wait it out.)
+        waits = open_s - path_m / p.speed_mps > WAIT_STEP_S / 2
+        if view is None or (path_m < STAY_M and not waits):
             peek = self._peek(sg, robot, last)
             if peek is not None:
                 view, path_m, sweep_to = peek
+                open_s = 0.0
                 aim = _faced(view)
             elif view is None:  # nothing hidden to peek round: where the last position is seen from
-                view, path_m, sweep_to = self._viewpoint(sg, robot, last, aim)
+                view, path_m, sweep_to, open_s = self._viewpoint(sg, robot, last, aim)
         fallback = view is None
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
@@ -147,7 +151,9 @@ class PursueLastSeen(SearchLeaf):
             turn += 2 * abs(se3.wrap_angle(glance - robot.yaw)) / TURN_RATE  # there and back
         if sweep_to is not None:
             turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
-        timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + turn + p.look_s))
+        wait = max(0.0, open_s - path_m / p.speed_mps) if not fallback else 0.0
+        opens_at = now + open_s if wait > WAIT_STEP_S / 2 else None
+        timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + wait + turn + p.look_s))
         return Pursuit(
             track.last_seen,
             last,
@@ -159,42 +165,69 @@ class PursueLastSeen(SearchLeaf):
             fallback=fallback,
             sweep_to=sweep_to,
             glance_to=glance,
+            opens_at=opens_at,
         )
 
     def _viewpoint(
         self, sg: SearchGrid, robot: Pose2D, last: tuple[float, float], aim: tuple[float, float]
-    ) -> tuple[Pose2D | None, float, float | None]:
-        """The nearest place (path length) that sees `aim` and the middle of the walk to it, the path length,
-        and None; or a place a little farther that also sees round the edge, facing the edge nearer the walk,
-        and the heading to sweep on to (see _sees_more_round_the_edge)."""
+    ) -> tuple[Pose2D | None, float, float | None, float]:
+        """The place that first sees `aim` and the middle of the walk to it, the path length there, None,
+        and the seconds from now until it sees them; or a place a little farther that also sees round the
+        edge, facing the edge nearer the walk, and the heading to sweep on to (see _sees_more_round_the_edge).
+
+        Without movers the first to see is the nearest by path (seconds = path / ``speed_mps``). A crossing
+        cart hides a moving window, not its whole path: a place is taken to see at the first half second,
+        from when the robot can be there, at which the cart's predicted face (over a ``look_s`` look) is out
+        of the way (waiting there if need be); so a place 1 m away that sees once the cart has moved on
+        (2.8 s) beats one 2 m round behind the cart, reached with the camera turned away (6.1 s;
+        moving_occluder seed 2015, typical). Past MOVER_HORIZON_S the cart's whole path still counts as in
+        the way."""
         p = self.params
         blocked = self.sight_blocked(sg, robot)
-        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
         mid = ((last[0] + aim[0]) / 2, (last[1] + aim[1]) / 2)
-        sees = np.ones(sg.shape, dtype=bool)
-        for point in (aim, mid):  # the places a point is seen from are the places it sees (same rays)
-            sees &= view_cells(sg, through, point, 0.0, 2 * math.pi, p.max_standoff_m, min_range_m=0.05)
-        sees &= ~dilate(~sees, 1)  # a cell of margin: the camera sees round the corner, not along its edge
         xs, ys = sg.centres()
         near = np.hypot(xs - aim[0], ys - aim[1])
         drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
-        candidates = drivable & sees & (near >= MIN_STANDOFF_M) & ~self.in_movers_way(sg, p.clearance_m)
-        if not candidates.any():
-            return None, 0.0, None
+        stand = drivable & (near >= MIN_STANDOFF_M) & ~self.in_movers_way(sg, p.clearance_m)
         dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
-        cost = np.where(candidates, dist + 0.1 * near, np.inf)  # nearest by path; of equals, nearer the aim
+        arrive_s = dist / p.speed_mps
+
+        def sees_through(through: np.ndarray) -> np.ndarray:
+            sees = np.ones(sg.shape, dtype=bool)
+            for point in (aim, mid):  # the places a point is seen from are the places it sees (same rays)
+                sees &= view_cells(sg, through, point, 0.0, 2 * math.pi, p.max_standoff_m, min_range_m=0.05)
+            return sees & ~dilate(~sees, 1)  # a cell of margin: the camera sees round the corner, not along its edge
+
+        # Places that see whatever the movers do (their whole paths as walls) see on arrival.
+        regardless = stand & sees_through(blocked | self.mover_paths(sg))
+        open_s = np.where(regardless, arrive_s, np.inf)
+        faces_now = self.movers_then(sg, 0.0, 0.0)
+        if faces_now.any():
+            still = blocked & ~dilate(faces_now, 1)  # all but the movers' faces stays where it is
+            for t in np.arange(0.0, MOVER_HORIZON_S, WAIT_STEP_S):
+                first = stand & np.isinf(open_s) & (arrive_s <= t + WAIT_STEP_S)
+                if first.any():
+                    first &= sees_through(still | self.movers_then(sg, t, p.look_s))
+                    open_s[first] = np.maximum(arrive_s[first], t)
+        candidates = np.isfinite(open_s)
+        if not candidates.any():
+            return None, 0.0, None, 0.0
+        cost = np.where(candidates, open_s + 0.1 * near / p.speed_mps, np.inf)  # first to see; of equals, nearer
         r, c = np.unravel_index(int(np.argmin(cost)), cost.shape)
-        if not np.isfinite(cost[r, c]):
-            return None, 0.0, None
-        better = self._sees_more_round_the_edge(sg, robot, blocked, last, aim, candidates, dist, (int(r), int(c)))
+        # Round the edge is scored with the movers' whole paths as walls: it cannot weigh a mover's passing, so
+        # a place that sees only once a mover has passed is taken as it is.
+        better = None
+        if regardless[r, c]:
+            better = self._sees_more_round_the_edge(sg, robot, blocked, last, aim, candidates, dist, (int(r), int(c)))
         if better is not None:
-            (r, c), first, sweep_to = better
-            return Pose2D(float(xs[r, c]), float(ys[r, c]), first), float(dist[r, c]), sweep_to
+            (r, c), first_yaw, sweep_to = better
+            view = Pose2D(float(xs[r, c]), float(ys[r, c]), first_yaw)
+            return view, float(dist[r, c]), sweep_to, float(open_s[r, c])
         x, y = float(xs[r, c]), float(ys[r, c])
         here = math.hypot(x - robot.x, y - robot.y) <= sg.resolution * 1.5
         if here:
             x, y = robot.x, robot.y
-        return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c]), None
+        return Pose2D(x, y, math.atan2(aim[1] - y, aim[0] - x)), float(dist[r, c]), None, float(open_s[r, c])
 
     def _hidden(self, sg: SearchGrid, robot: Pose2D, blocked: np.ndarray, last: tuple[float, float]) -> np.ndarray:
         """Bool H×W: the places the target could have walked to from `last` in ``horizon_s`` (at
@@ -355,7 +388,7 @@ class PursueLastSeen(SearchLeaf):
         if plan.arrived_at is not None:
             if self._look(plan, robot, now):
                 return py_trees.common.Status.RUNNING
-            if now - plan.arrived_at >= p.look_s:
+            if now - plan.arrived_at >= p.look_s and (plan.opens_at is None or now >= plan.opens_at + p.look_s):
                 seen_from = f"({v.x:.2f}, {v.y:.2f})"
                 return self._finish(plan, belief, f"LOST: looked from {seen_from} toward {where}, where "
                                     f"{p.target} went: not there")

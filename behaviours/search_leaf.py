@@ -33,6 +33,7 @@ MOVER_HORIZON_S = 5.0
 # Narrower movers may be the target itself (a person-sized box seen corner-on is 0.57 m wide): its own
 # path is where the search wants to look, not a place to keep out of.
 MOVER_MIN_WIDTH_M = 0.7
+MOVER_STEP_S = 0.25  # a mover's predicted positions this far apart in time (0.09 m at a cart's 0.35 m/s)
 # A target last seen this close to the view's edge (or beyond it, by now), with nothing between it and the
 # camera, left through the side of the image: it is most likely just past that edge.
 GLANCE_EDGE_RAD = math.radians(8.0)
@@ -119,6 +120,18 @@ class SearchLeaf(MissionLeaf):
             if mover.width_m >= MOVER_MIN_WIDTH_M:
                 paths |= sg.point_cells(mover.swept(MOVER_HORIZON_S))
         return paths
+
+    def movers_then(self, sg: SearchGrid, after_s: float, for_s: float) -> np.ndarray:
+        """Cells the wide movers' near faces (their lidar returns, a cell deep) will cover from `after_s` to
+        `after_s + for_s` from now if they keep going: what hides things from a look taken then."""
+        cells = np.zeros(sg.shape, dtype=bool)
+        now = self.now()
+        for mover in self.read(bbk.MOVERS) or ():
+            if mover.width_m >= MOVER_MIN_WIDTH_M:
+                steps = (now - mover.stamp) + np.arange(after_s, after_s + for_s + 1e-9, MOVER_STEP_S)
+                v = np.asarray(mover.velocity)
+                cells |= sg.point_cells((mover.points[None, :, :] + steps[:, None, None] * v).reshape(-1, 2))
+        return dilate(cells, 1) if cells.any() else cells
 
     def in_movers_way(self, sg: SearchGrid, clearance_m: float) -> np.ndarray:
         """mover_paths grown by the robot's `clearance_m`: no place to stop and look from, the robot's own

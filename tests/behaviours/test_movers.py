@@ -3,7 +3,7 @@
 A cart crossing the room is tracked with its velocity from the scans alone; a box standing still and the
 map's own walls are not movers; and LOST, choosing where to look from, does not choose the place a
 crossing cart is about to drive over (moving_occluder: the robot drove along in front of the cart, the
-way the cart went, while the target walked on behind it)."""
+way the cart went, while the target walked on behind it), but a place the cart uncovers as it drives on."""
 
 from __future__ import annotations
 
@@ -83,12 +83,22 @@ def test_a_box_standing_still_and_the_maps_own_walls_are_not_movers():
     assert tracker.movers() == ()
 
 
-def test_lost_looks_from_behind_a_crossing_cart_not_from_where_it_is_about_to_drive():
+def _crosses(a: tuple[float, float], b: tuple[float, float], box: tuple[float, float, float, float]) -> bool:
+    """Whether the segment a→b passes through the axis-aligned box (x0, y0, x1, y1)."""
+    ts = np.linspace(0.0, 1.0, 200)
+    xs, ys = a[0] + ts * (b[0] - a[0]), a[1] + ts * (b[1] - a[1])
+    return bool(((xs > box[0]) & (xs < box[2]) & (ys > box[1]) & (ys < box[3])).any())
+
+
+def test_lost_looks_from_off_a_crossing_carts_way_where_the_view_opens_first():
     # The robot is south of a cart driving east across its view; the target was last seen just north of the
     # cart's east end, walking north. The nearest place that sees where it went is beside the cart's east
-    # end — where the cart will be in a second or two.
+    # end — where the cart will be in a second or two. LOST takes a place off the cart's way, from which
+    # the cart, driving on, uncovers the walk sooner than the drive round behind its west end would
+    # (≥ 1.5 m at the pursuit's 0.35 m/s: over 4 s).
     grid = grid_with_boxes([])
     robot = Pose2D(0.2, -1.6, math.pi / 2)
+    plans = {}
 
     def lost_view(with_movers: bool) -> tuple[float, float]:
         scene = Scene(robot=robot, grid=grid, clock=1.5)
@@ -101,6 +111,7 @@ def test_lost_looks_from_behind_a_crossing_cart_not_from_where_it_is_about_to_dr
         node = PursueLastSeen()
         scene.cycle(node)
         assert read(bbk.STATE) == "LOST"
+        plans[with_movers] = node.pursuit
         view = node.pursuit.view
         return view.x, view.y
 
@@ -112,5 +123,9 @@ def test_lost_looks_from_behind_a_crossing_cart_not_from_where_it_is_about_to_dr
     assert driven_over[sg.cell(*before)], "the scene no longer shows the fault: LOST chose a place off the cart's way"
     after = lost_view(with_movers=True)
     assert not driven_over[sg.cell(*after)]
-    assert after[0] < west  # behind the cart: where it has been, not where it is going
+    plan = plans[True]
+    opens = plan.opens_at if plan.opens_at is not None else 1.5 + plan.path_m / 0.35
+    assert opens - 1.5 < 4.0, "no sooner than driving round behind the cart"
+    assert _crosses(after, plan.aim, cart_at(1.5)), "the scene no longer shows the cart in the way now"
+    assert not _crosses(after, plan.aim, cart_at(opens)), "the cart, where it really is then, hides the walk"
 
