@@ -74,7 +74,9 @@ class QuadDetector:
     """(grey image, minimum marker perimeter rate or None for OpenCV's) → (N×4×2 float64 corners, N ids), with
     one quad per marker and that quad the marker's outline (see the module).
 
-    The perimeter rate is what a tracking window sets (marker_tracking.py); it applies to every pass.
+    The perimeter rate is what a tracking mosaic of windows sets (marker_tracking.py), and there the rescue
+    pass is skipped: a window holds markers it expects, and one the default drops is missed there, which sends
+    the frame to the full-frame detection, rescue pass included (the pass cost ~10 % of a window frame).
     ``rescues`` counts the markers the rescue pass added, for the benches.
     """
 
@@ -93,6 +95,8 @@ class QuadDetector:
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
         quads, ids = self._detect(self._detector, self._params, grey, rate)
+        if min_perimeter_rate is not None:
+            return quads, ids
         rescued_quads, rescued_ids = self._rescue_pass(grey, rate, quads)
         extra = [k for k in range(len(rescued_ids)) if not _already_found(rescued_quads[k], rescued_ids[k], quads, ids)]
         if not extra:

@@ -43,9 +43,11 @@ MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fra
 FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker waits at most 9 frames
 COAST_FRAMES = 3  # a marker not found is still looked for in its window this many frames (it flickers)
 SEARCH_EVERY = 1  # the search pass runs on every window frame (every third: ~15 % faster, recall 98.6 %)
-GUTTER_PX = 8  # each window's replicated border in the mosaic the windows are detected in
+GUTTER_PX = 8  # each window's border in the mosaic the windows are detected in (_tile)
+EDGE_PX = 3  # of which its edge replicated (more drew streaks that lost markers: _tile), the rest flat
 MIN_SHRINK = 0.4  # a window is never shrunk further: a pixel of it is 2.5 px of the frame, half the refiner's reach
 MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
+ALONE_MIN_SIDE_PX = 30.0  # a marker missed in the mosaic is looked for in its window alone from this side (_alone)
 
 
 @dataclass(frozen=True)
@@ -125,10 +127,15 @@ class RegionTracker:
     def all_found(self, ids: list[int]) -> bool:
         """Whether a window pass that found `ids` found every marker it looked for (as many copies of each id
         as are tracked, found last frame and not leaving; a coasting track's marker may stay away)."""
+        return not self.missing(ids)
+
+    def missing(self, ids: list[int]) -> list[_Track]:
+        """The tracks a window pass that found `ids` did not find (of those it had to: see all_found); of an id
+        tracked more than once and found fewer times, every copy."""
         live = [tr for tr in self.tracks if tr.missed == 0 and not any(tr is t for t in self.leaving)]
         expected = Counter(tr.marker_id for tr in live)
         found = Counter(ids)
-        return all(found[mid] >= n for mid, n in expected.items())
+        return [tr for tr in live if found[tr.marker_id] < expected[tr.marker_id]]
 
     def found(self, quads: np.ndarray, ids: np.ndarray, full: bool) -> bool:
         """Take this frame's detections (M×4×2, M); False when a window pass missed a tracked marker (the
@@ -231,6 +238,7 @@ def detect_tracked(
     wins = tracker.windows(w, h)
     if wins is not None:
         found = _in_windows(grey, wins, detect, shrink)
+        found += _alone(grey, tracker.missing([f.marker_id for f in found]), wins, found, detect, shrink)
         due = tracker.window_passes % SEARCH_EVERY == 0
         if search is not None and due and tracker.all_found([f.marker_id for f in found]):
             new = _new_markers(grey, _masked(grey, wins), found, search, detect, shrink)
@@ -241,6 +249,43 @@ def detect_tracked(
     found = detect(grey, None)
     tracker.found(*as_arrays(found), full=True)
     return found
+
+
+def _alone(
+    grey: np.ndarray,
+    missed: list[_Track],
+    wins: list[Window],
+    found: list[Found],
+    detect: Detect,
+    shrink: Shrink | None,
+) -> list[Found]:
+    """The `missed` markers, each looked for again in its window alone, before the frame goes to the full
+    detector. In a textured scene a marker's white quiet zone can be ringed by dark texture; where a mosaic's
+    neighbouring window closes that ring (the seam between two windows' borders thresholds dark), the ring
+    wins OpenCV's candidate group and does not decode (opencv_contrib#2913), though the marker's own window
+    alone shows it: at 1280×720 with eight 50–80 px markers, 1 of 70 frames; at 640×480, 35–49 px markers,
+    7 of 70.
+
+    Only markers of ALONE_MIN_SIDE_PX and more: a window reaches MARGIN of its marker's side beyond it, and
+    for a smaller marker that is less than OpenCV's largest adaptive-threshold window reaches (11 px), so
+    alone, with the window's border in that reach, a 20 px marker came back 0.9 px off where the full frame
+    had it within 0.3 px. Those go to the full frame, as every miss did before."""
+    missed = [tr for tr in missed if shortest_side(tr.quad) >= ALONE_MIN_SIDE_PX]
+    out: list[Found] = []
+    for win in {id(win): win for tr in missed if (win := _holding(wins, tr)) is not None}.values():
+        ids = {tr.marker_id for tr in missed if _holding(wins, tr) is win}
+        out += [
+            f
+            for f in _in_windows(grey, [win], detect, shrink)
+            if f.marker_id in ids and not any(g.marker_id == f.marker_id and _same_place(g.quad, f.quad) for g in found)
+        ]
+    return out
+
+
+def _holding(wins: list[Window], tr: _Track) -> Window | None:
+    """The window that holds `tr`'s predicted centre."""
+    x, y = tr.centre + tr.motion
+    return next((win for win in wins if win.x0 <= x < win.x1 and win.y0 <= y < win.y1), None)
 
 
 def _masked(grey: np.ndarray, wins: list[Window]) -> np.ndarray:
@@ -286,7 +331,7 @@ def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
 def _in_windows(grey: np.ndarray, wins: list[Window], detect: Detect, shrink: Shrink | None = None) -> list[Found]:
     """The markers in `wins`, found on a mosaic of the windows side by side (a detector call has a fixed cost,
     ~0.2 ms for OpenCV and ~0.4 ms for AprilTag 3, that eight windows would pay eight times). Each window is
-    padded by replicating its border, so no edge — and no quad — crosses between two.
+    bordered as :func:`_tile` says, so no quad crosses between two.
 
     With `shrink`, each window is scaled down so its marker's narrowest side is ``shrink.side_px``; when
     ``shrink.detect`` is given, the shrunk windows are detected by it and those at their own scale (smaller
@@ -325,14 +370,7 @@ def _in_mosaic(tiles: list[tuple[Window, np.ndarray, float]], detect: Detect) ->
         x += crop.shape[1] + 2 * GUTTER_PX
         floor_px = min(floor_px, win.min_perimeter_px * scale)
     height = max(crop.shape[0] for _, crop, _ in tiles) + 2 * GUTTER_PX
-    mosaic = np.hstack(
-        [
-            cv2.copyMakeBorder(
-                crop, GUTTER_PX, height - GUTTER_PX - crop.shape[0], GUTTER_PX, GUTTER_PX, cv2.BORDER_REPLICATE
-            )
-            for _, crop, _ in tiles
-        ]
-    )
+    mosaic = np.hstack([_tile(crop, height) for _, crop, _ in tiles])
     out: list[Found] = []
     for f in detect(mosaic, floor_px / max(mosaic.shape)):
         cx = float(f.quad[:, 0].mean())
@@ -344,6 +382,23 @@ def _in_mosaic(tiles: list[tuple[Window, np.ndarray, float]], detect: Detect) ->
                 out.append(Found(frame_px, f.marker_id, f.extra))
                 break
     return out
+
+
+def _tile(crop: np.ndarray, height: int) -> np.ndarray:
+    """`crop` bordered for a mosaic `height` px tall: its edge replicated EDGE_PX (so the adaptive threshold near
+    the edge sees about what it sees in the frame: a 20 px marker is read as the full frame reads it), then
+    flat at its own mean grey to GUTTER_PX, and flat down to the mosaic's height.
+
+    Not replicated all the way: the replicated rows of a short window (padded to the mosaic's height) or the
+    gutters of two neighbours drew dark streaks that closed a contour round a marker's white quiet zone,
+    which then won OpenCV's candidate group and did not decode (opencv_contrib#2913). 50–61 px markers the
+    full frame found were lost in their windows, sending 7 of 90 frames at 1280×720 with eight markers to the
+    full detector; replicating 6 px lost them too, 3 px none."""
+    edged = cv2.copyMakeBorder(crop, EDGE_PX, EDGE_PX, EDGE_PX, EDGE_PX, cv2.BORDER_REPLICATE)
+    flat = GUTTER_PX - EDGE_PX
+    return cv2.copyMakeBorder(
+        edged, flat, height - edged.shape[0] - flat, flat, flat, cv2.BORDER_CONSTANT, value=int(crop[::4, ::4].mean())
+    )
 
 
 def _shrunk(crop: np.ndarray, expected_side: float, side_px: float) -> tuple[np.ndarray, float]:
