@@ -42,6 +42,7 @@ WINDOW_THRESHOLD_PX = 13  # and thresholded with this one window (OpenCV's defau
 SEARCH_SIDE_PX = 480  # tracking's search pass looks at the frame sampled down to about this on its longer side
 SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
 SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 px at 1280×720, 48 at 1920×1080
+SEARCH_BORDER_PX = 1  # and this close to the sampled image's edge (OpenCV's default, 3, is 6–12 px of the frame)
 
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
@@ -89,6 +90,11 @@ class QuadDetector:
         self._small, self._small_params = _detector(dictionary, configure, RESCUE_RATE, RESCUE_THRESHOLD_PX)
         self._window, self._window_params = _detector(dictionary, configure, threshold_px=WINDOW_THRESHOLD_PX)
         self._search, self._search_params = _detector(dictionary, configure, threshold_px=SEARCH_THRESHOLD_PX)
+        # OpenCV keeps quads minDistanceToBorder (3) px from the image's edge: 3 sampled px are 6–12 of the
+        # frame's, so a marker coming into view within that of the edge, which the full frame finds, was left
+        # to the next full-frame pass. The search only says where to look; the full-resolution window decides.
+        self._search_params.minDistanceToBorder = SEARCH_BORDER_PX
+        self._search.setDetectorParameters(self._search_params)
         self._cells = int(dictionary.markerSize) + 2  # data bits + the black border, in modules
         self.rescues = 0
 
