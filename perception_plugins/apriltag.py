@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any, ClassVar, Literal
 
@@ -50,7 +51,7 @@ from mission.perception_plugins.apriltag_backends import (
     RawTag,
 )
 from mission.perception_plugins.aruco import to_grey
-from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, Box, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_tracking import (
@@ -213,9 +214,7 @@ class AprilTagSource:
         self.params = p = _params(params)
         _check_backend(p)
         self.T_base_camera = p.camera_mount.matrix() if p.camera_mount is not None else None
-        self._T_tag_entity = {
-            i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None
-        }
+        self._T_tag_entity = {i: row.T_tag_entity.matrix() for i, row in p.tags.items() if row.T_tag_entity is not None}
         if p.backend == "apriltag3":
             self._backend: Apriltag3Backend | OpenCvBackend = Apriltag3Backend(
                 p.family,
@@ -265,13 +264,13 @@ class AprilTagSource:
         tags = self._backend.detect(grey, min_perimeter_rate, refine=False)
         return [Found(t.corners, t.tag_id, t) for t in tags]
 
-    def _search(self, grey: np.ndarray) -> list[Found]:
+    def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
         """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;
         AprilTag 3 costs most of a full frame even there). It only says where to look: each tag it finds is
         detected again by the backend, at full resolution, in a window of its own."""
         if self._searcher is None:
             return []
-        return as_found(*self._searcher.search(grey))
+        return as_found(*self._searcher.search(grey, skip))
 
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:
@@ -288,9 +287,7 @@ class AprilTagSource:
                 out.append(det)
         return out
 
-    def _detection(
-        self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]
-    ) -> Detection | None:
+    def _detection(self, frame: Frame, tag: RawTag, camera: tuple[np.ndarray, np.ndarray, bool]) -> Detection | None:
         """`camera`: (K, distortion, degraded) of this frame's intrinsics."""
         p = self.params
         K, dist, degraded = camera

@@ -17,6 +17,7 @@ from __future__ import annotations
 import difflib
 import logging
 import math
+from collections.abc import Sequence
 from typing import Any, ClassVar, Literal
 
 import cv2
@@ -28,7 +29,7 @@ from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
-from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, Box, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
@@ -157,8 +158,12 @@ class ArucoSource:
         """Tracking windows scaled down for the edges refiner: one threshold window (QuadDetector.window)."""
         return as_found(*self._detect.window(grey, min_perimeter_rate or 0.0))
 
-    def _search(self, grey: np.ndarray) -> list[Found]:
-        return as_found(*self._detect.search(grey))
+    def _recovered(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
+        """A tracking window where a tracked marker was missed, read as the rescue pass reads the frame."""
+        return as_found(*self._detect.recover(grey, min_perimeter_rate))
+
+    def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
+        return as_found(*self._detect.search(grey, skip))
 
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
@@ -169,7 +174,8 @@ class ArucoSource:
         if self.tracker is not None:
             edges = self.params.corner_refinement == "edges"
             shrink = Shrink(WINDOW_SIDE_PX, self._found_shrunk) if edges else None
-            corners_list, ids = as_arrays(detect_tracked(grey, self.tracker, self._found, self._search, shrink))
+            found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, self._recovered)
+            corners_list, ids = as_arrays(found)
         else:
             corners_list, ids = self._detect(grey, None)
         if len(ids) == 0:

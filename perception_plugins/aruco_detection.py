@@ -22,7 +22,7 @@ out to its outline (:func:`outline`): at 0.025 OpenCV may report it by the inner
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import cv2
@@ -44,6 +44,7 @@ SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
 SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 px at 1280×720, 48 at 1920×1080
 SEARCH_BORDER_PX = 1  # and this close to the sampled image's edge (OpenCV's default, 3, is 6–12 px of the frame)
 
+Box = tuple[int, int, int, int]  # x0, y0, x1, y1 (frame px, x1 and y1 exclusive)
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
 
@@ -120,16 +121,32 @@ class QuadDetector:
 
     def window(self, grey: np.ndarray, min_perimeter_rate: float) -> tuple[np.ndarray, np.ndarray]:
         """The markers in tracking windows scaled so their marker is WINDOW_SIDE_PX wide (marker_tracking):
-        one threshold window, and no rescue pass — at that size OpenCV's default keeps every marker (#2913 is
-        a large-marker fault). The quads are ~0.5 / scale px off, for a refiner at full resolution to finish."""
+        one threshold window, and no rescue pass (a marker lost there to #2913 is recovered by `recover`). The
+        quads are ~0.5 / scale px off, for a refiner at full resolution to finish."""
         return self._detect(self._window, self._window_params, grey, min_perimeter_rate)
 
-    def search(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def recover(self, grey: np.ndarray, min_perimeter_rate: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """The markers in one tracking window where a tracked marker was missed, read as the rescue pass reads
+        them: at RESCUE_RATE, each quad moved out to its outline. On a dark floor the sim's target, shrunk to
+        ~70 px in its window, lost its group to its white quiet zone's contour (#2913) on 45 of 452 frames of a
+        follow_occlusion run, each of which then cost a full-frame pass."""
+        rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
+        quads, ids = self._detect(self._rescue, self._rescue_params, grey, rate)
+        return np.array([outline(grey, q, self._cells) for q in quads]).reshape(-1, 4, 2), ids
+
+    def search(self, grey: np.ndarray, skip: Sequence[Box] = ()) -> tuple[np.ndarray, np.ndarray]:
         """Tracking's search pass (marker_tracking.detect_tracked): the markers in the whole frame sampled down
         (search_step) with one threshold window, in the frame's pixels — for finding markers that came into
-        view, not for their corners (they are detected again at full resolution)."""
+        view, not for their corners (they are detected again at full resolution). The `skip` boxes (x0, y0,
+        x1, y1 frame px: windows searched already) are filled flat, each with its own mean, in the sampled
+        image: the pass then spends nothing on the markers found there (a marker costs it ~0.1 ms, a flat box
+        one candidate), and filling the sampled image costs a ninth of filling a copy of the frame."""
         step = search_step(grey)
         small = sampled(grey, step)
+        for x0, y0, x1, y1 in skip:
+            region = small[_first(y0, step) : _first(y1, step), _first(x0, step) : _first(x1, step)]
+            if region.size:
+                region[...] = int(region[::2, ::2].mean())
         rate = 4 * SEARCH_MIN_SIDE_PX / max(small.shape)  # no smaller candidate: noise contours cost most
         quads, ids = self._detect(self._search, self._search_params, small, rate)
         return quads * step + step // 2, ids
@@ -207,7 +224,7 @@ def outline(grey: np.ndarray, quad: np.ndarray, cells: int) -> np.ndarray:
     contrast). Exact under perspective, since the growth is in the marker's plane."""
     unit = np.array([[0, 0], [cells, 0], [cells, cells], [0, cells]], dtype=np.float64)
     hom = cv2.getPerspectiveTransform(unit.astype(np.float32), np.asarray(quad, dtype=np.float32))
-    scores = np.array([_outline_contrast(grey, hom, cells, g) for g in OUTLINE_GROW])
+    scores = _outline_contrasts(grey, hom, cells)
     if not np.isfinite(scores).any():
         return np.asarray(quad, dtype=np.float64)
     # Reading ±_ACROSS either side, every square within ±_ACROSS of the outline scores alike: the outline is
@@ -223,31 +240,29 @@ def outline(grey: np.ndarray, quad: np.ndarray, cells: int) -> np.ndarray:
     return cv2.perspectiveTransform(grown[None].astype(np.float64), hom)[0]
 
 
-def _outline_contrast(grey: np.ndarray, hom: np.ndarray, cells: int, grow: float) -> float:
-    """Mean grey just outside the square grown `grow` modules, minus just inside it (−inf off the image)."""
+def _outline_contrasts(grey: np.ndarray, hom: np.ndarray, cells: int) -> np.ndarray:
+    """For each growth in OUTLINE_GROW: the mean grey just outside the square grown that many modules, minus just
+    inside it (−inf where the square leaves the image: it cannot be read, so it is not chosen). Every growth's
+    points go through one transform and one lookup (per growth, the Python calls cost ~5 ms a marker)."""
     h, w = grey.shape[:2]
-    lo, hi = -grow, cells + grow
-    inside = cv2.perspectiveTransform(_side_points(lo, hi, _ACROSS)[None], hom)[0]
-    outside = cv2.perspectiveTransform(_side_points(lo, hi, -_ACROSS)[None], hom)[0]
-    pts = np.concatenate([inside, outside])
-    if (pts < 0).any() or (pts[:, 0] > w - 1).any() or (pts[:, 1] > h - 1).any():
-        return -np.inf  # the square leaves the image: it cannot be read, so it is not chosen
-    values = _bilinear(grey, pts)
-    return float(np.mean(values[len(inside) :] - values[: len(inside)]))
+    lo, hi = -OUTLINE_GROW[:, None], cells + OUTLINE_GROW[:, None]  # G×1
+    t = lo + (hi - lo) * _ALONG[None, :]  # G×S: positions along each side
 
+    def sides(inset: float) -> np.ndarray:  # G×4S×2: the four sides of each square, `inset` modules inside it
+        a, b = np.broadcast_to(lo + inset, t.shape), np.broadcast_to(hi - inset, t.shape)
+        return np.concatenate(
+            [np.stack([t, a], -1), np.stack([b, t], -1), np.stack([t, b], -1), np.stack([a, t], -1)], axis=1
+        )
 
-def _side_points(lo: float, hi: float, inset: float) -> np.ndarray:
-    """Points along the four sides of the square [lo, hi]², `inset` modules inside it (negative: outside)."""
-    a, b = lo + inset, hi - inset
-    t = lo + (hi - lo) * _ALONG
-    return np.concatenate(
-        [
-            np.stack([t, np.full_like(t, a)], axis=1),
-            np.stack([np.full_like(t, b), t], axis=1),
-            np.stack([t, np.full_like(t, b)], axis=1),
-            np.stack([np.full_like(t, a), t], axis=1),
-        ]
-    )
+    pts = np.concatenate([sides(_ACROSS), sides(-_ACROSS)], axis=1)  # G×8S×2: inside, then outside
+    shape = pts.shape
+    pts = cv2.perspectiveTransform(pts.reshape(1, -1, 2), hom)[0].reshape(shape)
+    off = (pts < 0).any(axis=(1, 2)) | (pts[..., 0] > w - 1).any(axis=1) | (pts[..., 1] > h - 1).any(axis=1)
+    values = _bilinear(grey, pts.reshape(-1, 2)).reshape(shape[:2])
+    half = shape[1] // 2
+    scores = values[:, half:].mean(axis=1) - values[:, :half].mean(axis=1)
+    scores[off] = -np.inf
+    return scores
 
 
 def _bilinear(grey: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -260,6 +275,11 @@ def search_step(grey: np.ndarray) -> int:
     """Every how many pixels the search pass samples `grey`: about SEARCH_SIDE_PX on its longer side, at least
     every second pixel (so a 640×480 frame is searched at 320×240)."""
     return max(2, round(max(grey.shape[:2]) / SEARCH_SIDE_PX))
+
+
+def _first(x: int, step: int) -> int:
+    """The first sampled pixel at or right of frame pixel `x` (sampled pixel u is pixel step·u + step // 2)."""
+    return max(0, -(-(x - step // 2) // step))
 
 
 def sampled(grey: np.ndarray, step: int) -> np.ndarray:

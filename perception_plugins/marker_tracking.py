@@ -5,11 +5,17 @@ tracked marker's next quad is its last one moved on by its last motion, to withi
 ``tracking`` on, a source runs its detector on a window round each predicted quad instead of the whole
 frame, and the whole frame only:
 
-* when nothing is tracked (at the start, and after every marker left);
-* every ``full_frame_every``-th frame, so a marker that comes into view is found at most
-  ``full_frame_every − 1`` frames after the full-frame detector would have found it;
+* on the first frame, and every ``full_frame_every``-th frame after, so a marker that comes into view is
+  found at most ``full_frame_every − 1`` frames after the full-frame detector would have found it;
 * at once, on the same frame, when a tracked marker is not found in its window (it moved faster than
-  predicted, or something hid it): a marker the full frame finds is never lost to the tracking.
+  predicted, or something hid it) nor in its window alone: a marker the full frame finds is never lost to
+  the tracking.
+
+On every other frame a *search pass* looks over the whole frame at reduced resolution (the windows masked)
+for markers coming into view: one it finds is detected again in a window of its own, on that frame, so the
+bound above holds only for markers under the search's floor (~32 px at 1280×720). With nothing tracked —
+exploring, searching, the view empty of markers — the search pass is all a frame costs: a full-frame pass
+on each such frame was two fifths of a rendered explore_dock run's frames.
 
 A window is sized for the marker it expects: OpenCV's size thresholds are fractions of the image it is
 given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
@@ -108,9 +114,13 @@ class RegionTracker:
     discovered: int = 0  # markers the search pass found between full-frame passes
     leaving: list[_Track] = field(default_factory=list)  # tracks this frame's windows left out (off the edge)
 
+    def __post_init__(self) -> None:
+        self.since_full = self.full_frame_every - 1  # the first frame is a full-frame pass
+
     def windows(self, width: int, height: int) -> list[Window] | None:
-        """The windows to detect in this frame, or None for a full-frame pass."""
-        if not self.tracks or self.since_full + 1 >= self.full_frame_every:
+        """The windows to detect in this frame (none when nothing is tracked: the search pass alone), or None
+        for a full-frame pass."""
+        if self.since_full + 1 >= self.full_frame_every:
             return None
         wins: list[Window] = []
         self.leaving = []
@@ -167,7 +177,7 @@ class RegionTracker:
 
     def reset(self) -> None:
         self.tracks.clear()
-        self.since_full = 0
+        self.since_full = self.full_frame_every - 1
 
 
 def _leaves(quad: np.ndarray, width: int, height: int) -> bool:
@@ -209,7 +219,8 @@ class Found:
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
-Search = Callable[[np.ndarray], list[Found]]  # the whole frame, cheaply at reduced resolution → markers (frame px)
+# the whole frame, cheaply at reduced resolution, these (x0, y0, x1, y1) windows left out → markers (frame px)
+Search = Callable[[np.ndarray, list[tuple[int, int, int, int]]], list[Found]]
 
 
 @dataclass(frozen=True)
@@ -228,20 +239,27 @@ def detect_tracked(
     detect: Detect,
     search: Search | None = None,
     shrink: Shrink | None = None,
+    recover: Detect | None = None,
 ) -> list[Found]:
     """One frame through the tracker: windows where markers were, or the full frame (see the module). On a
     window frame, `search` (when given) looks over the whole frame at reduced resolution for markers that are
     not tracked yet; each it finds is detected again in a window of its own, at full resolution. The
     markers' quads are in the frame's pixels. With `shrink`, windows of large markers are searched scaled
-    down (for a source whose refiner finishes the corners at full resolution; :class:`Shrink`)."""
+    down (for a source whose refiner finishes the corners at full resolution; :class:`Shrink`). A tracked
+    marker the windows missed is looked for in its window alone (:func:`_alone`), by `recover` where given
+    (a detector that reads what `detect` may drop), before the frame goes to the full-frame detector."""
     h, w = grey.shape[:2]
     wins = tracker.windows(w, h)
-    if wins is not None:
+    if wins is not None and (wins or search is not None):
         found = _in_windows(grey, wins, detect, shrink)
-        found += _alone(grey, tracker.missing([f.marker_id for f in found]), wins, found, detect, shrink)
-        due = tracker.window_passes % SEARCH_EVERY == 0
+        missed = tracker.missing([f.marker_id for f in found])
+        if missed and recover is not None:
+            found += _alone(grey, missed, wins, found, recover, shrink and Shrink(shrink.side_px, recover))
+        elif missed:
+            found += _alone(grey, missed, wins, found, detect, shrink)
+        due = tracker.window_passes % SEARCH_EVERY == 0 or not wins
         if search is not None and due and tracker.all_found([f.marker_id for f in found]):
-            new = _new_markers(grey, _masked(grey, wins), found, search, detect, shrink)
+            new = _new_markers(grey, wins, found, search, detect, shrink)
             tracker.discovered += len(new)
             found += new
         if tracker.found(*as_arrays(found), full=False):
@@ -288,29 +306,19 @@ def _holding(wins: list[Window], tr: _Track) -> Window | None:
     return next((win for win in wins if win.x0 <= x < win.x1 and win.y0 <= y < win.y1), None)
 
 
-def _masked(grey: np.ndarray, wins: list[Window]) -> np.ndarray:
-    """`grey` with the windows just searched filled flat (each with its own mean), so the search pass spends
-    nothing on the markers already found there (a marker costs it ~0.1 ms; a flat window one candidate)."""
-    out = grey.copy()
-    for win in wins:
-        region = out[win.y0 : win.y1, win.x0 : win.x1]
-        region[...] = int(region[::4, ::4].mean())  # every 16th pixel: the mean of a flat fill, at a tenth of the cost
-    return out
-
-
 def _new_markers(
     grey: np.ndarray,
-    searched: np.ndarray,
+    wins: list[Window],
     found: list[Found],
     search: Search,
     detect: Detect,
     shrink: Shrink | None,
 ) -> list[Found]:
-    """Markers `search` finds in `searched` (the frame with the tracked windows masked) that are not among
+    """Markers `search` finds in `grey` outside the windows `wins` (searched already) that are not among
     `found`, each detected again in its own full-resolution window of `grey`."""
     h, w = grey.shape[:2]
     new: list[Found] = []
-    for candidate in search(searched):
+    for candidate in search(grey, [(win.x0, win.y0, win.x1, win.y1) for win in wins]):
         if any(f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad) for f in found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)
