@@ -14,8 +14,10 @@ frame, and the whole frame only:
 On every other frame a *search pass* looks over the whole frame at reduced resolution (the windows masked)
 for markers coming into view: one it finds is detected again in a window of its own, on that frame, so the
 bound above holds only for markers under the search's floor (~32 px at 1280×720). With nothing tracked —
-exploring, searching, the view empty of markers — the search pass is all a frame costs: a full-frame pass
-on each such frame was two fifths of a rendered explore_dock run's frames.
+exploring, searching, the view empty of markers — the full frame comes every IDLE_FULL_FRAME_EVERY-th frame
+instead, and the search pass alone between: a full-frame pass on each such frame was two fifths of a rendered
+explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board coming into a webcam's
+empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
 
 A window is sized for the marker it expects: OpenCV's size thresholds are fractions of the image it is
 given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
@@ -48,6 +50,7 @@ MARGIN = 0.4  # a window reaches this many marker sides beyond the predicted qua
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
 FULL_FRAME_EVERY = 10  # the sources' default `full_frame_every`: a new marker waits at most 9 frames
 COAST_FRAMES = 3  # a marker not found is still looked for in its window this many frames (it flickers)
+IDLE_FULL_FRAME_EVERY = 2  # with nothing tracked, the full frame every other frame (see the module)
 SEARCH_EVERY = 1  # the search pass runs on every window frame (every third: ~15 % faster, recall 98.6 %)
 GUTTER_PX = 8  # each window's border in the mosaic the windows are detected in (_tile)
 EDGE_PX = 3  # of which its edge replicated (more drew streaks that lost markers: _tile), the rest flat
@@ -119,8 +122,10 @@ class RegionTracker:
 
     def windows(self, width: int, height: int) -> list[Window] | None:
         """The windows to detect in this frame (none when nothing is tracked: the search pass alone), or None
-        for a full-frame pass."""
-        if self.since_full + 1 >= self.full_frame_every:
+        for a full-frame pass (every `full_frame_every`-th frame; with nothing tracked, every
+        IDLE_FULL_FRAME_EVERY-th)."""
+        every = self.full_frame_every if self.tracks else min(self.full_frame_every, IDLE_FULL_FRAME_EVERY)
+        if self.since_full + 1 >= every:
             return None
         wins: list[Window] = []
         self.leaving = []
