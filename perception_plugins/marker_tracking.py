@@ -11,13 +11,13 @@ frame, and the whole frame only:
   predicted, or something hid it) nor in its window alone: a marker the full frame finds is never lost to
   the tracking.
 
-On every other frame a *search pass* looks over the whole frame at reduced resolution (the windows masked)
-for markers coming into view: one it finds is detected again in a window of its own, on that frame, so the
-bound above holds only for markers under the search's floor (~32 px at 1280×720). With nothing tracked —
-exploring, searching, the view empty of markers — the full frame comes every IDLE_FULL_FRAME_EVERY-th frame
-instead, and the search pass alone between: a full-frame pass on each such frame was two fifths of a rendered
-explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board coming into a webcam's
-empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
+On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
+(the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
+that frame, so the bound above holds only for markers under the search's floor (~32 px at 1280×720). With
+nothing tracked — exploring, searching, the view empty of markers — the full frame comes every
+IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
+was two fifths of a rendered explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board
+coming into a webcam's empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
 
 A window is sized for the marker it expects: OpenCV's size thresholds are fractions of the image it is
 given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
