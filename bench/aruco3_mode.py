@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from bench.marker_sequences import panning_sequence
+from bench.tracking_bench import _raw_aruco
 from mission.perception_plugins.aruco_detection import QuadDetector, search_step
 from mission.perception_plugins.marker_quads import perimeter
 
@@ -46,17 +47,8 @@ def _opencv(aruco3_ratio: float | None) -> Detect:
     if aruco3_ratio is not None:
         params.useAruco3Detection = True
         params.minMarkerLengthRatioOriginalImg = aruco3_ratio
-    detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(DICTIONARY), params)
-
-    def detect(grey: np.ndarray) -> Found:
-        corners, ids, _ = detector.detectMarkers(grey)
-        if ids is None:
-            return {}
-        return {
-            int(i): np.asarray(c, dtype=np.float64).reshape(4, 2) for i, c in zip(ids.ravel(), corners, strict=True)
-        }
-
-    return detect
+    detect = _raw_aruco(DICTIONARY, params)
+    return lambda grey: detect(grey, None)
 
 
 def _search_pass() -> Detect:

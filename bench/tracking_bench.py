@@ -47,8 +47,11 @@ def _source(source: Any) -> Detect:
     return lambda grey, frame: {d.marker_id: d.corners for d in source.process(frame)}
 
 
-def _raw_aruco(dictionary: int = cv2.aruco.DICT_4X4_250) -> Detect:
-    detector = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(dictionary), cv2.aruco.DetectorParameters())
+def _raw_aruco(dictionary: int = cv2.aruco.DICT_4X4_250, params: Any = None) -> Detect:
+    """OpenCV's ArucoDetector on the whole frame, at its defaults or at `params` (DetectorParameters)."""
+    detector = cv2.aruco.ArucoDetector(
+        cv2.aruco.getPredefinedDictionary(dictionary), params if params is not None else cv2.aruco.DetectorParameters()
+    )
 
     def detect(grey: np.ndarray, frame: Frame) -> dict[int, np.ndarray]:
         corners, ids, _ = detector.detectMarkers(grey)

@@ -51,9 +51,10 @@ from mission.perception_plugins.apriltag_backends import (
     RawTag,
 )
 from mission.perception_plugins.aruco import to_grey
-from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, Box, QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins.marker_quads import Box
 from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
     Found,

@@ -29,10 +29,11 @@ from mission.core.config import StrictModel, validate_model
 from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
-from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, Box, QuadDetector
+from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
 from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
+from mission.perception_plugins.marker_quads import Box
 from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
     Found,

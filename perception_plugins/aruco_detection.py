@@ -28,7 +28,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mission.perception_plugins.marker_quads import one_quad_per_marker, side
+from mission.perception_plugins.marker_quads import Box, one_quad_per_marker, side
 
 RESCUE_SCALE = 3  # the rescue pass looks at 1 / RESCUE_SCALE of the image's width and height
 RESCUE_MIN_SIDE_PX = 60.0  # markers smaller than this (full-resolution px) are never dropped by the default
@@ -44,7 +44,6 @@ SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
 SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 px at 1280×720, 48 at 1920×1080
 SEARCH_BORDER_PX = 1  # and this close to the sampled image's edge (OpenCV's default, 3, is 6–12 px of the frame)
 
-Box = tuple[int, int, int, int]  # x0, y0, x1, y1 (frame px, x1 and y1 exclusive)
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields
 
 
@@ -100,7 +99,7 @@ class QuadDetector:
         self.rescues = 0
 
     def __call__(self, grey: np.ndarray, min_perimeter_rate: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-        rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
+        rate = self._rate(min_perimeter_rate)
         quads, ids = self._detect(self._detector, self._params, grey, rate)
         if min_perimeter_rate is not None:
             return quads, ids
@@ -130,8 +129,7 @@ class QuadDetector:
         them: at RESCUE_RATE, each quad moved out to its outline. On a dark floor the sim's target, shrunk to
         ~70 px in its window, lost its group to its white quiet zone's contour (#2913) on 45 of 452 frames of a
         follow_occlusion run, each of which then cost a full-frame pass."""
-        rate = self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
-        quads, ids = self._detect(self._rescue, self._rescue_params, grey, rate)
+        quads, ids = self._detect(self._rescue, self._rescue_params, grey, self._rate(min_perimeter_rate))
         return np.array([outline(grey, q, self._cells) for q in quads]).reshape(-1, 4, 2), ids
 
     def search(self, grey: np.ndarray, skip: Sequence[Box] = ()) -> tuple[np.ndarray, np.ndarray]:
@@ -150,6 +148,10 @@ class QuadDetector:
         rate = 4 * SEARCH_MIN_SIDE_PX / max(small.shape)  # no smaller candidate: noise contours cost most
         quads, ids = self._detect(self._search, self._search_params, small, rate)
         return quads * step + step // 2, ids
+
+    def _rate(self, min_perimeter_rate: float | None) -> float:
+        """The perimeter rate to detect at: OpenCV's default for a frame (None), else a tracking window's."""
+        return self._default_rate if min_perimeter_rate is None else float(min_perimeter_rate)
 
     @staticmethod
     def _detect(detector: Any, params: Any, grey: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray]:

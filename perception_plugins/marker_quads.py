@@ -15,6 +15,8 @@ import numpy as np
 
 _NEXT = [1, 2, 3, 0]  # each corner's successor round the quad
 
+Box = tuple[int, int, int, int]  # x0, y0, x1, y1: an axis-aligned region of a frame (px; x1 and y1 exclusive)
+
 
 def _area(quad: np.ndarray) -> float:
     x, y = quad[:, 0], quad[:, 1]

@@ -44,7 +44,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from mission.perception_plugins.marker_quads import perimeter, shortest_side, side
+from mission.perception_plugins.marker_quads import Box, perimeter, shortest_side, side
 
 MARGIN = 0.4  # a window reaches this many marker sides beyond the predicted quad (the quiet zone, ≤ 0.17, and some)
 MIN_PERIMETER_FRACTION = 0.5  # a window's detector keeps quads down to this fraction of the expected perimeter
@@ -71,6 +71,10 @@ class Window:
     y1: int
     min_perimeter_px: float
     marker_side_px: float = 0.0  # 0: not known, the window is not shrunk
+
+    @property
+    def box(self) -> Box:
+        return (self.x0, self.y0, self.x1, self.y1)
 
     @property
     def min_perimeter_rate(self) -> float:
@@ -224,8 +228,7 @@ class Found:
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
-# the whole frame, cheaply at reduced resolution, these (x0, y0, x1, y1) windows left out → markers (frame px)
-Search = Callable[[np.ndarray, list[tuple[int, int, int, int]]], list[Found]]
+Search = Callable[[np.ndarray, list[Box]], list[Found]]  # the whole frame, cheaply, these windows left out → markers
 
 
 @dataclass(frozen=True)
@@ -293,10 +296,13 @@ def _alone(
     for a smaller marker that is less than OpenCV's largest adaptive-threshold window reaches (11 px), so
     alone, with the window's border in that reach, a 20 px marker came back 0.9 px off where the full frame
     had it within 0.3 px. Those go to the full frame, as every miss did before."""
-    missed = [tr for tr in missed if shortest_side(tr.quad) >= ALONE_MIN_SIDE_PX]
+    by_window: dict[int, tuple[Window, set[int]]] = {}  # id(window) → the window, the ids missed in it
+    for tr in missed:
+        win = _holding(wins, tr)
+        if win is not None and shortest_side(tr.quad) >= ALONE_MIN_SIDE_PX:
+            by_window.setdefault(id(win), (win, set()))[1].add(tr.marker_id)
     out: list[Found] = []
-    for win in {id(win): win for tr in missed if (win := _holding(wins, tr)) is not None}.values():
-        ids = {tr.marker_id for tr in missed if _holding(wins, tr) is win}
+    for win, ids in by_window.values():
         out += [
             f
             for f in _in_windows(grey, [win], detect, shrink)
@@ -323,7 +329,7 @@ def _new_markers(
     `found`, each detected again in its own full-resolution window of `grey`."""
     h, w = grey.shape[:2]
     new: list[Found] = []
-    for candidate in search(grey, [(win.x0, win.y0, win.x1, win.y1) for win in wins]):
+    for candidate in search(grey, [win.box for win in wins]):
         if any(f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad) for f in found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)
