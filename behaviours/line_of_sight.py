@@ -40,7 +40,7 @@ from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.scan import OCCUPIED, scan_points, segment_width
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack
-from mission.core.velocity import least_squares_velocity
+from mission.core.velocity import least_squares_velocity, velocity_standard_error
 
 END_MARGIN_M = 0.15  # stop the ray short of the target: the target itself may sit in a wall-adjacent cell
 SCAN_MARGIN_M = 0.30  # a scan return must be this much closer than the target (the target's own body)
@@ -144,23 +144,34 @@ def _distance_to_polyline(px: np.ndarray, py: np.ndarray, path: tuple[tuple[floa
 
 
 TURNING_RAD = math.radians(60.0)  # the two halves of the window disagree this much: it was turning, no heading
+# A heading the search acts on needs sightings this long: a target walking 0.5 m/s moves 0.2 m in it, four
+# times what a robot's localisation and a calibrated camera put on its position (AMCL's ~3 cm and 0.02 rad
+# at 1–2 m, a bias that moves with the marker across the image). Over the 0.2 s after a re-acquisition that
+# noise alone reads as 0.3–0.6 m/s: a target standing at a corner fitted 0.6 m/s into the wall beside it.
+STEADY_SPAN_S = 0.4
+# … and a speed of this many standard errors of the fit: a target standing at a corner while it turned, its
+# marker swinging round its body, is placed ±15 cm about where it stands (hide_and_wait seed 1002, typical),
+# and a line through that is the scatter's, not a walk.
+STEADY_SIGNIFICANCE = 2.0
 
 
-def fitted_velocity(
-    track: TargetTrack, window_s: float = 1.0, *, steady: bool = False
-) -> tuple[float, float] | None:
+def fitted_velocity(track: TargetTrack, window_s: float = 1.0, *, steady: bool = False) -> tuple[float, float] | None:
     """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its history,
     clamped to MAX_SPEED; None when too few sightings span too short a time to tell.
 
-    With `steady`, also None when the target was turning: the halves of the window point more than
+    With `steady`, also None when the sightings span less than STEADY_SPAN_S or the speed is under
+    STEADY_SIGNIFICANCE standard errors of the fit (neither tells a walk from the positions' noise), or when
+    the target was turning: the halves of the window point more than
     TURNING_RAD apart. A target tracked by a marker on its face that turns at a corner moves the marker
     round its centre, and a fit over that says it walked off the wrong way (the search then looks there)."""
     if track.last_seen is None or len(track.history) < 3:
         return None
     recent = np.array([h for h in track.history if h[0] >= track.last_seen - window_s])
-    if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < 0.2:
+    if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < (STEADY_SPAN_S if steady else 0.2) - 1e-6:
         return None
     vx, vy = least_squares_velocity(recent)
+    if steady and math.hypot(vx, vy) < STEADY_SIGNIFICANCE * velocity_standard_error(recent):
+        return None
     if steady and len(recent) >= 6:
         half = len(recent) // 2
         (ax, ay), (bx, by) = least_squares_velocity(recent[:half]), least_squares_velocity(recent[half:])

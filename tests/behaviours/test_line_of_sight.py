@@ -6,8 +6,14 @@ import math
 
 import numpy as np
 import py_trees
+import pytest
 
-from mission.behaviours.line_of_sight import IsLineOfSightBlocked, first_occupied_cell, predicted_position
+from mission.behaviours.line_of_sight import (
+    IsLineOfSightBlocked,
+    first_occupied_cell,
+    fitted_velocity,
+    predicted_position,
+)
 from mission.core import blackboard as bbk
 from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
 from tests.helpers.behaviour_world import EXTRINSICS, board, grid_with_boxes, marker_facing, scan_with_wall, tick
@@ -85,6 +91,26 @@ def test_prediction_extrapolates_at_most_one_second():
     track.last_seen = track.history[-1][0]
     x, y = predicted_position(track, now=track.last_seen + 5.0)
     assert math.isclose(x, 0.25 + 0.5 * 1.0, abs_tol=1e-9) and abs(y) < 1e-12
+
+
+def test_the_search_takes_a_heading_only_from_sightings_that_tell_a_walk_from_their_noise():
+    def sighted(walking: tuple[float, float], seconds: float, scatter_m: float, hz: float = 15.0) -> TargetTrack:
+        # a detector's placings of a target ending at (6.2, 5.0), each off by the localisation's and camera's noise
+        noise = np.random.default_rng(4).normal(0.0, scatter_m, (round(seconds * hz) + 1, 2))
+        stamps = np.arange(len(noise)) / hz - seconds
+        path = [(t, 6.2 + walking[0] * t, 5.0 + walking[1] * t) for t in stamps]
+        history = [(t, x + n[0], y + n[1]) for (t, x, y), n in zip(path, noise, strict=True)]
+        return TargetTrack("target", last_seen=0.0, history=history)
+
+    # standing at a corner, the marker swung round as it turned: its placings scatter ±10 cm
+    assert fitted_velocity(sighted((0.0, 0.0), 0.6, 0.10), 0.6, steady=True) is None
+    # walking west with the same scatter: the walk shows through it
+    vx, vy = fitted_velocity(sighted((-0.6, 0.0), 0.6, 0.10), 0.6, steady=True)
+    assert vx == pytest.approx(-0.6, abs=0.25) and abs(vy) < 0.25
+    # seen for 0.2 s after a re-acquisition: too short to tell, however clean (the plain fit still answers)
+    brief = sighted((0.0, -0.6), 0.2, 0.0)
+    assert fitted_velocity(brief, 0.6, steady=True) is None
+    assert fitted_velocity(brief, 0.6) == pytest.approx((0.0, -0.6))
 
 
 def test_the_raytrace_finds_a_one_cell_pillar_from_every_direction():
