@@ -137,6 +137,15 @@ class FakeNav2Servers:
             with self._lock:
                 self._executing -= 1
 
+    def _wait_for_feedback_subscriber(self, action: str, timeout_s: float = 2.0) -> None:
+        """Wait (at most `timeout_s`) until a client's feedback subscription is discovered. The goal services
+        can match before the feedback topic does, and feedback published before that is lost (DDS): under
+        load a test's client missed the first message the script sent right after accepting."""
+        topic = f"{self.node.get_namespace().rstrip('/')}/{action}/_action/feedback"
+        deadline = time.monotonic() + timeout_s
+        while self.node.count_subscribers(topic) == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+
     def _run_script(self, action: str, handle: Any) -> Any:
         action_type = self.types[action]
         script = self.scripts[action](handle.request)
@@ -144,6 +153,8 @@ class FakeNav2Servers:
         with self._lock:
             self.goals[action].append(seen)
         steps = [action_type.Feedback(**step) for step in script.feedback]
+        if steps:
+            self._wait_for_feedback_subscriber(action)
         i = 0
         while True:
             if action in self._vanished:
@@ -170,4 +181,3 @@ class FakeNav2Servers:
             handle.abort()
             seen.end = "aborted"
         return action_type.Result(**script.result)
-
