@@ -16,6 +16,7 @@ from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.pursue import PursueLastSeen
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
+from mission.behaviours.search_leaf import predicted_walk
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
@@ -235,6 +236,21 @@ def test_lost_glances_at_a_target_seen_too_briefly_to_tell_a_walk_south_from_the
     scene.cycle(node)
     assert node.pursuit.glance_to is not None
     assert node.feedback_message.startswith("LOST: turning to where target left the view")
+
+
+def test_a_target_placed_in_a_doorways_margin_still_walks_on_through_the_door():
+    # a wall along y ≈ 1.1 with a doorway from x = 0 to 0.8; the target walks north through it at 0.8 m/s, and
+    # the localisation's error places it 15 cm from the left jamb, where its centre cannot stand. Where it went
+    # is beyond the door, not where it was placed (which made LOST take it for a target that stood still).
+    sg = search_grid(grid_with_boxes([(-3.0, 1.0, 0.0, 1.2), (0.8, 1.0, 3.0, 1.2)]))
+    track = lost_at(0.15, 0.9, walking=(0.0, 0.8))
+    assert not sg.target_free()[sg.cell(0.15, 0.9)]
+    last, went = predicted_walk(sg, sg.target_free(), track, 2.0)
+    assert last == pytest.approx((0.15, 0.9))
+    assert went[1] > 2.0 and 0.0 < went[0] < 0.8
+    # placed against the wall itself, walking into it: it stops there, as before
+    track = lost_at(-1.0, 0.9, walking=(0.0, 0.8))
+    assert predicted_walk(sg, sg.target_free(), track, 2.0)[1][1] < 1.0
 
 
 # ------------------------------------------------------------------------------------ the belief
