@@ -189,7 +189,8 @@ class PursueLastSeen(SearchLeaf):
         near = np.hypot(xs - aim[0], ys - aim[1])
         drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
         stand = drivable & (near >= MIN_STANDOFF_M) & ~self.in_movers_way(sg, p.clearance_m)
-        dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
+        leave = self.with_room_to_leave(sg, robot, drivable, blocked, p.clearance_m)
+        dist = travel_distances(leave, sg.cell(robot.x, robot.y), sg.resolution)
         arrive_s = dist / p.speed_mps
 
         def sees_through(through: np.ndarray) -> np.ndarray:
@@ -297,7 +298,8 @@ class PursueLastSeen(SearchLeaf):
         p = self.params
         blocked = self.sight_blocked(sg, robot)
         drivable = sg.robot_free(p.clearance_m) & ~blocked & ~self.ahead_of_movers(sg, robot, p.clearance_m)
-        dist = travel_distances(drivable, sg.cell(robot.x, robot.y), sg.resolution)
+        leave = self.with_room_to_leave(sg, robot, drivable, blocked, p.clearance_m)
+        dist = travel_distances(leave, sg.cell(robot.x, robot.y), sg.resolution)
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
         step = max(1, round(PEEK_SPACING_M / sg.resolution))
         cand = drivable & (rows % step == 0) & (cols % step == 0) & (dist <= PEEK_MAX_TRAVEL_M)

@@ -150,6 +150,19 @@ class SearchLeaf(MissionLeaf):
         xs, ys = sg.centres()
         return ahead & (np.hypot(xs - robot.x, ys - robot.y) > clearance_m + sg.resolution)
 
+    def with_room_to_leave(
+        self, sg: SearchGrid, robot: Pose2D, drivable: np.ndarray, solid: np.ndarray, clearance_m: float
+    ) -> np.ndarray:
+        """`drivable` and the cells within `clearance_m` (and a cell) of the robot that nothing `solid` is in:
+        what to measure the way from the robot through. Where the robot stands is free whatever the masks say,
+        and it must be able to drive off: with its pose estimated 0.1–0.2 m off (AMCL under `typical`), the
+        robot beside a wall was inside the wall's margin, and the lidar's returns of that wall, drawn from the
+        estimated pose, fell in cells the map holds free; every cell round it was then undrivable, and SEARCH b
+        swept the same place six times in 24 s (follow_occlusion seed 1019, `typical`)."""
+        xs, ys = sg.centres()
+        near = np.hypot(xs - robot.x, ys - robot.y) <= clearance_m + sg.resolution
+        return drivable | (near & ~solid)
+
     # -- the belief ---------------------------------------------------------------------------------
     def belief(
         self,

@@ -255,7 +255,8 @@ class ViewpointSearch(SearchLeaf):
         scan_near = dilate(blocked & ~sg.occupied, 2)  # what the lidar sees, with room for the robot
         drivable = sg.robot_free(p.clearance_m) & ~scan_near & ~self.ahead_of_movers(sg, robot, p.clearance_m)
         here = sg.cell(robot.x, robot.y)
-        dist = travel_distances(drivable, here, sg.resolution)
+        leave = self.with_room_to_leave(sg, robot, drivable, blocked, p.clearance_m)
+        dist = travel_distances(leave, here, sg.resolution)
         step = max(1, round(p.spacing_m / sg.resolution))
         rows, cols = np.mgrid[0 : sg.shape[0], 0 : sg.shape[1]]
         lattice = (rows % step == 0) & (cols % step == 0)

@@ -354,6 +354,19 @@ def test_search_belief_drives_first_to_the_viewpoint_that_sees_most_of_the_belie
     )
 
 
+def test_search_belief_drives_off_from_a_place_its_pose_estimate_puts_inside_a_walls_margin():
+    # the robot's pose estimate is 10 cm from the wall the target went behind (AMCL under `typical` is 0.1–0.2 m
+    # off): every cell round it is within the robot's clearance of the wall, yet it stands there and can drive
+    # off. It goes round the north end, as from a metre back; it swept in place for 24 s instead
+    grid = grid_with_boxes([WALL])
+    scene = Scene(robot=Pose2D(0.9, -1.0, 0.0), grid=grid, clock=2.0)
+    lost_at(2.0, -1.0, last_seen=0.0)
+    node = SearchBelief(target_speed_mps=0.6)
+    assert scene.cycle(node) == S.RUNNING
+    goal = read(bbk.NAV_GOAL)
+    assert goal is not None and goal.pose.y > 0.6, node.feedback_message
+
+
 def test_search_belief_sweeps_from_the_end_of_its_window_where_the_target_most_likely_is():
     # two places it can be, 2 m away at 30° and at 120°, out of the camera's view (it faces south): one large, one
     # small. The sweep starts at the large one's end of the window, whichever that is.
