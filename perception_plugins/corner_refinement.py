@@ -71,14 +71,19 @@ def _fit_lines(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.ndarray,
 def refine_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
     """Refined corners (M×4×2 float64) of the M quads (M×4×2, corners in order round the quad) found in
     `grey` (H×W uint8) for markers `cells` modules across; a corner that cannot be refined within its
-    uncertainty is returned unrefined.
+    uncertainty is returned unrefined."""
+    return refined_corners(grey, quads, cells)[0]
+
+
+def refined_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_corners`, and which corners (M×4 bool) were refined: the others are returned as given.
 
     Written as few whole-array operations as it can be (x and y kept apart): it runs for every marker
     of every frame, and its cost is numpy's per-call overhead more than arithmetic (bench: perception)."""
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     m_count = len(quads)
     if m_count == 0:
-        return quads.copy()
+        return quads.copy(), np.zeros((0, 4), dtype=bool)
     along = quads[:, _NEXT] - quads
     length = np.maximum(np.hypot(along[..., 0], along[..., 1]), 1e-9)  # (M, 4)
     module = length.mean(axis=1) / float(cells)  # as module_size(), from the sides computed here anyway
@@ -120,16 +125,22 @@ def refine_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarra
     t = ((mx - px) * uy - (my - py) * ux) / np.where(np.abs(cross) > 1e-3, cross, 1.0)
     meet = np.stack([px + t * vx, py + t * vy], axis=-1)
     ok = enough & enough[:, _PREV] & (np.abs(cross) > 0.05)
-    return within_uncertainty(np.where(ok[..., None], meet, quads), quads, module)
+    ok &= _within(meet, quads, module)
+    return np.where(ok[..., None], meet, quads), ok
+
+
+def _within(refined: np.ndarray, quads: np.ndarray, module: np.ndarray) -> np.ndarray:
+    """Which `refined` corners (M×4) lie within ``max(1.5 px, half a module)`` of the unrefined `quads`
+    (M×4×2, `module` px per module for each), and are finite."""
+    shift = refined - quads
+    limit = np.maximum(MIN_SHIFT_PX, SHIFT_MODULES * np.asarray(module, dtype=np.float64))[:, None]
+    return np.isfinite(refined).all(axis=2) & ((shift * shift).sum(axis=2) <= limit * limit)
 
 
 def within_uncertainty(refined: np.ndarray, quads: np.ndarray, module: np.ndarray) -> np.ndarray:
     """`refined` corners where they lie within ``max(1.5 px, half a module)`` of the unrefined `quads`
     (M×4×2, `module` px per module for each), the unrefined corner elsewhere (and where not finite)."""
-    shift = refined - quads
-    limit = np.maximum(MIN_SHIFT_PX, SHIFT_MODULES * np.asarray(module, dtype=np.float64))[:, None]
-    ok = np.isfinite(refined).all(axis=2) & ((shift * shift).sum(axis=2) <= limit * limit)
-    return np.where(ok[..., None], refined, quads)
+    return np.where(_within(refined, quads, module)[..., None], refined, quads)
 
 
 _SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_MAX_ITER | cv2.TERM_CRITERIA_EPS, 30, 0.1)  # OpenCV's aruco defaults

@@ -124,17 +124,38 @@ def test_an_id_printed_twice_is_two_tracked_markers_each_found_in_its_window():
     assert stats is not None and stats.full_passes == 2 and stats.window_passes == 18 and stats.rescues == 0
 
 
-def test_small_markers_are_read_in_their_windows_as_the_full_frame_reads_them():
-    # 20 px markers (6.5 m away) stay at their own scale in the windows, and are detected there by the source's
-    # own detector (shrunk windows use one threshold window, which put such markers 1.3 px off and missed some)
+def test_small_markers_are_tracked_as_accurately_as_the_full_frame_finds_them():
+    # 20 px markers (6.5 m away): a module is 3 px, and the refiner's profiles reach 1.5 px either side of an
+    # edge. Followed from frame to frame, their corners are never more than a fifth of a pixel worse than the
+    # full frame's against the truth, and typically better (the refiner starts from last frame's refined quad,
+    # not OpenCV's contour)
     tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15})
     full = ArucoSource({"marker_size_m": 0.15})
-    for i, (image, _) in enumerate(sliding(30, ids=(3, 7, 11), distance_m=6.5)):
+    mine, theirs = [], []
+    for i, (image, truth) in enumerate(sliding(30, ids=(3, 7, 11), distance_m=6.5)):
         a = {d.marker_id: d.corners for d in tracked.process(frame(image, i))}
         b = {d.marker_id: d.corners for d in full.process(frame(image, i))}
         assert a.keys() >= b.keys()
-        assert all(np.abs(a[m] - b[m]).max() < 0.05 for m in b)
-    assert tracked.tracker is not None and tracked.tracker.window_passes >= 20
+        for m in b:
+            mine.append(np.linalg.norm(a[m] - truth[m], axis=1).max())
+            theirs.append(np.linalg.norm(b[m] - truth[m], axis=1).max())
+    assert max(np.subtract(mine, theirs)) < 0.2 and np.median(mine) <= np.median(theirs)
+    assert tracked.tracker is not None and tracked.tracker.window_passes >= 20 and tracked.tracker.followed >= 60
+
+
+def test_a_large_marker_that_moves_further_than_predicted_is_found_again_not_left_where_it_was():
+    # a 290 px marker slides 6 px a frame, then 9: 15 px beyond where its motion put it, three times the
+    # refiner's reach. Its profiles then see only the black border and the quiet zone's white, and their noise
+    # fitted four edges where the quad was predicted, half a module off, with every cell still read right; the
+    # edges are read too, so the quad is detected again and its corners stay on the marker
+    steady = list(sliding(10, ids=(7,), distance_m=0.45, step_px=6.0))
+    faster = list(sliding(10, ids=(7,), distance_m=0.45, step_px=9.0))
+    tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15})
+    for i in range(10):
+        image, truth = steady[i] if i < 5 else faster[i]
+        (d,) = tracked.process(frame(image, i))
+        assert np.linalg.norm(d.corners - truth[7], axis=1).max() < 0.3, f"frame {i}"
+    assert tracked.tracker is not None and tracked.tracker.followed >= 6
 
 
 def test_a_marker_missing_from_one_frame_is_found_again_on_the_next_in_its_window():
