@@ -188,15 +188,11 @@ class ArucoSource:
             follow = self._follow if edges else None
             found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, self._recovered, follow)
             corners_list, ids = as_arrays(found)
-            done = np.array([f.refined for f in found], dtype=bool)
         else:
             corners_list, ids = self._detect(grey, None)
-            done = np.zeros(len(ids), dtype=bool)
         if len(ids) == 0:
             return []
-        corners_list = corners_list.copy()
-        if not done.all():
-            corners_list[~done] = self._refine(grey, corners_list[~done])
+        corners_list = self._refine(grey, corners_list)  # a followed quad too: a second pass, from a closer start
         intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs
         out: list[Detection] = []

@@ -2,8 +2,11 @@
 
 A full-frame detection costs the same on every frame, whether anything moved or not; between frames a
 tracked marker's next quad is its last one moved on by its last motion, to within the robot's. So with
-``tracking`` on, a source runs its detector on a window round each predicted quad instead of the whole
-frame, and the whole frame only:
+``tracking`` on, a source given a `follow` (the aruco source) first *follows* each tracked marker: its
+predicted quad is refined onto the frame's edges, and kept when the refined quad holds the id's pattern and
+its four edges lie where the quad puts them (perception_plugins/marker_bits.py) — no detector call at all.
+The markers not followed (it moved further than the refiner reaches, something hid part of it) are detected
+in a window round each predicted quad instead of the whole frame, and the whole frame only:
 
 * on the first frame, and every ``full_frame_every``-th frame after, so a marker that comes into view is
   found at most ``full_frame_every − 1`` frames after the full-frame detector would have found it;
@@ -233,10 +236,9 @@ class Found:
     quad: np.ndarray
     marker_id: int
     extra: Any = None
-    refined: bool = False  # its corners are final already (followed: see follow)
 
     def moved(self, offset: np.ndarray) -> Found:
-        return Found(self.quad + offset, self.marker_id, self.extra, self.refined)
+        return Found(self.quad + offset, self.marker_id, self.extra)
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
@@ -312,7 +314,7 @@ def _follow(grey: np.ndarray, tracks: list[_Track], follow: Follow) -> tuple[lis
     predicted = np.stack([tr.quad + tr.motion for tr in tracks])
     quads = follow(grey, predicted, np.array([tr.marker_id for tr in tracks], dtype=np.int64))
     pairs = [(tr, q) for tr, q in zip(tracks, quads, strict=True) if q is not None]
-    return [tr for tr, _ in pairs], [Found(q, tr.marker_id, None, refined=True) for tr, q in pairs]
+    return [tr for tr, _ in pairs], [Found(q, tr.marker_id) for tr, q in pairs]
 
 
 def _alone(
