@@ -52,8 +52,9 @@ from mission.perception_plugins.apriltag_backends import (
 )
 from mission.perception_plugins.aruco import to_grey
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
-from mission.perception_plugins.corner_refinement import refine_corners
+from mission.perception_plugins.corner_refinement import refine_corners, refined_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
+from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern
 from mission.perception_plugins.marker_quads import Box
 from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
@@ -192,6 +193,16 @@ def _searcher(family: str) -> QuadDetector | None:
     return QuadDetector(dictionary, lambda params: None)
 
 
+def _pattern_check(family: str, cells: int) -> PatternCheck | None:
+    """The check that a followed tag's quad holds its tag (marker_bits), from OpenCV's dictionary of `family`,
+    whose corners' order both backends return; None for a family OpenCV does not have (its tags are then
+    detected in windows on every frame)."""
+    if family not in OPENCV_DICTIONARIES:
+        return None
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, OPENCV_DICTIONARIES[family]))
+    return PatternCheck(cells, aruco_pattern(dictionary))
+
+
 def decode_confidence(hamming: int, decision_margin: float) -> float:
     """0..1 from AprilTag's decode quality: halves per corrected bit; a weak margin (< ~25 grey levels) costs."""
     return float(0.5 ** max(0, hamming) * (1.0 - math.exp(-max(0.0, decision_margin) / 25.0)))
@@ -232,6 +243,8 @@ class AprilTagSource:
         self.counters: dict[str, int] = {}
         self.tracker = RegionTracker(p.full_frame_every) if p.tracking else None
         self._searcher = _searcher(p.family) if p.tracking else None
+        edges = p.corner_refinement == "edges"
+        self._pattern_check = _pattern_check(p.family, self._backend.cells) if p.tracking and edges else None
 
     # -- lookups -----------------------------------------------------------------------------------
     def marker_size(self, tag_id: int) -> float:
@@ -253,7 +266,8 @@ class AprilTagSource:
         (as the aruco source's) and every tag's corners are refined here, in the frame, at full resolution."""
         edges = self.params.corner_refinement == "edges"
         shrink = Shrink(WINDOW_SIDE_PX) if edges else None
-        found = detect_tracked(grey, self.tracker, self._found, self._search, shrink)
+        follow = self._follow if self._pattern_check is not None else None
+        found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, follow=follow)
         tags = [replace(f.extra, corners=f.quad) for f in found]
         if edges and tags:
             quads = refine_corners(grey, np.stack([t.corners for t in tags]), self._backend.cells)
@@ -264,6 +278,16 @@ class AprilTagSource:
         """The backend's tags in `grey` (a frame, or tracking's mosaic of windows), corners unrefined."""
         tags = self._backend.detect(grey, min_perimeter_rate, refine=False)
         return [Found(t.corners, t.tag_id, t) for t in tags]
+
+    def _follow(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> list[np.ndarray | None]:
+        """Tracked tags' predicted quads refined onto this frame's edges, each kept where all four corners
+        refined and the quad holds its tag (marker_tracking._follow). A followed tag keeps the hamming distance
+        and decision margin of its last decode."""
+        assert self._pattern_check is not None
+        refined, ok = refined_corners(grey, quads, self._backend.cells)
+        held = ok.all(axis=1)
+        held[held] = self._pattern_check(grey, refined[held], ids[held])
+        return [refined[k] if held[k] else None for k in range(len(ids))]
 
     def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
         """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;

@@ -2,9 +2,10 @@
 
 A full-frame detection costs the same on every frame, whether anything moved or not; between frames a
 tracked marker's next quad is its last one moved on by its last motion, to within the robot's. So with
-``tracking`` on, a source given a `follow` (the aruco source) first *follows* each tracked marker: its
-predicted quad is refined onto the frame's edges, and kept when the refined quad holds the id's pattern and
-its four edges lie where the quad puts them (perception_plugins/marker_bits.py) — no detector call at all.
+``tracking`` on, a source given a `follow` (both marker sources, with edges refinement) first *follows*
+each tracked marker: its predicted quad is refined onto the frame's edges, and kept when the refined quad
+holds the id's pattern and its four edges lie where the quad puts them (perception_plugins/marker_bits.py):
+no detector call at all.
 The markers not followed (it moved further than the refiner reaches, something hid part of it) are detected
 in a window round each predicted quad instead of the whole frame, and the whole frame only:
 
@@ -104,6 +105,7 @@ class _Track:
     quad: np.ndarray  # 4×2 px, the last one found
     motion: np.ndarray  # 2, px per frame: how far its centre moved between the last two frames it was found in
     missed: int = 0  # frames since it was last found (a coasting track: its quad is where it would be by now)
+    extra: Any = None  # what its source kept of it when last detected (Found.extra), for a frame that follows it
 
     @property
     def centre(self) -> np.ndarray:
@@ -170,9 +172,9 @@ class RegionTracker:
         found = Counter(ids)
         return [tr for tr in live if found[tr.marker_id] < expected[tr.marker_id]]
 
-    def found(self, quads: np.ndarray, ids: np.ndarray, full: bool) -> bool:
-        """Take this frame's detections (M×4×2, M); False when a window pass missed a tracked marker (the
-        caller then runs the full frame and calls again with ``full=True``)."""
+    def found(self, quads: np.ndarray, ids: np.ndarray, full: bool, extras: Sequence[Any] | None = None) -> bool:
+        """Take this frame's detections (M×4×2, M, and each one's Found.extra); False when a window pass missed
+        a tracked marker (the caller then runs the full frame and calls again with ``full=True``)."""
         if not full and not self.all_found([int(i) for i in ids]):
             self.rescues += 1
             return False
@@ -184,17 +186,18 @@ class RegionTracker:
             self.since_full += 1
         old = list(self.tracks)
         tracks: list[_Track] = []
-        for quad, mid in zip(quads, ids, strict=True):
+        for quad, mid, extra in zip(quads, ids, extras if extras is not None else [None] * len(ids), strict=True):
             quad = np.asarray(quad, dtype=np.float64).copy()
             centre = quad.mean(axis=0)
             same = [tr for tr in old if tr.marker_id == int(mid)]
             prev = min(same, key=lambda tr: float(np.linalg.norm(tr.centre + tr.motion - centre)), default=None)
             if prev is not None:
                 old = [tr for tr in old if tr is not prev]  # each copy moves on from the nearest of its id's quads
-            tracks.append(_Track(int(mid), quad, centre - prev.centre if prev is not None else np.zeros(2)))
+            motion = centre - prev.centre if prev is not None else np.zeros(2)
+            tracks.append(_Track(int(mid), quad, motion, extra=extra))
         for tr in old:  # not found this frame: looked for a few frames more where it would be, then forgotten
             if tr.missed < COAST_FRAMES and not any(tr is t for t in self.leaving):
-                tracks.append(_Track(tr.marker_id, tr.quad + tr.motion, tr.motion, tr.missed + 1))
+                tracks.append(_Track(tr.marker_id, tr.quad + tr.motion, tr.motion, tr.missed + 1, tr.extra))
         self.tracks = tracks
         return True
 
@@ -294,10 +297,10 @@ def detect_tracked(
             new = _new_markers(grey, wins, found, search, detect, shrink, [_box(f.quad) for f in followed])
             tracker.discovered += len(new)
             found += new
-        if tracker.found(*as_arrays(found), full=False):
+        if tracker.found(*as_arrays(found), full=False, extras=[f.extra for f in found]):
             return found
     found = detect(grey, None)
-    tracker.found(*as_arrays(found), full=True)
+    tracker.found(*as_arrays(found), full=True, extras=[f.extra for f in found])
     return found
 
 
@@ -314,7 +317,7 @@ def _follow(grey: np.ndarray, tracks: list[_Track], follow: Follow) -> tuple[lis
     predicted = np.stack([tr.quad + tr.motion for tr in tracks])
     quads = follow(grey, predicted, np.array([tr.marker_id for tr in tracks], dtype=np.int64))
     pairs = [(tr, q) for tr, q in zip(tracks, quads, strict=True) if q is not None]
-    return [tr for tr, _ in pairs], [Found(q, tr.marker_id) for tr, q in pairs]
+    return [tr for tr, _ in pairs], [Found(q, tr.marker_id, tr.extra) for tr, q in pairs]
 
 
 def _alone(
