@@ -286,7 +286,9 @@ def detect_tracked(
         tracker.followed += len(followed)
     wins = tracker.windows(w, h, following)
     if wins is not None and (wins or followed or search is not None):
-        found = followed + _in_windows(grey, wins, detect, shrink)
+        # A window round another marker can hold a followed one too (a ChArUco board's markers are a module
+        # or two apart): that is the same marker, not a second copy of its id.
+        found = followed + [f for f in _in_windows(grey, wins, detect, shrink) if not _among(f, followed)]
         missed = tracker.missing([f.marker_id for f in found])
         if missed and recover is not None:
             found += _alone(grey, missed, wins, found, recover, shrink and Shrink(shrink.side_px, recover))
@@ -346,11 +348,7 @@ def _alone(
             by_window.setdefault(id(win), (win, set()))[1].add(tr.marker_id)
     out: list[Found] = []
     for win, ids in by_window.values():
-        out += [
-            f
-            for f in _in_windows(grey, [win], detect, shrink)
-            if f.marker_id in ids and not any(g.marker_id == f.marker_id and _same_place(g.quad, f.quad) for g in found)
-        ]
+        out += [f for f in _in_windows(grey, [win], detect, shrink) if f.marker_id in ids and not _among(f, found)]
     return out
 
 
@@ -374,7 +372,7 @@ def _new_markers(
     h, w = grey.shape[:2]
     new: list[Found] = []
     for candidate in search(grey, [win.box for win in wins] + followed):
-        if any(f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad) for f in found + new):
+        if _among(candidate, found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)
         if win is None:
@@ -392,6 +390,11 @@ def _box(quad: np.ndarray) -> Box:
     lo, hi = quad.min(axis=0), quad.max(axis=0)
     reach = MARGIN * float((hi - lo).max())
     return (int(lo[0] - reach), int(lo[1] - reach), int(hi[0] + reach) + 1, int(hi[1] + reach) + 1)
+
+
+def _among(f: Found, others: list[Found]) -> bool:
+    """Whether `f` is one of `others`: the same id, in the same place."""
+    return any(g.marker_id == f.marker_id and _same_place(g.quad, f.quad) for g in others)
 
 
 def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
