@@ -98,14 +98,13 @@ class PatternCheck:
         across = np.minimum(BAND_PX / np.maximum(module, 1e-6), BAND_MODULES)[:, None, None]
         band = np.concatenate([self._sides + across * self._inward, self._sides - across * self._inward], axis=1)
         unit_pts = np.concatenate([np.broadcast_to(self._points, (m_count, *self._points.shape)), band], axis=1)
-        img = homs[:, None, :, :2] @ unit_pts[..., None] + homs[:, None, :, 2:]  # M×P×3×1
-        xy = (img[..., :2, 0] / img[..., 2:, 0]).astype(np.float32)
+        u, v = unit_pts[..., 0], unit_pts[..., 1]  # through each homography, written out: ~3× a batched matmul
+        h = homs[..., None]
+        w = h[:, 2, 0] * u + h[:, 2, 1] * v + h[:, 2, 2]
+        x = ((h[:, 0, 0] * u + h[:, 0, 1] * v + h[:, 0, 2]) / w).astype(np.float32)
+        y = ((h[:, 1, 0] * u + h[:, 1, 1] * v + h[:, 1, 2]) / w).astype(np.float32)
         values = cv2.remap(
-            grey,
-            xy[..., 0].reshape(1, -1),
-            xy[..., 1].reshape(1, -1),
-            cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_REPLICATE,
+            grey, x.reshape(1, -1), y.reshape(1, -1), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         ).reshape(m_count, -1)
         n_cells = c * c * SUBSAMPLES * SUBSAMPLES
         n_fixed = len(self._points)
