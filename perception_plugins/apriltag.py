@@ -52,9 +52,9 @@ from mission.perception_plugins.apriltag_backends import (
 )
 from mission.perception_plugins.aruco import to_grey
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
-from mission.perception_plugins.corner_refinement import refine_corners, refined_corners
+from mission.perception_plugins.corner_refinement import refine_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
-from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern
+from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern, follow_quads
 from mission.perception_plugins.marker_quads import Box
 from mission.perception_plugins.marker_tracking import (
     FULL_FRAME_EVERY,
@@ -269,9 +269,11 @@ class AprilTagSource:
         follow = self._follow if self._pattern_check is not None else None
         found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, follow=follow)
         tags = [replace(f.extra, corners=f.quad) for f in found]
-        if edges and tags:
-            quads = refine_corners(grey, np.stack([t.corners for t in tags]), self._backend.cells)
-            tags = [replace(t, corners=q) for t, q in zip(tags, quads, strict=True)]
+        todo = [k for k, f in enumerate(found) if not f.refined]  # a followed tag's corners are final (follow_quads)
+        if edges and todo:
+            quads = refine_corners(grey, np.stack([tags[k].corners for k in todo]), self._backend.cells)
+            for k, q in zip(todo, quads, strict=True):
+                tags[k] = replace(tags[k], corners=q)
         return tags
 
     def _found(self, grey: np.ndarray, min_perimeter_rate: float | None) -> list[Found]:
@@ -280,14 +282,10 @@ class AprilTagSource:
         return [Found(t.corners, t.tag_id, t) for t in tags]
 
     def _follow(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> list[np.ndarray | None]:
-        """Tracked tags' predicted quads refined onto this frame's edges, each kept where all four corners
-        refined and the quad holds its tag (marker_tracking._follow). A followed tag keeps the hamming distance
-        and decision margin of its last decode."""
+        """follow_quads with the family's pattern; a followed tag keeps its last decode's hamming distance and
+        decision margin."""
         assert self._pattern_check is not None
-        refined, ok = refined_corners(grey, quads, self._backend.cells)
-        held = ok.all(axis=1)
-        held[held] = self._pattern_check(grey, refined[held], ids[held])
-        return [refined[k] if held[k] else None for k in range(len(ids))]
+        return follow_quads(grey, quads, ids, self._backend.cells, self._pattern_check)
 
     def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
         """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;

@@ -30,9 +30,9 @@ from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
-from mission.perception_plugins.corner_refinement import refine_corners, refined_corners, subpix_corners
+from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
-from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern
+from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern, follow_quads
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
 from mission.perception_plugins.marker_quads import Box
 from mission.perception_plugins.marker_tracking import (
@@ -169,12 +169,7 @@ class ArucoSource:
         return as_found(*self._detect.search(grey, skip))
 
     def _follow(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> list[np.ndarray | None]:
-        """Tracked markers' predicted quads refined onto this frame's edges, each kept where all four corners
-        refined and the quad holds its id's pattern (marker_tracking._follow)."""
-        refined, ok = refined_corners(grey, quads, self._cells)
-        held = ok.all(axis=1)
-        held[held] = self._pattern_check(grey, refined[held], ids[held])
-        return [refined[k] if held[k] else None for k in range(len(ids))]
+        return follow_quads(grey, quads, ids, self._cells, self._pattern_check)
 
     def marker_size(self, marker_id: int) -> float:
         """The side length (m) configured for `marker_id`."""
@@ -188,11 +183,15 @@ class ArucoSource:
             follow = self._follow if edges else None
             found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, self._recovered, follow)
             corners_list, ids = as_arrays(found)
+            final = np.array([f.refined for f in found], dtype=bool)
         else:
             corners_list, ids = self._detect(grey, None)
+            final = np.zeros(len(ids), dtype=bool)
         if len(ids) == 0:
             return []
-        corners_list = self._refine(grey, corners_list)  # a followed quad too: a second pass, from a closer start
+        if not final.all():  # a followed marker's corners are final already (follow_quads)
+            corners_list = corners_list.copy()
+            corners_list[~final] = self._refine(grey, corners_list[~final])
         intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs
         out: list[Detection] = []

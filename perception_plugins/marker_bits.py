@@ -28,9 +28,12 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
+from mission.perception_plugins.corner_refinement import refine_corners, refined_corners
+
 SUBSAMPLES = 3  # points across a cell, each way, in its central half
 MIN_CONTRAST = 20.0  # grey levels between the border's black and the quiet zone's white
 MAX_BORDER_ERRORS = 2  # border cells read white that still pass (glare, a corner clipped by blur)
+SETTLED_PX = 0.5  # a followed quad whose corners moved less than this on refining needs no second pass
 RING_MODULES = 0.5  # the quiet zone is read this far outside the marker's outline
 BAND_PX = 1.5  # each side is read this far inside and outside it …
 BAND_MODULES = 0.35  # … or this many modules where that is less (a small marker's black border)
@@ -127,3 +130,22 @@ def aruco_pattern(dictionary: cv2.aruco.Dictionary) -> Pattern:
     """An OpenCV dictionary's pattern for an id, as its detector reads it (the corners' order: top-left first)."""
     cells = int(dictionary.markerSize) + 2
     return lambda marker_id: cv2.aruco.generateImageMarker(dictionary, marker_id, cells, borderBits=1) > 127
+
+
+def follow_quads(
+    grey: np.ndarray, quads: np.ndarray, ids: np.ndarray, cells: int, check: PatternCheck
+) -> list[np.ndarray | None]:
+    """Tracked markers' predicted quads (N×4×2) refined onto this frame's edges, each kept where all four
+    corners refined and `check` finds its id's pattern and edges in it (marker_tracking._follow), else None.
+
+    The corners come back final. Refined from a prediction a pixel or more off, a corner is where the
+    profiles laid across the predicted edges put it; once more from there they are centred on the true edge
+    (rendered missions: corners p95 0.898 px with one pass, 0.858 with two, 0.827 with tracking off). A quad
+    whose corners moved less than SETTLED_PX was predicted that well already, and is not refined again."""
+    refined, ok = refined_corners(grey, quads, cells)
+    held = ok.all(axis=1)
+    held[held] = check(grey, refined[held], ids[held])
+    again = held & (np.abs(refined - quads).max(axis=(1, 2)) >= SETTLED_PX)
+    if again.any():
+        refined[again] = refine_corners(grey, refined[again], cells)
+    return [refined[k] if held[k] else None for k in range(len(ids))]

@@ -239,9 +239,10 @@ class Found:
     quad: np.ndarray
     marker_id: int
     extra: Any = None
+    refined: bool = False  # its corners are final (a followed marker's: follow_quads refined them)
 
     def moved(self, offset: np.ndarray) -> Found:
-        return Found(self.quad + offset, self.marker_id, self.extra)
+        return Found(self.quad + offset, self.marker_id, self.extra, self.refined)
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
@@ -319,7 +320,7 @@ def _follow(grey: np.ndarray, tracks: list[_Track], follow: Follow) -> tuple[lis
     predicted = np.stack([tr.quad + tr.motion for tr in tracks])
     quads = follow(grey, predicted, np.array([tr.marker_id for tr in tracks], dtype=np.int64))
     pairs = [(tr, q) for tr, q in zip(tracks, quads, strict=True) if q is not None]
-    return [tr for tr, _ in pairs], [Found(q, tr.marker_id, tr.extra) for tr, q in pairs]
+    return [tr for tr, _ in pairs], [Found(q, tr.marker_id, tr.extra, refined=True) for tr, q in pairs]
 
 
 def _alone(
