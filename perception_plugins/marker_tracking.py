@@ -190,7 +190,10 @@ class RegionTracker:
             quad = np.asarray(quad, dtype=np.float64).copy()
             centre = quad.mean(axis=0)
             same = [tr for tr in old if tr.marker_id == int(mid)]
-            prev = min(same, key=lambda tr: float(np.linalg.norm(tr.centre + tr.motion - centre)), default=None)
+            if len(same) > 1:  # an id printed more than once: the copy nearest where it was going
+                prev = min(same, key=lambda tr: float(np.linalg.norm(tr.centre + tr.motion - centre)))
+            else:
+                prev = same[0] if same else None
             if prev is not None:
                 old = [tr for tr in old if tr is not prev]  # each copy moves on from the nearest of its id's quads
             motion = centre - prev.centre if prev is not None else np.zeros(2)
