@@ -43,8 +43,27 @@ RECALL_TARGET = 0.995
 Detect = Callable[[np.ndarray, Frame], dict[int, np.ndarray]]  # (grey, frame) → id → corners
 
 
+def _by_id(found: list[tuple[int, np.ndarray]]) -> dict[int, np.ndarray]:
+    """One quad per id (4×2): of an id found more than once in a frame (the sim's target wears its id on every
+    face, and two faces are often in view), the largest — the same rule for every detector compared. Keeping
+    whichever came last made the figures depend on each detector's order: tracking listed an edge-on face
+    (~15 px wide, corners 4–8 px off for every detector) last where tracking off listed the frontal one, and
+    its corner p95 on a rendered follow_occlusion run read 4.5 px where the quads were the same."""
+    out: dict[int, np.ndarray] = {}
+    for marker_id, quad in found:
+        quad = np.asarray(quad, dtype=np.float64).reshape(4, 2)
+        if marker_id not in out or _area(quad) > _area(out[marker_id]):
+            out[marker_id] = quad
+    return out
+
+
+def _area(quad: np.ndarray) -> float:
+    x, y = quad[:, 0], quad[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
 def _source(source: Any) -> Detect:
-    return lambda grey, frame: {d.marker_id: d.corners for d in source.process(frame)}
+    return lambda grey, frame: _by_id([(d.marker_id, d.corners) for d in source.process(frame)])
 
 
 def _raw_aruco(dictionary: int = cv2.aruco.DICT_4X4_250, params: Any = None) -> Detect:
@@ -57,9 +76,7 @@ def _raw_aruco(dictionary: int = cv2.aruco.DICT_4X4_250, params: Any = None) -> 
         corners, ids, _ = detector.detectMarkers(grey)
         if ids is None or len(ids) == 0:
             return {}
-        return {
-            int(i): np.asarray(c, dtype=np.float64).reshape(4, 2) for i, c in zip(ids.ravel(), corners, strict=True)
-        }
+        return _by_id([(int(i), c) for i, c in zip(ids.ravel(), corners, strict=True)])
 
     return detect
 
