@@ -33,6 +33,7 @@ from bench.marker_sequences import MARKER_SIZE_M, SequenceFrame, panning_sequenc
 from mission.core.types import Frame
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.marker_quads import area
 
 RESOLUTIONS = ((640, 480), (1280, 720), (1920, 1080))
 MARKER_COUNTS = (1, 8)
@@ -52,14 +53,9 @@ def _by_id(found: list[tuple[int, np.ndarray]]) -> dict[int, np.ndarray]:
     out: dict[int, np.ndarray] = {}
     for marker_id, quad in found:
         quad = np.asarray(quad, dtype=np.float64).reshape(4, 2)
-        if marker_id not in out or _area(quad) > _area(out[marker_id]):
+        if marker_id not in out or area(quad) > area(out[marker_id]):
             out[marker_id] = quad
     return out
-
-
-def _area(quad: np.ndarray) -> float:
-    x, y = quad[:, 0], quad[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
 
 
 def _source(source: Any) -> Detect:

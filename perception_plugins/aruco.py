@@ -139,7 +139,9 @@ class ArucoSource:
         self._disambiguator = square_pose.TemporalDisambiguator()
         self._intrinsics = FrameIntrinsics(self.name, log)
         self.tracker = RegionTracker(self.params.full_frame_every) if self.params.tracking else None
-        self._pattern_check = PatternCheck(self._cells, aruco_pattern(self.marker_dictionary.dictionary))
+        follows = self.params.tracking and self.params.corner_refinement == "edges"
+        pattern = aruco_pattern(self.marker_dictionary.dictionary)
+        self._pattern_check = PatternCheck(self._cells, pattern) if follows else None
 
     # ------------------------------------------------------------------------------------------------
 
@@ -169,6 +171,7 @@ class ArucoSource:
         return as_found(*self._detect.search(grey, skip))
 
     def _follow(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> list[np.ndarray | None]:
+        assert self._pattern_check is not None
         return follow_quads(grey, quads, ids, self._cells, self._pattern_check)
 
     def marker_size(self, marker_id: int) -> float:
@@ -180,7 +183,7 @@ class ArucoSource:
         if self.tracker is not None:
             edges = self.params.corner_refinement == "edges"
             shrink = Shrink(WINDOW_SIDE_PX, self._found_shrunk) if edges else None
-            follow = self._follow if edges else None
+            follow = self._follow if self._pattern_check is not None else None
             found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, self._recovered, follow)
             corners_list, ids = as_arrays(found)
             final = np.array([f.refined for f in found], dtype=bool)
@@ -190,7 +193,6 @@ class ArucoSource:
         if len(ids) == 0:
             return []
         if not final.all():  # a followed marker's corners are final already (follow_quads)
-            corners_list = corners_list.copy()
             corners_list[~final] = self._refine(grey, corners_list[~final])
         intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs

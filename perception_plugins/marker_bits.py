@@ -1,7 +1,7 @@
 """Whether a quad still holds the marker it held: its cells read where the quad says they are (issue 34).
 
 Tracking follows a marker from frame to frame by refining its predicted quad onto the edges in the new frame
-(marker_tracking.follow). A refined quad is only the marker's if the marker's own pattern is inside it, so
+(marker_tracking._follow). A refined quad is only the marker's if the marker's own pattern is inside it, so
 each is checked here the way a detector decodes one — but for one known id, at the rotation it had:
 
 * each cell is the mean grey of a few points in its central half (a cell's edge is where blur and a quad a

@@ -18,7 +18,8 @@ _NEXT = [1, 2, 3, 0]  # each corner's successor round the quad
 Box = tuple[int, int, int, int]  # x0, y0, x1, y1: an axis-aligned region of a frame (px; x1 and y1 exclusive)
 
 
-def _area(quad: np.ndarray) -> float:
+def area(quad: np.ndarray) -> float:
+    """The area (px²) inside a 4×2 quad."""
     x, y = quad[:, 0], quad[:, 1]
     return 0.5 * abs(float(np.dot(x, y[_NEXT]) - np.dot(y, x[_NEXT])))
 
@@ -46,7 +47,7 @@ def one_quad_per_marker(quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
         return np.arange(len(ids))  # no id twice: nothing to choose between (the usual frame)
     quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
     centres = quads.mean(axis=1)
-    areas = [_area(q) for q in quads]
+    areas = [area(q) for q in quads]
     sides = [side(q) for q in quads]
     dropped: set[int] = set()
     for i in sorted(range(len(ids)), key=lambda k: -areas[k]):  # largest first: it absorbs what lies inside it

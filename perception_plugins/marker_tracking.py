@@ -111,6 +111,11 @@ class _Track:
     def centre(self) -> np.ndarray:
         return self.quad.mean(axis=0)
 
+    @property
+    def predicted(self) -> np.ndarray:
+        """Its quad in the next frame if it moves on as it last moved (4×2 px)."""
+        return self.quad + self.motion
+
 
 @dataclass
 class RegionTracker:
@@ -137,8 +142,8 @@ class RegionTracker:
         return self.since_full + 1 >= every
 
     def followable(self, width: int, height: int) -> list[_Track]:
-        """The tracks a window frame may follow (:func:`follow`): found last frame, and predicted whole in view."""
-        return [tr for tr in self.tracks if tr.missed == 0 and not _leaves(tr.quad + tr.motion, width, height)]
+        """The tracks a window frame may follow (:func:`_follow`): found last frame, and predicted whole in view."""
+        return [tr for tr in self.tracks if tr.missed == 0 and not _leaves(tr.predicted, width, height)]
 
     def windows(self, width: int, height: int, followed: Sequence[_Track] = ()) -> list[Window] | None:
         """The windows to detect in this frame for the tracks not `followed` already (none when nothing is
@@ -148,7 +153,7 @@ class RegionTracker:
         wins: list[Window] = []
         self.leaving = []
         for tr in self.tracks:
-            if _leaves(tr.quad + tr.motion, width, height):
+            if _leaves(tr.predicted, width, height):
                 self.leaving.append(tr)  # predicted partly off the image: not looked for, not missed
                 continue
             if any(tr is t for t in followed):
@@ -200,7 +205,7 @@ class RegionTracker:
             tracks.append(_Track(int(mid), quad, motion, extra=extra))
         for tr in old:  # not found this frame: looked for a few frames more where it would be, then forgotten
             if tr.missed < COAST_FRAMES and not any(tr is t for t in self.leaving):
-                tracks.append(_Track(tr.marker_id, tr.quad + tr.motion, tr.motion, tr.missed + 1, tr.extra))
+                tracks.append(_Track(tr.marker_id, tr.predicted, tr.motion, tr.missed + 1, tr.extra))
         self.tracks = tracks
         return True
 
@@ -320,7 +325,7 @@ def _follow(grey: np.ndarray, tracks: list[_Track], follow: Follow) -> tuple[lis
     windows as before."""
     if not tracks:
         return [], []
-    predicted = np.stack([tr.quad + tr.motion for tr in tracks])
+    predicted = np.stack([tr.predicted for tr in tracks])
     quads = follow(grey, predicted, np.array([tr.marker_id for tr in tracks], dtype=np.int64))
     pairs = [(tr, q) for tr, q in zip(tracks, quads, strict=True) if q is not None]
     return [tr for tr, _ in pairs], [Found(q, tr.marker_id, tr.extra, refined=True) for tr, q in pairs]
