@@ -243,3 +243,23 @@ def test_the_lidar_measures_the_walls_from_the_base_and_never_sees_the_robot() -
     assert at(-math.pi / 2) == pytest.approx(5.0, abs=0.03)  # right (east wall, x = 8)
     assert at(math.pi) == pytest.approx(5.0, abs=0.03)  # behind (south wall)
     assert float(np.min(scan.ranges)) > 2.9  # nothing closer: the robot's own body is not in the scan
+
+
+def test_a_robot_whose_pose_estimate_is_off_keeps_its_safety_margin_from_a_wall_it_drives_along() -> None:
+    # AMCL's few centimetres (typical): the robot believes itself 3.5 cm further from the rack than it is. The
+    # map's cells are placed by that belief; the lidar measures from the robot itself. Setting off at 17° toward
+    # the rack, the safety stop must hold the real clearance, not the believed one (aisle seed 5003, typical:
+    # six contacts with a rack's corner believed 2 cm further off).
+    rack = {"name": "rack", "shape": "box", "x": 4.0, "y": 4.7, "size": [7.0, 0.4, 1.0]}  # its face at y = 4.5
+    loc = {"odom_noise_m_per_m": 1e-9, "amcl": False}  # a localization that keeps the error it is given
+    loop = Loop(scenario({"x": 1.5, "y": 4.17, "yaw_deg": 17.0}, obstacles=[rack], localization=loc))
+    try:
+        loop.adapter.localization.map_from_odom = Pose2D(0.0, -0.035, 0.0)
+        loop.command(goal=Pose2D(6.5, 4.135, 0.0))  # along the rack, 0.33 m off its face as the robot believes
+        loop.run_until(NavStatus.SUCCEEDED, timeout_s=30.0)
+        truth = loop.adapter.ground_truth()
+    finally:
+        loop.close()
+    closest = 4.5 - max(p.y for p in loop.trajectory)
+    assert closest >= 0.22 + 0.015  # the robot's radius and (near enough) the navigator's 2 cm safety margin
+    assert truth.collisions == 0 and truth.robot.x > 6.3
