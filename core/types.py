@@ -151,6 +151,18 @@ class Frame:
     # Poses of targets reported by others since the previous frame (the external_pose source reads them):
     # they ride on camera frames, so they are perceived at the camera's rate with what the camera saw.
     sightings: tuple[Sighting, ...] = ()
+    # How long the shutter was open for this image (s), as the driver is set: a camera turning at ω smears the
+    # image over ω × exposure × fx pixels. None = not known; 0 = an instant (the ideal simulation).
+    exposure_s: float | None = None
+
+    def turn_rate_for_smear(self, px: float) -> float:
+        """The turn rate (rad/s) at which this frame's exposure smears the image by `px` pixels: the fastest a
+        leaf that looks for markers may turn and still read them. Infinite when the exposure is 0 or not
+        known, or the intrinsics are (no cap is better than a guessed one)."""
+        k = self.intrinsics
+        if not self.exposure_s or self.exposure_s <= 0 or k is None or not k.fx > 0:
+            return math.inf
+        return px / (self.exposure_s * k.fx)
 
     @property
     def width(self) -> int:

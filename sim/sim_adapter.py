@@ -313,6 +313,7 @@ class SimAdapter:
             depth=depth,
             T_anchor_camera=T if self.localization is None else self._believed_T_map_optical(),
             anchor_frame="map",
+            exposure_s=cam.exposure_s,  # as a driver reports its setting: the leaves cap their turns by it
         )
 
     def _exposure(self, T_mid: np.ndarray) -> Exposure | None:

@@ -61,6 +61,8 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
     "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
     "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
+    "camera_exposure_s": (0.0, "the camera's exposure time as its driver is set (s): EXPLORE turns no faster than "
+                          "keeps a marker readable through the smear; 0 = not known, no cap"),
     "marker_size_m": (_ARUCO_DEFAULTS.marker_size_m, "ArUco marker side length (without `config`)"),
     "dictionary": (_ARUCO_DEFAULTS.dictionary, "ArUco dictionary (without `config`); an unknown name stops the node "
                    "with the names there are"),
@@ -98,6 +100,7 @@ _PARAM_RANGES: dict[str, tuple[float, float, str]] = {
     "tick_hz": (0.0, 200.0, "a number from 0 (the config's rate) to 200"),
     "marker_size_m": (1e-6, math.inf, "a side length > 0 (m)"),
     "camera_info_tolerance_s": (0.0, math.inf, "a time ≥ 0 (s)"),
+    "camera_exposure_s": (0.0, 0.2, "an exposure time from 0 (not known) to 0.2 s"),
     "goal_tolerance_m": (1e-6, math.inf, "a distance > 0 (m)"),
     "serve_port": (0, 65535, "a TCP port 0..65535"),
     "nav_preempt_hz": (1e-3, 1000.0, "a rate > 0 (Hz)"),
@@ -266,6 +269,7 @@ class MissionNode:
             map_frame=p["map_frame"],
             odom_frame=p["odom_frame"],
             camera_info_tolerance_s=float(p["camera_info_tolerance_s"]),
+            camera_exposure_s=float(p["camera_exposure_s"]),
             camera_xyz_rpy=[float(v) for v in p["camera_xyz_rpy"]],
             goal_tolerance_m=float(p["goal_tolerance_m"]),
             tf_tolerance_s=float(p["tf_tolerance_s"]),

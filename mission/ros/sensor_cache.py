@@ -112,8 +112,10 @@ class SensorCache:
         warn: Callable[[str], None] = lambda message: None,
         history: int = 30,
         fixed_intrinsics: CameraIntrinsics | None = None,
+        exposure_s: float | None = None,
     ) -> None:
         self.camera_frame = camera_frame
+        self.exposure_s = exposure_s  # the driver's exposure setting, carried on every frame (None = not known)
         self.fixed_intrinsics = fixed_intrinsics
         self.info_tolerance_s = info_tolerance_s
         self.log = ThrottledLog(warn)
@@ -251,6 +253,7 @@ class SensorCache:
             frame_id=frame_id,
             intrinsics=self._intrinsics_for(stamp, image),
             depth=self._depth_for(stamp, image),
+            exposure_s=self.exposure_s,
         )
 
     def _intrinsics_for(self, stamp: float, image: np.ndarray) -> CameraIntrinsics:

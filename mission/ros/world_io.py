@@ -63,6 +63,7 @@ class RosTopics:
     map_frame: str = "map"
     odom_frame: str = "odom"
     camera_info_tolerance_s: float = 0.1
+    camera_exposure_s: float = 0.0  # the driver's exposure setting; 0 = not known
     target_goal_hz: float = 10.0
     goal_tolerance_m: float = 0.25
     tf_tolerance_s: float = 0.1  # an image this much newer than the last transform still gets it
@@ -125,7 +126,10 @@ class CachedWorld:
         self.msgs = msgs
         self.warn = warn
         self.cache = SensorCache(
-            camera_frame=topics.camera_frame, info_tolerance_s=topics.camera_info_tolerance_s, warn=warn
+            camera_frame=topics.camera_frame,
+            info_tolerance_s=topics.camera_info_tolerance_s,
+            warn=warn,
+            exposure_s=topics.camera_exposure_s or None,
         )
         self.frames = RobotFrames(
             map_frame=topics.map_frame,

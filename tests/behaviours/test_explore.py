@@ -7,10 +7,10 @@ import math
 import py_trees
 import pytest
 
-from mission.behaviours.explore import Explore, parse_waypoints
+from mission.behaviours.explore import READABLE_SMEAR_PX, Explore, parse_waypoints
 from mission.core import blackboard as bbk
 from mission.core.config import TargetSpec
-from mission.core.types import Pose2D, Twist
+from mission.core.types import CameraIntrinsics, Pose2D, Twist
 from tests.helpers.behaviour_world import Scene, ScriptedNavigator, marker_facing, read
 
 S = py_trees.common.Status
@@ -36,6 +36,35 @@ def test_without_waypoints_it_sweeps_in_place_until_the_dock_is_seen_then_stops(
     assert 4.0 < scene.clock < 6.5  # ≈ (180° − 35° half FOV) / 0.5 rad/s
     assert read(bbk.TWIST) == Twist(0.0, 0.0) and read(bbk.NAV_GOAL) is None
     assert read(bbk.REASON).startswith("EXPLORE: dock found after")
+
+
+def test_a_long_exposure_slows_the_sweep_to_a_smear_the_marker_survives_and_says_so():
+    # a webcam indoors at 30 ms, fx 416 px: the default 0.5 rad/s would smear a marker over 6.2 px
+    lens = CameraIntrinsics(fx=416.0, fy=416.0, cx=320.0, cy=240.0, width=640, height=480)
+    scene = Scene(
+        robot=Pose2D(0.0, 0.0, 0.0), marker=marker_facing(-2.0, 0.0, 0.0), marker_id=0, camera=lens, exposure_s=0.030
+    )
+    root = explore_tree(scene, angular_speed=0.5)
+    rates, said = set(), []
+    while root.status != S.SUCCESS and scene.clock < 30.0:
+        scene.cycle(root)
+        if root.status == S.RUNNING:
+            rates.add(round(read(bbk.TWIST).w, 4))
+            said.append(root.feedback_message)
+    cap = READABLE_SMEAR_PX / (0.030 * 416.0)  # ≈ 0.16 rad/s: a 2 px smear
+    assert rates == {round(cap, 4)}
+    assert root.status == S.SUCCESS and 12.0 < scene.clock < 18.0  # ≈ (180° − 35° half FOV) / 0.16 rad/s
+    assert said[-1].startswith("EXPLORE: sweeping for dock at 0.16 rad/s (30 ms exposure), turned")
+
+
+def test_an_instant_exposure_or_an_unknown_one_leaves_the_sweep_at_its_speed():
+    lens = CameraIntrinsics(fx=416.0, fy=416.0, cx=320.0, cy=240.0, width=640, height=480)
+    for exposure in (0.0, None):
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), marker=None, camera=lens, exposure_s=exposure)
+        root = explore_tree(scene, angular_speed=0.5)
+        scene.cycle(root)
+        assert read(bbk.TWIST) == Twist(0.0, 0.5)
+        assert root.feedback_message.startswith("EXPLORE: sweeping for dock, turned")
 
 
 def test_with_waypoints_it_visits_each_and_looks_around_until_the_dock_shows_up():

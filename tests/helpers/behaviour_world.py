@@ -18,6 +18,7 @@ from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
 from mission.core.types import (
+    CameraIntrinsics,
     Detection,
     Frame,
     LaserScan,
@@ -185,6 +186,8 @@ class Scene:
     navigator: ScriptedNavigator | None = None
     occluders: list[tuple[float, float, float, float]] = field(default_factory=list)  # boxes x0, y0, x1, y1
     perception: PerceptionStage | None = None  # the runner's perception stage, when the test wants tracks
+    camera: CameraIntrinsics | None = None  # what the frames say of the lens (None: nothing, as before)
+    exposure_s: float | None = None  # … and of the shutter
 
     def perceive_targets(self, targets: dict[str, TargetSpec], policy: str = "hybrid") -> PerceptionStage:
         """Perceive with this scene's camera (a scripted source) before every tick, as the runner does."""
@@ -223,7 +226,9 @@ class Scene:
         bbk.set_(bb, bbk.CLOCK, self.clock)
         bbk.set_(bb, bbk.ROBOT_STATE, RobotState(pose=self.robot, twist=Twist(), stamp=self.clock))
         bbk.set_(bb, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
-        bbk.set_(bb, bbk.FRAME, Frame(image=IMAGE, stamp=self.clock))
+        bbk.set_(
+            bb, bbk.FRAME, Frame(image=IMAGE, stamp=self.clock, intrinsics=self.camera, exposure_s=self.exposure_s)
+        )
         bbk.set_(bb, bbk.FRAME_SEQ, self.seq)
         bbk.set_(bb, bbk.NAV_STATUS, self.nav_status)
         if self.grid is not None:
