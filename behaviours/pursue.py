@@ -19,7 +19,12 @@ most of them per second of driving, and sweeps the camera across them there.
 The loss timer is the detour's: its path length on the map over ``speed_mps``, plus the turn and
 ``look_s`` of looking, within [``min_timeout_s``, ``max_timeout_s``] — a long way round a pillar is given
 the time it takes, a glance round a corner is not given more. It is set once per loss (when LOST is first
-entered) and counted from then; after it, or ``look_s`` after arriving, the leaf fails and SEARCH takes
+entered) and counted from then, and it bounds the way there: once the robot has arrived, the look it came
+for (the sweep round the edge, then ``look_s``) is given in full, the timer or not. The navigator drives
+slower than ``speed_mps`` through turns and near obstacles, and a look cut short 100° before it faced the
+place it was turning to is the drive wasted (hide_and_wait seed 5002, typical: LOST arrived 2 s before its
+timer, turning west to where the target stood in plain sight; SEARCH then turned the other way first and
+found it 17 s after the loss). After the look, or the timer on the way, the leaf fails and SEARCH takes
 over; re-entering LOST before the target is seen again fails at once (one pursuit per loss).
 
 Every tick it keeps the loss's belief (behaviours/belief.py), so SEARCH knows what LOST has looked at.
@@ -369,7 +374,7 @@ class PursueLastSeen(SearchLeaf):
         self.set_state(MissionState.LOST)
         belief = self.belief(track)
         where = f"({plan.aim[0]:.2f}, {plan.aim[1]:.2f})"
-        if now > plan.deadline:
+        if now > plan.deadline and plan.arrived_at is None:  # once there, the look is given in full
             return self._finish(plan, belief, f"LOST: {p.target} not seen again within the loss timer "
                                 f"{plan.deadline - plan.started:.1f} s ({plan.path_m:.1f} m detour to see {where})")
         v = plan.view
