@@ -519,6 +519,24 @@ def test_lost_goes_into_the_doorway_the_target_went_through_and_looks_round_both
     assert plan.deadline - plan.started >= plan.path_m / 0.35
 
 
+def test_lost_that_arrives_as_its_timer_runs_out_still_sweeps_round_both_edges_before_handing_over():
+    # the doorway above; the drive there took all but 0.2 s of the timer (the navigator is slower than the
+    # timer's speed through turns): the sweep it came for is given in full, then its look, then SEARCH
+    grid = grid_with_boxes(DOORWAY)
+    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
+    lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
+    node = PursueLastSeen()
+    scene.cycle(node)
+    plan = node.pursuit
+    assert plan.sweep_to is not None
+    scene.robot = Pose2D(plan.view.x, plan.view.y, math.atan2(plan.aim[1] - plan.view.y, plan.aim[0] - plan.view.x))
+    scene.clock = plan.deadline - 0.2
+    rates, statuses = turns(scene, node, 200)
+    assert statuses[-1] == S.FAILURE and scene.clock > plan.deadline + 1.0
+    assert plan.swept and abs(math.remainder(scene.robot.yaw - plan.sweep_to, 2 * math.pi)) <= 0.15
+    assert read(bbk.REASON).startswith(f"LOST: looked from ({plan.view.x:.2f}, {plan.view.y:.2f})")
+
+
 def test_a_longer_detour_gets_a_longer_loss_timer():
     timers = []
     for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
