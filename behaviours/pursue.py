@@ -14,7 +14,9 @@ When there is no heading to go by — the target stood still, or it was turning 
 target that turns at a corner swings round its centre, and a velocity fitted over that points the wrong
 way) — the leaf peeks round the edge instead: of the places the target could have walked to in
 ``horizon_s`` that the camera cannot see from where the robot stands, it drives to the place that sees the
-most of them per second of driving, and sweeps the camera across them there.
+most of them per second of driving, and sweeps the camera across them there. A sweep starts from whichever
+of its edges the camera faces more nearly on arriving: a drive that ends facing the far edge does not turn
+back to the near one first (hide_and_wait seed 5002, typical: 130° away from the target, and back).
 
 The loss timer is the detour's: its path length on the map over ``speed_mps``, plus the turn and
 ``look_s`` of looking, within [``min_timeout_s``, ``max_timeout_s``] — a long way round a pillar is given
@@ -81,6 +83,7 @@ class Pursuit:
     started: float
     arrived_at: float | None = None
     sweep_to: float | None = None  # peeking: after facing `aim`, turn to this heading across what it hides
+    sweep_from: float | None = None  # … or, arrived facing elsewhere: first to this edge (the nearer), then across
     swept: bool = False
     done: str = ""  # why this loss's pursuit is over ('' while it goes on)
     fallback: bool = False  # no place sees `aim`: heading for the last position instead
@@ -348,6 +351,15 @@ class PursueLastSeen(SearchLeaf):
         """Peeking: turn across what the edge hides; True while turning (the look timer starts after)."""
         if plan.sweep_to is None or plan.swept:
             return False
+        if plan.sweep_from is not None:
+            error = se3.wrap_angle(plan.sweep_from - robot.yaw)
+            if abs(error) > 0.1:
+                self.drive(0.0, turn_rate(error, 0.8))
+                self.feedback_message = (
+                    f"LOST: turning to the edge of what it went behind, {math.degrees(abs(error)):.0f}° to go"
+                )
+                return True
+            plan.sweep_from = None
         error = se3.wrap_angle(plan.sweep_to - robot.yaw)
         if abs(error) <= 0.1:
             plan.swept, plan.arrived_at = True, now
@@ -390,8 +402,11 @@ class PursueLastSeen(SearchLeaf):
             plan.glance_to = None
         close = math.hypot(v.x - robot.x, v.y - robot.y) <= ARRIVED_M
         facing = abs(bearing_to(robot, plan.aim)) <= FACING_RAD
-        if plan.arrived_at is None and close and facing:
+        if plan.arrived_at is None and close and (facing or (plan.sweep_to is not None and not plan.swept)):
             plan.arrived_at = now
+            if plan.sweep_to is not None:  # sweep from whichever edge the robot faces more nearly
+                edges = sorted((plan.view.yaw, plan.sweep_to), key=lambda a: abs(se3.wrap_angle(a - robot.yaw)))
+                plan.sweep_from, plan.sweep_to = edges
         if plan.arrived_at is not None:
             if self._look(plan, robot, now):
                 return py_trees.common.Status.RUNNING

@@ -537,6 +537,23 @@ def test_lost_that_arrives_as_its_timer_runs_out_still_sweeps_round_both_edges_b
     assert read(bbk.REASON).startswith(f"LOST: looked from ({plan.view.x:.2f}, {plan.view.y:.2f})")
 
 
+def test_lost_that_arrives_facing_the_far_edge_sweeps_from_there_rather_than_turning_back_first():
+    # the doorway above; the drive there ended with the camera on the sweep's far edge (hide_and_wait seed 5002,
+    # typical: it arrived facing almost where the target stood, turned 130° away to the aim, then swept back)
+    grid = grid_with_boxes(DOORWAY)
+    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
+    lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
+    node = PursueLastSeen()
+    scene.cycle(node)
+    plan = node.pursuit
+    near, far = plan.view.yaw, plan.sweep_to
+    scene.robot = Pose2D(plan.view.x, plan.view.y, far)
+    rates, statuses = turns(scene, node, 200)
+    assert statuses[-1] == S.FAILURE and read(bbk.REASON).startswith("LOST: looked from")
+    assert len(legs(rates)) == 1  # one turn across, from the far edge to the near one
+    assert abs(math.remainder(scene.robot.yaw - near, 2 * math.pi)) <= 0.15
+
+
 def test_a_longer_detour_gets_a_longer_loss_timer():
     timers = []
     for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
