@@ -50,6 +50,10 @@ from mission.core.blackboard import MissionState
 from mission.core.types import NavGoal, NavStatus, Pose2D, TargetTrack
 
 ARRIVED_M = 0.25  # within this of the viewpoint, facing the target's way, counts as arrived
+# … and within this, facing anywhere, when a sweep follows: where a navigator stops driving and turns to the
+# goal's heading (the sim's goal tolerance; at 0.25 m the robot stopped short of a doorway it was to look
+# through, two_rooms seed 5005 under typical)
+SWEEP_ARRIVED_M = 0.15
 FACING_RAD = 0.35
 MIN_STANDOFF_M = 0.7  # a viewpoint no closer than this to where the target went
 TURN_RATE = 1.0  # rad/s assumed for the loss timer's turn
@@ -400,9 +404,11 @@ class PursueLastSeen(SearchLeaf):
                 )
                 return py_trees.common.Status.RUNNING
             plan.glance_to = None
-        close = math.hypot(v.x - robot.x, v.y - robot.y) <= ARRIVED_M
+        off = math.hypot(v.x - robot.x, v.y - robot.y)
+        close = off <= ARRIVED_M
         facing = abs(bearing_to(robot, plan.aim)) <= FACING_RAD
-        if plan.arrived_at is None and close and (facing or (plan.sweep_to is not None and not plan.swept)):
+        sweeping = plan.sweep_to is not None and not plan.swept and off <= SWEEP_ARRIVED_M
+        if plan.arrived_at is None and close and (facing or sweeping):
             plan.arrived_at = now
             if plan.sweep_to is not None:  # sweep from whichever edge the robot faces more nearly
                 edges = sorted((plan.view.yaw, plan.sweep_to), key=lambda a: abs(se3.wrap_angle(a - robot.yaw)))
