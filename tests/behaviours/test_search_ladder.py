@@ -13,7 +13,7 @@ import pytest
 
 from mission.behaviours.belief import TargetBelief
 from mission.behaviours.line_of_sight import IsLineOfSightBlocked
-from mission.behaviours.pursue import PursueLastSeen
+from mission.behaviours.pursue import PursueLastSeen, Pursuit
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
 from mission.behaviours.search_leaf import predicted_walk
@@ -519,19 +519,23 @@ def test_lost_goes_into_the_doorway_the_target_went_through_and_looks_round_both
     assert plan.deadline - plan.started >= plan.path_m / 0.35
 
 
-def test_lost_that_arrives_as_its_timer_runs_out_still_sweeps_round_both_edges_before_handing_over():
-    # the doorway above; the drive there took all but 0.2 s of the timer (the navigator is slower than the
-    # timer's speed through turns): the sweep it came for is given in full, then its look, then SEARCH
-    grid = grid_with_boxes(DOORWAY)
-    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
+def lost_through_the_doorway() -> tuple[Scene, PursueLastSeen, Pursuit]:
+    """The doorway above, the target lost walking east through it: the scene, LOST, and its plan (a sweep)."""
+    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid_with_boxes(DOORWAY), clock=0.5)
     lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
     node = PursueLastSeen()
     scene.cycle(node)
-    plan = node.pursuit
+    return scene, node, node.pursuit
+
+
+def test_lost_that_arrives_as_its_timer_runs_out_still_sweeps_round_both_edges_before_handing_over():
+    # the doorway above; the drive there took all but 0.2 s of the timer (the navigator is slower than the
+    # timer's speed through turns): the sweep it came for is given in full, then its look, then SEARCH
+    scene, node, plan = lost_through_the_doorway()
     assert plan.sweep_to is not None
     scene.robot = Pose2D(plan.view.x, plan.view.y, math.atan2(plan.aim[1] - plan.view.y, plan.aim[0] - plan.view.x))
     scene.clock = plan.deadline - 0.2
-    rates, statuses = turns(scene, node, 200)
+    _, statuses = turns(scene, node, 200)
     assert statuses[-1] == S.FAILURE and scene.clock > plan.deadline + 1.0
     assert plan.swept and abs(math.remainder(scene.robot.yaw - plan.sweep_to, 2 * math.pi)) <= 0.15
     assert read(bbk.REASON).startswith(f"LOST: looked from ({plan.view.x:.2f}, {plan.view.y:.2f})")
@@ -540,12 +544,7 @@ def test_lost_that_arrives_as_its_timer_runs_out_still_sweeps_round_both_edges_b
 def test_lost_that_arrives_facing_the_far_edge_sweeps_from_there_rather_than_turning_back_first():
     # the doorway above; the drive there ended with the camera on the sweep's far edge (hide_and_wait seed 5002,
     # typical: it arrived facing almost where the target stood, turned 130° away to the aim, then swept back)
-    grid = grid_with_boxes(DOORWAY)
-    scene = Scene(robot=Pose2D(-1.5, 0.0, 0.0), grid=grid, clock=0.5)
-    lost_at(1.6, 0.1, last_seen=0.0, walking=(1.0, 0.0))
-    node = PursueLastSeen()
-    scene.cycle(node)
-    plan = node.pursuit
+    scene, node, plan = lost_through_the_doorway()
     near, far = plan.view.yaw, plan.sweep_to
     scene.robot = Pose2D(plan.view.x, plan.view.y, far)
     rates, statuses = turns(scene, node, 200)
