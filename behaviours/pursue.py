@@ -407,7 +407,7 @@ class PursueLastSeen(SearchLeaf):
         off = math.hypot(v.x - robot.x, v.y - robot.y)
         close = off <= ARRIVED_M
         facing = abs(bearing_to(robot, plan.aim)) <= FACING_RAD
-        sweeping = plan.sweep_to is not None and not plan.swept and off <= SWEEP_ARRIVED_M
+        sweeping = plan.sweep_to is not None and off <= SWEEP_ARRIVED_M
         if plan.arrived_at is None and close and (facing or sweeping):
             plan.arrived_at = now
             if plan.sweep_to is not None:  # sweep from whichever edge the robot faces more nearly

@@ -250,6 +250,9 @@ class Navigator:
             out = np.minimum(out, d.min(axis=1))
         return out
 
+    def _clearance_at(self, x: float, y: float) -> float:
+        return float(self.clearance(np.array([[x, y]]))[0])
+
     # -- planning ------------------------------------------------------------------------------------
     def _plan(self, pose: Pose2D, now: float) -> bool:
         assert self.goal is not None
@@ -367,7 +370,7 @@ class Navigator:
         Pure pursuit aims along the path, and a path that starts beside something (a cart that stopped next to
         the robot) grazes it: the safety stop then holds the robot turning on the spot for ever, while a
         slightly different arc, or a step back, would free it (what Nav2's DWB controller finds by sampling)."""
-        clear0 = float(self.clearance(np.array([[pose.x, pose.y]]))[0])
+        clear0 = self._clearance_at(pose.x, pose.y)
         if clear0 >= self.costmap.robot_radius + self.spec.inflation_m:
             return None  # not hemmed in: turning to the aim point is the right thing
         best, best_score = None, 0.0
@@ -380,23 +383,25 @@ class Navigator:
             ),
             (-0.1, 0.0),
         ]:
-            if self._unsafe(pose, v, w):
+            if self._unsafe(pose, v, w, clear0):
                 continue
             x, y = _rollout(pose, v, w)[-1]
-            gained = float(self.clearance(np.array([[x, y]]))[0]) - clear0
+            gained = self._clearance_at(x, y) - clear0
             score = (before - math.hypot(aim[0] - x, aim[1] - y)) + 0.5 * gained if v > 0 else gained
             if score > best_score + 1e-6:
                 best, best_score = Twist(float(v), float(w)), score
         return best
 
-    def _unsafe(self, pose: Pose2D, v: float, w: float) -> bool:
+    def _unsafe(self, pose: Pose2D, v: float, w: float, now: float | None = None) -> bool:
         """Would driving (v, ω) for the safety horizon bring the robot closer to an obstacle than allowed?
 
         Moves that do not reduce the clearance are always allowed, so a robot that ended up close to
-        something (the grid is coarser than the world) can still drive away from it.
+        something (the grid is coarser than the world) can still drive away from it. `now` is the clearance
+        where the robot stands, when the caller has it (the escape tries ~20 arcs from the same pose).
         """
-        clear = self.clearance(np.array([(pose.x, pose.y), *_rollout(pose, v, w)]))
-        now, ahead = clear[0], clear[1:]
+        ahead = self.clearance(np.array(_rollout(pose, v, w)))
+        if now is None:
+            now = self._clearance_at(pose.x, pose.y)
         return bool(np.any((ahead < self.costmap.lethal_radius) & (ahead < now - 0.005)))
 
 

@@ -1,6 +1,7 @@
 """The search ladder, rung by rung: LOST that looks (PursueLastSeen), SEARCH a (TurnToBearing), the belief of
 where a lost target can be, SEARCH b (SearchBelief: viewpoints by belief per second of travel), SEARCH d
-(GiveUpSearch), the opennav_following-style baseline (RotateSearch), and the own-footprint scan filter."""
+(GiveUpSearch) and the opennav_following-style baseline (RotateSearch). The own-footprint scan filter is in
+test_line_of_sight.py."""
 
 from __future__ import annotations
 
@@ -12,7 +13,6 @@ import py_trees
 import pytest
 
 from mission.behaviours.belief import TargetBelief
-from mission.behaviours.line_of_sight import IsLineOfSightBlocked
 from mission.behaviours.pursue import PursueLastSeen, Pursuit
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
@@ -20,17 +20,14 @@ from mission.behaviours.search_leaf import predicted_walk
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
-from mission.core.scan import scan_points, segment_width
-from mission.core.types import LaserScan, Pose2D, RobotState, TargetTrack, Twist
+from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
 from tests.helpers.behaviour_world import (
-    EXTRINSICS,
     Scene,
     ScriptedNavigator,
     board,
     grid_with_boxes,
     marker_facing,
     read,
-    scan_with_wall,
     tick,
 )
 
@@ -593,70 +590,3 @@ def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_f
     rates = [b - a for a, b in itertools.pairwise(yaws)]
     assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds about the start heading
 
-
-# ------------------------------------------------------------------------------------ no false occlusion
-def walked_away_with_a_scan_return_at(distance: float, width_m: float = 0.4) -> None:
-    """The target walked straight away from the robot at 1 m/s to (3, 0), last seen a second ago; the lidar
-    sees something `width_m` wide `distance` ahead."""
-    track = TargetTrack("target", last_seen=9.0, misses=6, pose_map=marker_facing(3.0, 0.0, math.pi))
-    track.history = [(8.0 + 0.1 * i, 2.0 + 0.1 * i, 0.0) for i in range(11)]
-    w = board()
-    bbk.set_(w, bbk.CLOCK, 10.0)
-    bbk.set_(w, bbk.ROBOT_STATE, RobotState(Pose2D(0.0, 0.0, 0.0), Twist(), 10.0))
-    bbk.set_(w, bbk.CAMERA_EXTRINSICS, EXTRINSICS)
-    bbk.set_(w, bbk.TRACKS, {"target": track})
-    bbk.set_(w, bbk.MAP, grid_with_boxes([]))
-    half_angle = math.atan2(width_m / 2, distance)
-    bbk.set_(w, bbk.SCAN, scan_with_wall(Pose2D(0.0, 0.0, 0.0), bearing=0.0, distance=distance, half_width=half_angle))
-
-
-def test_a_scan_return_on_the_targets_own_footprint_is_not_an_occluder():
-    # walking away at 1 m/s; it turned its marker away and stopped at (3.1, 0). A second later the prediction
-    # says (4, 0): the lidar sees its body at 3.1 m, nearer than the prediction — but that is the target
-    walked_away_with_a_scan_return_at(3.1)
-    node = IsLineOfSightBlocked()
-    assert tick(node) == S.FAILURE and "left the view" in node.feedback_message
-    unfiltered = IsLineOfSightBlocked(target_radius_m=0.0)  # the check before the filter: a false occlusion
-    assert tick(unfiltered) == S.SUCCESS and "scan return 3.10 m away" in unfiltered.feedback_message
-
-
-def test_a_cart_passing_beside_the_target_hides_it_even_where_its_body_could_be():
-    # the lidar's return at 2.95 m lies 5 cm before where the target was last seen, within its radius, but on
-    # a face 1.2 m wide: a cart, not the 0.4 m target, and the target is behind it
-    walked_away_with_a_scan_return_at(2.95, width_m=1.2)
-    node = IsLineOfSightBlocked()
-    assert tick(node) == S.SUCCESS and "scan return 2.95 m away" in node.feedback_message
-    walked_away_with_a_scan_return_at(2.95, width_m=0.4)  # the target's own body at the same place
-    assert tick(IsLineOfSightBlocked()) == S.FAILURE
-
-
-def test_a_wall_the_map_holds_does_not_widen_the_target_standing_flush_with_it():
-    # the scan sees one straight face at x = 3: the 0.4 m body (|y| ≤ 0.2) and, flush with it, a wall from
-    # y = 0.2 to 2 that the map holds. The thing the return ahead lies on is the body alone.
-    angles = np.linspace(-math.pi, math.pi, 360, endpoint=False)
-    ranges = np.full(360, np.inf)
-    face = (angles > math.atan2(-0.2, 3.0)) & (angles < math.atan2(2.0, 3.0))
-    ranges[face] = 3.0 / np.cos(angles[face])
-    scan = LaserScan(
-        angle_min=-math.pi,
-        angle_increment=2 * math.pi / 360,
-        ranges=ranges.astype(np.float32),
-        range_min=0.1,
-        range_max=10.0,
-        stamp=0.0,
-    )
-    ahead = int(np.argmin(np.abs(angles)))
-    robot = Pose2D(0.0, 0.0, 0.0)
-
-    def width(grid) -> float:
-        xs, ys, valid = scan_points(scan, robot, grid)
-        return segment_width(xs, ys, valid, np.asarray(scan.ranges, dtype=np.float64), scan.angle_increment, ahead)
-
-    assert width(None) > 2.0  # body and wall as one thing
-    assert 0.2 < width(grid_with_boxes([(3.0, 0.2, 3.2, 2.0)])) <= 0.45  # the body, less a cell by the wall
-
-
-def test_a_box_between_robot_and_target_is_still_an_occluder():
-    walked_away_with_a_scan_return_at(1.5)
-    node = IsLineOfSightBlocked()
-    assert tick(node) == S.SUCCESS and "scan return 1.50 m away" in node.feedback_message
