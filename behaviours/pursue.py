@@ -157,13 +157,12 @@ class PursueLastSeen(SearchLeaf):
         if view is None:  # nothing sees it: go to where it was last seen, as close as FollowTarget would
             view = approach_goal((robot.x, robot.y), aim, 0.5)
             path_m = math.hypot(view.x - robot.x, view.y - robot.y)
-        rate = min(TURN_RATE, self.readable_turn_rate())  # a long exposure slows the turns (MissionLeaf.drive)
-        turn = abs(se3.wrap_angle(view.yaw - robot.yaw)) / rate
+        turn = abs(se3.wrap_angle(view.yaw - robot.yaw)) / TURN_RATE
         glance = self.glance_heading(track, robot)
         if glance is not None:
-            turn += 2 * abs(se3.wrap_angle(glance - robot.yaw)) / rate  # there and back
+            turn += 2 * abs(se3.wrap_angle(glance - robot.yaw)) / TURN_RATE  # there and back
         if sweep_to is not None:
-            turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / rate
+            turn += abs(se3.wrap_angle(sweep_to - view.yaw)) / TURN_RATE
         wait = max(0.0, open_s - path_m / p.speed_mps) if not fallback else 0.0
         opens_at = now + open_s if wait > WAIT_STEP_S / 2 else None
         timeout = min(p.max_timeout_s, max(p.min_timeout_s, path_m / p.speed_mps + wait + turn + p.look_s))
