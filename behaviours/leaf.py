@@ -58,8 +58,7 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
     WRITES: ClassVar[tuple[Key, ...]] = ()
     COMMANDS: ClassVar[bool] = False  # True for leaves that write NAV_GOAL / TWIST
     # The smear (px) this leaf's turns may give the marker it looks for and still read it: its drive() turns no
-    # faster than the newest frame's exposure allows for that (readable_turn_rate). None: not capped (a leaf
-    # that turns with its marker in view, or stands in for a peer's behaviour).
+    # faster than the newest frame's exposure allows for that (readable_turn_rate). None: not capped.
     READABLE_SMEAR_PX: ClassVar[float | None] = None
     params: Any  # an instance of the subclass's Params
 

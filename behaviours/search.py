@@ -25,7 +25,6 @@ from mission.behaviours.approach import bearing_to
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import PREDICT_HORIZON_S, predicted_position
 from mission.behaviours.ports import port
-from mission.behaviours.search_leaf import TARGET_READABLE_SMEAR_PX
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import MissionState
@@ -43,7 +42,6 @@ class SearchSweep(MissionLeaf):
     NODE_TYPE = "Action"
     READS = (bbk.TRACKS,)
     COMMANDS = True
-    READABLE_SMEAR_PX = TARGET_READABLE_SMEAR_PX
     params: Params
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
@@ -58,8 +56,7 @@ class SearchSweep(MissionLeaf):
 
     @property
     def turn_rate(self) -> float:
-        # the sign of a turn is chosen per search; slower when the exposure would smear the target past reading
-        return min(abs(self.params.angular_speed), self.readable_turn_rate())
+        return abs(self.params.angular_speed)  # the sign of a turn is chosen per search
 
     def initialise(self) -> None:
         now = self.now()

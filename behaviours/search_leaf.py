@@ -40,12 +40,6 @@ GLANCE_EDGE_RAD = math.radians(8.0)
 GLANCE_BODY_M = 0.4  # the lidar's returns this close to the last position are the target's own body
 GLANCE_HORIZON_S = 1.0  # … and where it walked on to, at its last velocity, for at most this long since
 GLANCE_RANGE_M = 4.0  # farther than this, a target does not leave the view by walking across it in a moment
-# The smear (px) a LOST or SEARCH turn may give the target's marker and still read it. Measured on the simulation's
-# 20 cm target tag (follow_open, 16 views each, fx 416 px): `realism: harsh`'s 30 ms camera read it 16/16 at
-# 1.5–2.5 m up to 5.0 px, 9/16 at 2.5 m at 6.2 px, 0/16 at 8.7 px (its 1 rad/s turns smear 12.5 px);
-# `typical`'s 10 ms camera 16/16 there at up to 5.0 px. At 4.5 px the cap is 1.08 rad/s under `typical`, faster
-# than any search turn (≤ 1 rad/s): it slows only a longer exposure's turns (`harsh`: 0.36 rad/s).
-TARGET_READABLE_SMEAR_PX = 4.5
 
 
 class SearchLeaf(MissionLeaf):
@@ -54,7 +48,6 @@ class SearchLeaf(MissionLeaf):
     READS: ClassVar[tuple[Key, ...]] = (bbk.TRACKS, bbk.MAP, bbk.SCAN, bbk.FRAME, bbk.MOVERS)
     WRITES: ClassVar[tuple[Key, ...]] = (bbk.BELIEFS,)
     COMMANDS = True
-    READABLE_SMEAR_PX = TARGET_READABLE_SMEAR_PX
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
         super().__init__(name, **ports)

@@ -61,8 +61,8 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
     "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
     "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
-    "camera_exposure_s": (0.0, "the camera's exposure time as its driver is set (s): EXPLORE, LOST and SEARCH turn "
-                          "no faster than keeps a marker readable through the smear; 0 = not known, no cap"),
+    "camera_exposure_s": (0.0, "the camera's exposure time as its driver is set (s): EXPLORE turns no faster than "
+                          "keeps a marker readable through the smear; 0 = not known, no cap"),
     "marker_size_m": (_ARUCO_DEFAULTS.marker_size_m, "ArUco marker side length (without `config`)"),
     "dictionary": (_ARUCO_DEFAULTS.dictionary, "ArUco dictionary (without `config`); an unknown name stops the node "
                    "with the names there are"),

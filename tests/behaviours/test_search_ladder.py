@@ -16,11 +16,11 @@ from mission.behaviours.belief import TargetBelief
 from mission.behaviours.pursue import PursueLastSeen, Pursuit
 from mission.behaviours.search_give_up import GiveUpSearch
 from mission.behaviours.search_grid import line_clear, search_grid
-from mission.behaviours.search_leaf import TARGET_READABLE_SMEAR_PX, predicted_walk
+from mission.behaviours.search_leaf import predicted_walk
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
-from mission.core.types import CameraIntrinsics, Pose2D, RobotState, TargetTrack, Twist
+from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
 from tests.helpers.behaviour_world import (
     Scene,
     ScriptedNavigator,
@@ -573,21 +573,6 @@ def test_lost_hands_over_to_search_when_the_detour_takes_longer_than_its_timer()
 
 
 # ------------------------------------------------------------------------------------ the baseline
-def test_a_long_exposure_slows_the_search_turns_to_a_smear_the_targets_marker_survives():
-    # fx 416 px: a 30 ms webcam turning at 1 rad/s smears the target's tag over 12.5 px, past reading
-    lens = CameraIntrinsics(fx=416.0, fy=416.0, cx=320.0, cy=240.0, width=640, height=480)
-
-    def fastest(exposure_s: float, node: py_trees.behaviour.Behaviour) -> float:
-        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.1, camera=lens, exposure_s=exposure_s)
-        lost_at(1.0, 2.0)
-        rates, _ = turns(scene, node, 40)
-        return max(abs(w) for w in rates)
-
-    assert fastest(0.030, TurnToBearing(angular_speed=1.0)) == pytest.approx(TARGET_READABLE_SMEAR_PX / (0.030 * 416))
-    assert fastest(0.010, TurnToBearing(angular_speed=1.0)) == 1.0  # typical's 10 ms: no slower than asked
-    assert fastest(0.030, RotateSearch(angular_speed=1.0)) == 1.0  # the peer's rotation is theirs, not capped
-
-
 def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_fails():
     scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), dt=0.05)
     lost_at(2.0, 0.0)
