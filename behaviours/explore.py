@@ -70,7 +70,6 @@ class Explore(MissionLeaf):
     NODE_TYPE = "Action"
     READS = (bbk.TRACKS, bbk.FRAME)
     COMMANDS = True
-    READABLE_SMEAR_PX = READABLE_SMEAR_PX
     params: Params
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
@@ -81,7 +80,9 @@ class Explore(MissionLeaf):
     @property
     def turn_rate(self) -> float:
         """`angular_speed`, or slower when the newest frame's exposure would smear a marker past reading."""
-        return min(abs(self.params.angular_speed), self.readable_turn_rate())
+        frame: Frame | None = self.read(bbk.FRAME)
+        cap = math.inf if frame is None else frame.turn_rate_for_smear(READABLE_SMEAR_PX)
+        return min(abs(self.params.angular_speed), cap)
 
     def _rate_note(self) -> str:
         """' at 0.16 rad/s (30 ms exposure)' when the exposure slows the turn, else ''."""

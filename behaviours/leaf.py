@@ -31,7 +31,7 @@ from mission.behaviours.ports import PortsDeclared
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import Key
-from mission.core.types import Frame, NavGoal, NavStatus, Pose2D, RobotState, TargetTrack, Twist
+from mission.core.types import NavGoal, NavStatus, Pose2D, RobotState, TargetTrack, Twist
 
 log = logging.getLogger(__name__)
 
@@ -57,9 +57,6 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
     READS: ClassVar[tuple[Key, ...]] = ()
     WRITES: ClassVar[tuple[Key, ...]] = ()
     COMMANDS: ClassVar[bool] = False  # True for leaves that write NAV_GOAL / TWIST
-    # The smear (px) this leaf's turns may give the marker it looks for and still read it: its drive() turns no
-    # faster than the newest frame's exposure allows for that (readable_turn_rate). None: not capped.
-    READABLE_SMEAR_PX: ClassVar[float | None] = None
     params: Any  # an instance of the subclass's Params
 
     def __init__(self, name: str | None = None, **ports: Any) -> None:
@@ -69,8 +66,6 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
         self.params = params
         self.bb = self.attach_blackboard_client(name=name)
         reads = (bbk.CLOCK, bbk.ROBOT_STATE, bbk.CAMERA_EXTRINSICS, bbk.WORLD_FAULT, *self.READS)
-        if self.READABLE_SMEAR_PX is not None:
-            reads = (*reads, bbk.FRAME)  # the frame says its exposure
         writes = tuple(self.WRITES)
         if self.COMMANDS:
             reads = (*reads, bbk.NAV_STATUS, bbk.NAV_REASON)
@@ -167,23 +162,8 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
         self.write(bbk.NAV_GOAL, goal)
         self.write(bbk.TWIST, None)
 
-    def readable_turn_rate(self) -> float:
-        """The fastest (rad/s) this leaf may turn and still read its marker: the rate at which the newest frame's
-        exposure smears the image by READABLE_SMEAR_PX (Frame.turn_rate_for_smear). Infinite when the leaf sets
-        no smear, or no frame says its exposure (no cap is better than a guessed one)."""
-        if self.READABLE_SMEAR_PX is None:
-            return math.inf
-        frame: Frame | None = self.read(bbk.FRAME)
-        return math.inf if frame is None else frame.turn_rate_for_smear(self.READABLE_SMEAR_PX)
-
     def drive(self, v: float, w: float) -> Twist:
-        """Command a base velocity directly (overrides navigation); the turn no faster than readable_turn_rate.
-
-        Why here: a turning camera smears the image by rate × exposure × fx, and a leaf that turns to look for
-        a marker and turns past it unread has not looked. Every turn a looking leaf commands goes through here."""
-        cap = self.readable_turn_rate()
-        if abs(w) > cap:
-            w = math.copysign(cap, w)
+        """Command a base velocity directly (overrides navigation)."""
         own = self._own_twist
         # the same command as last tick is the same object: nothing new for the adapter to compare
         twist = own if own is not None and own.v == v and own.w == w else Twist(float(v), float(w))

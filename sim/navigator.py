@@ -392,16 +392,15 @@ class Navigator:
                 best, best_score = Twist(float(v), float(w)), score
         return best
 
-    def _unsafe(self, pose: Pose2D, v: float, w: float, now: float | None = None) -> bool:
+    def _unsafe(self, pose: Pose2D, v: float, w: float, clear_now: float | None = None) -> bool:
         """Would driving (v, ω) for the safety horizon bring the robot closer to an obstacle than allowed?
 
         Moves that do not reduce the clearance are always allowed, so a robot that ended up close to
-        something (the grid is coarser than the world) can still drive away from it. `now` is the clearance
+        something (the grid is coarser than the world) can still drive away from it. `clear_now` is the clearance
         where the robot stands, when the caller has it (the escape tries ~20 arcs from the same pose).
         """
         ahead = self.clearance(np.array(_rollout(pose, v, w)))
-        if now is None:
-            now = self._clearance_at(pose.x, pose.y)
+        now = self._clearance_at(pose.x, pose.y) if clear_now is None else clear_now
         return bool(np.any((ahead < self.costmap.lethal_radius) & (ahead < now - 0.005)))
 
 
