@@ -40,6 +40,19 @@ GLANCE_EDGE_RAD = math.radians(8.0)
 GLANCE_BODY_M = 0.4  # the lidar's returns this close to the last position are the target's own body
 GLANCE_HORIZON_S = 1.0  # … and where it walked on to, at its last velocity, for at most this long since
 GLANCE_RANGE_M = 4.0  # farther than this, a target does not leave the view by walking across it in a moment
+# A last reading whose marker reached this close (a fraction of the image's width) to the image's side left
+# the view that way, wherever its map position lies: the placing lags the picture (latency, a biased
+# calibration, the marker on the face rather than the centre). Under `typical`, targets last read 7–57 px
+# from the left side of a 640 px image were placed 9–14° inside the view, and no glance was taken
+# (hide_and_wait seeds 5012, 5016, 5021).
+GLANCE_EDGE_FRACTION = 0.10
+# A sight line that grazes an obstacle's corner shows the camera the target's edge, not the marker on its
+# face: to read a marker the line must pass a cell (10 cm, half the marker) clear of what hides it. Under
+# `typical`, SEARCH cleared a hiding place behind crates through a line that missed their corner by a few
+# centimetres, and walked away from the target (hide_and_wait seeds 5037, 5045). Round the camera itself the
+# obstacles are not grown (the lidar's returns of a wall the robot stands beside would hide everything).
+MARKER_MARGIN_CELLS = 1
+CAMERA_KEEP_CELLS = 2  # the (2k+1)² cells round the camera that keep their own obstacles only
 
 
 class SearchLeaf(MissionLeaf):
@@ -67,13 +80,29 @@ class SearchLeaf(MissionLeaf):
             return DEFAULT_HFOV
         return 2.0 * math.atan2(k.width / 2.0, k.fx)
 
+    def left_the_image_at(self, track: TargetTrack) -> int | None:
+        """+1 when the target's last reading touched the image's left side (within GLANCE_EDGE_FRACTION of
+        its width), −1 the right side (the signs of a turn toward it), None otherwise or with no corners."""
+        frame: Frame | None = self.read(bbk.FRAME)
+        width = None if frame is None or frame.intrinsics is None else frame.intrinsics.width
+        det = track.detection
+        if not width or det is None or det.corners is None or len(det.corners) == 0:
+            return None
+        xs = np.asarray(det.corners, dtype=float)[:, 0]
+        edge = GLANCE_EDGE_FRACTION * width
+        if float(xs.min()) <= edge:
+            return 1
+        if float(xs.max()) >= width - edge:
+            return -1
+        return None
+
     def glance_heading(self, track: TargetTrack, robot: Pose2D) -> float | None:
-        """The robot heading that centres the target's last position in the view, when the target left the
-        view through its side: that position is at or past the view's edge now, within GLANCE_RANGE_M,
+        """The robot heading that centres where the target has walked on to (its last velocity, up to
+        GLANCE_HORIZON_S) in the view, when it left the view through its side: its last reading touched the
+        image's side, or its last position is at or past the view's edge now; it is within GLANCE_RANGE_M,
         nothing the map or the lidar holds stands between it and the camera, and the map hides neither where
-        it has walked on to since (its last velocity, up to GLANCE_HORIZON_S). None otherwise (it went behind
-        something, or round a corner, or it is in view and simply not detected): turning is then no quick way
-        to see it again.
+        it has walked on to since. None otherwise (it went behind something, or round a corner, or it is in
+        view and simply not detected): turning is then no quick way to see it again.
 
         Following close behind a target that turns a corner, the robot loses it at the image's edge as often
         as behind the corner; the glance is the cheap first look a person would take."""
@@ -86,7 +115,7 @@ class SearchLeaf(MissionLeaf):
         if d > GLANCE_RANGE_M:
             return None
         off = abs(se3.wrap_angle(math.atan2(last[1] - cy, last[0] - cx) - cam_yaw))
-        if off < self.hfov() / 2 - GLANCE_EDGE_RAD:
+        if off < self.hfov() / 2 - GLANCE_EDGE_RAD and self.left_the_image_at(track) is None:
             return None
         # up to the target's body: the lidar sees the target itself, which hides nothing
         short = max(0.0, d - GLANCE_BODY_M) / max(d, 1e-9)
@@ -100,7 +129,7 @@ class SearchLeaf(MissionLeaf):
         _, ahead = predicted_walk(sg, sg.target_free(), track, since)
         if not line_clear(sg.occupied, sg, (cx, cy), ahead):
             return None
-        return math.atan2(last[1] - robot.y, last[0] - robot.x)
+        return math.atan2(ahead[1] - robot.y, ahead[0] - robot.x)
 
     # -- the map ------------------------------------------------------------------------------------
     def grid(self) -> SearchGrid | None:
@@ -111,6 +140,19 @@ class SearchLeaf(MissionLeaf):
         """What hides things from the camera now: the map's obstacles and whatever the lidar sees."""
         scan: LaserScan | None = self.read(bbk.SCAN)
         return sg.occupied | sg.scan_cells(scan, robot)
+
+    def marker_blocked(self, sg: SearchGrid, robot: Pose2D, sight: np.ndarray | None = None) -> np.ndarray:
+        """What hides a marker from the camera now: `sight` (sight_blocked, computed here when not given)
+        grown by MARKER_MARGIN_CELLS, except in the CAMERA_KEEP_CELLS window round the camera. What the
+        belief counts as looked at, and what the ladder ranks its views by."""
+        blocked = self.sight_blocked(sg, robot) if sight is None else sight
+        grown = dilate(blocked, MARKER_MARGIN_CELLS)
+        cx, cy, _ = self.camera_pose(robot)
+        r, c = sg.cell(cx, cy)
+        k = CAMERA_KEEP_CELLS
+        r0, r1, c0, c1 = max(0, r - k), max(0, r + k + 1), max(0, c - k), max(0, c + k + 1)
+        grown[r0:r1, c0:c1] = blocked[r0:r1, c0:c1]
+        return grown
 
     def mover_paths(self, sg: SearchGrid) -> np.ndarray:
         """Cells a mover wider than the target will cover within MOVER_HORIZON_S if it keeps going: no place to
@@ -202,7 +244,7 @@ class SearchLeaf(MissionLeaf):
             belief.view_range_m = view_range_m
         if self._looked_at != now:
             cx, cy, yaw = self.camera_pose(state.pose)
-            belief.look(now, (cx, cy), yaw, self.hfov(), self.sight_blocked(sg, state.pose))
+            belief.look(now, (cx, cy), yaw, self.hfov(), self.marker_blocked(sg, state.pose))
             self._looked_at = now
         return belief
 

@@ -275,6 +275,16 @@ class Navigator:
         if not cm.in_bounds(start_rc):
             return self._fail("robot is outside the map")
         cells = astar(cm.cost, start_rc, goal_rc)
+        if cells is None and cm.lethal[start_rc]:
+            # The robot (or its pose estimate: an AMCL jump under `typical`) stands in an obstacle's lethal
+            # margin, where every neighbour is impassable too: drive out to the nearest comfortable cell first.
+            # Failing instead froze the robot for good, and AMCL, which corrects only after motion, never
+            # moved the estimate back out (hide_and_wait seed 5029, typical).
+            out_rc = cm.nearest_comfortable(start_rc, goal_rc)
+            if out_rc is not None:
+                cells = astar(cm.cost, out_rc, goal_rc)
+                if cells is not None:
+                    cells = [start_rc, *cells]
         if cells is None:
             return self._fail("no path to the goal")
         pts = [start, *[cm.grid.cell_to_world(r, c) for r, c in cells[1:-1]], (gx, gy)]

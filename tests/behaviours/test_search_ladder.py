@@ -20,11 +20,12 @@ from mission.behaviours.search_leaf import predicted_walk
 from mission.behaviours.search_turn import RotateSearch, TurnToBearing
 from mission.behaviours.search_views import SearchBelief, Visit
 from mission.core import blackboard as bbk
-from mission.core.types import Pose2D, RobotState, TargetTrack, Twist
+from mission.core.types import CameraIntrinsics, Pose2D, RobotState, TargetTrack, Twist
 from tests.helpers.behaviour_world import (
     Scene,
     ScriptedNavigator,
     board,
+    detection_of,
     grid_with_boxes,
     marker_facing,
     read,
@@ -235,6 +236,30 @@ def test_lost_glances_at_a_target_seen_too_briefly_to_tell_a_walk_south_from_the
     assert node.feedback_message.startswith("LOST: turning to where target left the view")
 
 
+def test_lost_glances_where_the_marker_was_last_read_at_the_images_side_though_its_placing_is_inside_the_view():
+    # last placed 17° left of the heading, well inside the 70° view, walking north (left) at 0.5 m/s; the placing
+    # lags the picture (latency, calibration, the marker on the target's face), and its last reading touched
+    # the image's left side: it left that way. Read mid-image instead, it is in view and simply not detected.
+    def glance(corner_xs: tuple[float, float] | None) -> tuple[float | None, str]:
+        scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([]), clock=1.0)
+        scene.camera = CameraIntrinsics(fx=457.0, fy=457.0, cx=320.0, cy=240.0, width=640, height=480)
+        track = lost_at(2.0, -0.4, last_seen=0.0, walking=(0.0, 0.5))
+        if corner_xs is not None:
+            x0, x1 = corner_xs
+            track.detection = detection_of(track.pose_map, Pose2D(0.0, -1.0, 0.0))
+            track.detection.corners = np.array([[x0, 200.0], [x1, 200.0], [x1, 260.0], [x0, 260.0]])
+        node = PursueLastSeen()
+        scene.cycle(node)
+        return node.pursuit.glance_to, node.feedback_message
+
+    assert glance(None)[0] is None
+    assert glance((280.0, 340.0))[0] is None
+    at_the_side, feedback = glance((7.0, 57.0))
+    assert feedback.startswith("LOST: turning to where target left the view")
+    # it centres where the target has walked on to in the second since, not where it was last placed
+    assert at_the_side == pytest.approx(math.atan2(-0.4 + 0.5 + 1.0, 2.0), abs=0.05)
+
+
 def test_a_target_placed_in_a_doorways_margin_still_walks_on_through_the_door():
     # a wall along y ≈ 1.1 with a doorway from x = 0 to 0.8; the target walks north through it at 0.8 m/s, and
     # the localisation's error places it 15 cm from the left jamb, where its centre cannot stand. Where it went
@@ -252,6 +277,23 @@ def test_a_target_placed_in_a_doorways_margin_still_walks_on_through_the_door():
 
 # ------------------------------------------------------------------------------------ the belief
 WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
+
+
+def test_the_belief_counts_a_place_looked_at_only_where_the_camera_could_read_a_marker_there():
+    # a crate north of y = 0 from x = 1.0 to 1.4; the camera looks east past its south-west corner. The sight
+    # line to (2.5, −0.15) misses the corner by 5 cm: the camera sees the target's edge there, not the marker on
+    # its face (hide_and_wait, typical: SEARCH cleared the place the target stood behind the crates through such
+    # a line, and walked away). A place well clear of the corner is looked at.
+    grid = grid_with_boxes([(1.0, 0.0, 1.4, 1.0)])
+    sg = search_grid(grid)
+    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, clock=0.5)
+    track = lost_at(2.5, -0.15, last_seen=0.0)
+    bbk.set_(board(), bbk.BELIEFS, {track.name: TargetBelief.start("target", 0.0, (2.5, -0.15), None, sg, 0.5)})
+    scene.cycle(TurnToBearing())
+    seen = read(bbk.BELIEFS)["target"].seen
+    assert line_clear(sg.occupied, sg, (0.15, 0.0), (2.5, -0.15))  # in plain sight, just
+    assert not seen[sg.cell(2.5, -0.15)]
+    assert seen[sg.cell(2.5, -0.6)]  # 22 cm clear of the corner
 
 
 def test_the_belief_grows_with_the_targets_top_speed_and_does_not_go_through_walls():
@@ -551,14 +593,18 @@ def test_lost_that_arrives_facing_the_far_edge_sweeps_from_there_rather_than_tur
 
 
 def test_a_longer_detour_gets_a_longer_loss_timer():
-    timers = []
+    # (the timer's cap lifted: the longer detour's place, which must see the target a cell clear of the wall's
+    # end, takes longer than the default 12 s)
+    timers, paths = [], []
     for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
         bbk.set_(board(), bbk.BELIEFS, {})
         scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([wall]), clock=0.5)
         lost_at(2.0, -1.0, last_seen=0.0)
-        node = PursueLastSeen()
+        node = PursueLastSeen(max_timeout_s=30.0)
         scene.cycle(node)
         timers.append(node.pursuit.deadline - node.pursuit.started)
+        paths.append(node.pursuit.path_m)
+    assert paths[1] > paths[0] + 1.0
     assert timers[1] > timers[0] + 3.0
 
 

@@ -263,3 +263,22 @@ def test_a_robot_whose_pose_estimate_is_off_keeps_its_safety_margin_from_a_wall_
     closest = 4.5 - max(p.y for p in loop.trajectory)
     assert closest >= 0.22 + 0.015  # the robot's radius and (near enough) the navigator's 2 cm safety margin
     assert truth.collisions == 0 and truth.robot.x > 6.3
+
+
+def test_a_robot_whose_pose_estimate_jumped_into_an_obstacles_margin_drives_out_and_on_to_its_goal() -> None:
+    # An AMCL relocalization put the estimate 12 cm off, 0.13 m from a crate's face: inside the navigator's
+    # lethal margin, where every plan from there fails. The robot must drive out and on; frozen instead, it never
+    # moved again, and AMCL (which corrects only after motion) never took the estimate back out (hide_and_wait
+    # seed 5029, typical).
+    crate = {"name": "crate", "shape": "box", "x": 2.0, "y": 4.45, "size": [1.2, 0.3, 0.5]}  # its face at y = 4.3
+    loc = {"odom_noise_m_per_m": 1e-9, "amcl": False}
+    loop = Loop(scenario({"x": 2.0, "y": 4.05, "yaw_deg": 90.0}, obstacles=[crate], localization=loc))
+    try:
+        loop.adapter.localization.map_from_odom = Pose2D(0.0, 0.12, 0.0)
+        loop.command(goal=Pose2D(5.0, 3.0, 0.0))
+        loop.run_until(NavStatus.SUCCEEDED, timeout_s=30.0)
+        truth = loop.adapter.ground_truth()
+    finally:
+        loop.close()
+    assert math.hypot(truth.robot.x - 5.0, truth.robot.y - 2.88) <= 0.15  # the goal, less the estimate's 12 cm
+    assert truth.collisions == 0
