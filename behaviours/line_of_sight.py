@@ -156,17 +156,19 @@ STEADY_SIGNIFICANCE = 2.0
 
 
 def fitted_velocity(track: TargetTrack, window_s: float = 1.0, *, steady: bool = False) -> tuple[float, float] | None:
-    """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its history,
-    clamped to MAX_SPEED; None when too few sightings span too short a time to tell.
+    """The target's map velocity (m/s) when last seen: least squares over the last `window_s` of its centre's
+    placings (TargetTrack.centres; its `history` when none were kept), clamped to MAX_SPEED; None when too few
+    sightings span too short a time to tell.
 
     With `steady`, also None when the sightings span less than STEADY_SPAN_S or the speed is under
     STEADY_SIGNIFICANCE standard errors of the fit (neither tells a walk from the positions' noise), or when
     the target was turning: the halves of the window point more than
     TURNING_RAD apart. A target tracked by a marker on its face that turns at a corner moves the marker
     round its centre, and a fit over that says it walked off the wrong way (the search then looks there)."""
-    if track.last_seen is None or len(track.history) < 3:
+    points = track.centres or track.history  # the centre's walk, not the marker's swing round it
+    if track.last_seen is None or len(points) < 3:
         return None
-    recent = np.array([h for h in track.history if h[0] >= track.last_seen - window_s])
+    recent = np.array([h for h in points if h[0] >= track.last_seen - window_s])
     if len(recent) < 3 or recent[-1, 0] - recent[0, 0] < (STEADY_SPAN_S if steady else 0.2) - 1e-6:
         return None
     vx, vy = least_squares_velocity(recent)

@@ -23,6 +23,7 @@ time through the camera extrinsics, and the summary says so.
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 import py_trees
@@ -31,7 +32,7 @@ from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
 from mission.core.perception import Perceived, PerceptionSource
-from mission.core.types import Frame, RobotState, TargetTrack
+from mission.core.types import Detection, Frame, RobotState, TargetTrack
 from mission.perception_plugins.target_matching import SourcedDetection, assign, detection_problem
 
 log = logging.getLogger(__name__)
@@ -81,6 +82,27 @@ def source_statuses(sources: list[PerceptionSource]) -> dict[str, dict]:
         except Exception as err:
             out[source_name(src)] = {"status_error": f"{type(err).__name__}: {err}"}
     return out
+
+
+def body_centre(
+    T_map_target: np.ndarray, T_map_camera: np.ndarray, det: Detection, depth_m: float
+) -> tuple[float, float]:
+    """The target's centre in the map (x, y): `depth_m` behind what was detected (TargetSpec.body_depth_m).
+
+    A fiducial's pose gives its face's normal (marker z, out of the face): the centre is behind the face along
+    it, wherever the target has turned. A coarse source (a VLM's back-projected point) gives no orientation to
+    trust, and a marker lying flat no horizontal normal: the centre is then behind the point along the line
+    of sight."""
+    x, y = float(T_map_target[0, 3]), float(T_map_target[1, 3])
+    if depth_m <= 0:
+        return x, y
+    back = (-float(T_map_target[0, 2]), -float(T_map_target[1, 2]))
+    if det.marker_id is None or math.hypot(*back) < 0.5:
+        back = (x - float(T_map_camera[0, 3]), y - float(T_map_camera[1, 3]))
+    n = math.hypot(*back)
+    if n < 1e-6:
+        return x, y
+    return x + depth_m * back[0] / n, y + depth_m * back[1] / n
 
 
 class PerceptionStage:
@@ -304,6 +326,8 @@ class PerceptionStage:
             tr.robot_at_last_seen = robot.pose if robot is not None else None
             tr.history.append((stamp, float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3])))
             tr.history[:] = [h for h in tr.history[-HISTORY_MAX:] if h[0] >= stamp - HISTORY_S]
+            tr.centres.append((stamp, *body_centre(tr.pose_map, T_map_camera, det, self.targets[name].body_depth_m)))
+            tr.centres[:] = [h for h in tr.centres[-HISTORY_MAX:] if h[0] >= stamp - HISTORY_S]
             notes.append(
                 f"{name} seen {det.distance:.2f} m by {hit.source} "
                 f"at ({tr.pose_map[0, 3]:.2f}, {tr.pose_map[1, 3]:.2f})"

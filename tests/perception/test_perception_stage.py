@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from mission.behaviours.line_of_sight import fitted_velocity
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.config import TargetSpec
@@ -208,6 +209,28 @@ def test_history_keeps_recent_map_positions_only():
     hist = read(bbk.TRACKS)["target"].history
     assert 28 <= len(hist) <= 31 and hist[-1][0] - hist[0][0] <= 2.0
     assert all(abs(x - 2.0) < 1e-9 for _, x, _ in hist)
+
+
+def test_a_target_turning_on_the_spot_does_not_seem_to_walk():
+    # a 0.4 m box standing at (2, 0) turns on the spot at 0.6 rad/s in front of the robot; its tag, on its face,
+    # swings 0.2 m round its centre. Told how deep the body is, the stage keeps the centre, which stands still.
+    def speed(body_depth_m: float) -> float:
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0))
+        targets = {"target": TargetSpec(marker_id=7, body_depth_m=body_depth_m)}
+        stage = PerceptionStage([scene.source()], targets, "hybrid")
+        for i in range(16):  # 1 s at 15 Hz, the face from 25° one side of the robot to 25° the other
+            facing = math.pi - 0.3 + 0.6 * i / 15
+            scene.marker = marker_facing(2.0 + 0.2 * math.cos(facing), 0.2 * math.sin(facing), facing)
+            step(scene, stage)
+        track = read(bbk.TRACKS)["target"]
+        if body_depth_m:
+            assert all(math.hypot(x - 2.0, y) < 1e-6 for _, x, y in track.centres)
+        v = fitted_velocity(track)
+        assert v is not None
+        return math.hypot(*v)
+
+    assert speed(0.0) > 0.1  # the marker's swing, fitted as a walk
+    assert speed(0.2) < 0.01
 
 
 def test_without_extrinsics_the_camera_is_assumed_at_the_base_and_the_summary_says_so():
