@@ -251,13 +251,7 @@ class PursueLastSeen(SearchLeaf):
         walk_m = travel_distances(free, sg.cell(*last), sg.resolution)
         cam = self.camera_pose(robot)
         visible = view_cells(
-            sg,
-            self.marker_blocked(sg, robot, blocked),
-            (cam[0], cam[1]),
-            0.0,
-            2 * math.pi,
-            p.max_standoff_m + PEEK_SEEN_FROM_HERE_M,
-            min_range_m=0.05,
+            sg, blocked, (cam[0], cam[1]), 0.0, 2 * math.pi, p.max_standoff_m + PEEK_SEEN_FROM_HERE_M, min_range_m=0.05
         )
         return (walk_m <= PEEK_SPEED_MPS * p.horizon_s) & free & ~visible
 
@@ -290,8 +284,7 @@ class PursueLastSeen(SearchLeaf):
         idx = np.argwhere(lattice)
         xs, ys = sg.centres()
         cx, cy = xs[idx[:, 0], idx[:, 1]], ys[idx[:, 0], idx[:, 1]]
-        # a crossing cart will be in the way of the view by then; a marker is read a cell clear of corners
-        through = self.marker_blocked(sg, robot, blocked) | self.mover_paths(sg)
+        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
         masses = ray_masses(sg, through, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         score = masses.sum(axis=1) / (dist[idx[:, 0], idx[:, 1]] / p.speed_mps + 1.0)
         here = int(np.flatnonzero((idx[:, 0] == nearest[0]) & (idx[:, 1] == nearest[1]))[0])
@@ -332,8 +325,7 @@ class PursueLastSeen(SearchLeaf):
         hidden = self._hidden(sg, robot, blocked, last)
         if int(hidden.sum()) < PEEK_MIN_CELLS:
             return None
-        # a crossing cart will be in the way of the view by then; a marker is read a cell clear of corners
-        through = self.marker_blocked(sg, robot, blocked) | self.mover_paths(sg)
+        through = blocked | self.mover_paths(sg)  # a crossing cart will be in the way of the view by then
         masses = ray_masses(sg, through, hidden.astype(np.float32), cx, cy, RAYS, p.max_standoff_m + PEEK_REACH_M)
         seen = masses.sum(axis=1)  # all it hides that the place sees, turning across it
         score = seen / (travel / p.speed_mps + 1.0)

@@ -46,13 +46,6 @@ GLANCE_RANGE_M = 4.0  # farther than this, a target does not leave the view by w
 # from the left side of a 640 px image were placed 9–14° inside the view, and no glance was taken
 # (hide_and_wait seeds 5012, 5016, 5021).
 GLANCE_EDGE_FRACTION = 0.10
-# A sight line that grazes an obstacle's corner shows the camera the target's edge, not the marker on its
-# face: to read a marker the line must pass a cell (10 cm, half the marker) clear of what hides it. Under
-# `typical`, SEARCH cleared a hiding place behind crates through a line that missed their corner by a few
-# centimetres, and walked away from the target (hide_and_wait seeds 5037, 5045). Round the camera itself the
-# obstacles are not grown (the lidar's returns of a wall the robot stands beside would hide everything).
-MARKER_MARGIN_CELLS = 1
-CAMERA_KEEP_CELLS = 2  # the (2k+1)² cells round the camera that keep their own obstacles only
 
 
 class SearchLeaf(MissionLeaf):
@@ -140,19 +133,6 @@ class SearchLeaf(MissionLeaf):
         """What hides things from the camera now: the map's obstacles and whatever the lidar sees."""
         scan: LaserScan | None = self.read(bbk.SCAN)
         return sg.occupied | sg.scan_cells(scan, robot)
-
-    def marker_blocked(self, sg: SearchGrid, robot: Pose2D, sight: np.ndarray | None = None) -> np.ndarray:
-        """What hides a marker from the camera now: `sight` (sight_blocked, computed here when not given)
-        grown by MARKER_MARGIN_CELLS, except in the CAMERA_KEEP_CELLS window round the camera. What the
-        belief counts as looked at, and what the ladder ranks its views by."""
-        blocked = self.sight_blocked(sg, robot) if sight is None else sight
-        grown = dilate(blocked, MARKER_MARGIN_CELLS)
-        cx, cy, _ = self.camera_pose(robot)
-        r, c = sg.cell(cx, cy)
-        k = CAMERA_KEEP_CELLS
-        r0, r1, c0, c1 = max(0, r - k), max(0, r + k + 1), max(0, c - k), max(0, c + k + 1)
-        grown[r0:r1, c0:c1] = blocked[r0:r1, c0:c1]
-        return grown
 
     def mover_paths(self, sg: SearchGrid) -> np.ndarray:
         """Cells a mover wider than the target will cover within MOVER_HORIZON_S if it keeps going: no place to
@@ -244,7 +224,7 @@ class SearchLeaf(MissionLeaf):
             belief.view_range_m = view_range_m
         if self._looked_at != now:
             cx, cy, yaw = self.camera_pose(state.pose)
-            belief.look(now, (cx, cy), yaw, self.hfov(), self.marker_blocked(sg, state.pose))
+            belief.look(now, (cx, cy), yaw, self.hfov(), self.sight_blocked(sg, state.pose))
             self._looked_at = now
         return belief
 

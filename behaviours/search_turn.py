@@ -143,7 +143,7 @@ class TurnToBearing(SearchLeaf):
         if state is None or sg is None:
             return None
         cx, cy, cam_yaw = self.camera_pose(state.pose)
-        blocked = self.marker_blocked(sg, state.pose)
+        blocked = self.sight_blocked(sg, state.pose)
         weights = belief.weights()
         return ray_masses(sg, blocked, weights, np.array([cx]), np.array([cy]), RAYS, belief.view_range_m)[0], cam_yaw
 

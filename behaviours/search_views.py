@@ -269,8 +269,7 @@ class ViewpointSearch(SearchLeaf):
         cy = np.concatenate([[robot.y], ys[idx[:, 0], idx[:, 1]]])
         travel = np.concatenate([[0.0], dist[idx[:, 0], idx[:, 1]]])
         weights = self.weights(belief)
-        through = self.marker_blocked(sg, robot, blocked) | self.mover_paths(sg)
-        masses = ray_masses(sg, through, weights, cx, cy, RAYS, belief.view_range_m)
+        masses = ray_masses(sg, blocked | self.mover_paths(sg), weights, cx, cy, RAYS, belief.view_range_m)
         width, sweep = self._windows()
         seen, start = best_window(masses, width)
         swept = self.hunt.swept_at if self.hunt is not None else None
@@ -316,7 +315,7 @@ class ViewpointSearch(SearchLeaf):
         """From the place (x, y): the weight each direction sees, the most its best window sees, and that window's
         first direction (what _best ranks every candidate by, for one place)."""
         sg = belief.grid
-        blocked = self.marker_blocked(sg, robot) | self.mover_paths(sg)
+        blocked = self.sight_blocked(sg, robot) | self.mover_paths(sg)
         masses = ray_masses(sg, blocked, self.weights(belief), np.array([x]), np.array([y]), RAYS, belief.view_range_m)
         seen, start = best_window(masses, self._windows()[0])
         return masses[0], float(seen[0]), int(start[0])

@@ -279,23 +279,6 @@ def test_a_target_placed_in_a_doorways_margin_still_walks_on_through_the_door():
 WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
 
 
-def test_the_belief_counts_a_place_looked_at_only_where_the_camera_could_read_a_marker_there():
-    # a crate north of y = 0 from x = 1.0 to 1.4; the camera looks east past its south-west corner. The sight
-    # line to (2.5, −0.15) misses the corner by 5 cm: the camera sees the target's edge there, not the marker on
-    # its face (hide_and_wait, typical: SEARCH cleared the place the target stood behind the crates through such
-    # a line, and walked away). A place well clear of the corner is looked at.
-    grid = grid_with_boxes([(1.0, 0.0, 1.4, 1.0)])
-    sg = search_grid(grid)
-    scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, clock=0.5)
-    track = lost_at(2.5, -0.15, last_seen=0.0)
-    bbk.set_(board(), bbk.BELIEFS, {track.name: TargetBelief.start("target", 0.0, (2.5, -0.15), None, sg, 0.5)})
-    scene.cycle(TurnToBearing())
-    seen = read(bbk.BELIEFS)["target"].seen
-    assert line_clear(sg.occupied, sg, (0.15, 0.0), (2.5, -0.15))  # in plain sight, just
-    assert not seen[sg.cell(2.5, -0.15)]
-    assert seen[sg.cell(2.5, -0.6)]  # 22 cm clear of the corner
-
-
 def test_the_belief_grows_with_the_targets_top_speed_and_does_not_go_through_walls():
     sg = search_grid(grid_with_boxes([WALL]))
     belief = TargetBelief.start("target", 0.0, (0.0, -1.0), None, sg, now=0.0, speed_mps=1.0)
@@ -593,18 +576,14 @@ def test_lost_that_arrives_facing_the_far_edge_sweeps_from_there_rather_than_tur
 
 
 def test_a_longer_detour_gets_a_longer_loss_timer():
-    # (the timer's cap lifted: the longer detour's place, which must see the target a cell clear of the wall's
-    # end, takes longer than the default 12 s)
-    timers, paths = [], []
+    timers = []
     for wall in [(1.0, -4.0, 1.2, 0.0), (1.0, -4.0, 1.2, 2.5)]:  # the wall's north end 1 m, then 3.5 m away
         bbk.set_(board(), bbk.BELIEFS, {})
         scene = Scene(robot=Pose2D(0.0, -1.0, 0.0), grid=grid_with_boxes([wall]), clock=0.5)
         lost_at(2.0, -1.0, last_seen=0.0)
-        node = PursueLastSeen(max_timeout_s=30.0)
+        node = PursueLastSeen()
         scene.cycle(node)
         timers.append(node.pursuit.deadline - node.pursuit.started)
-        paths.append(node.pursuit.path_m)
-    assert paths[1] > paths[0] + 1.0
     assert timers[1] > timers[0] + 3.0
 
 
