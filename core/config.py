@@ -239,8 +239,8 @@ class TargetSpec(StrictModel):
     label: str | None = None  # detection label (an AprilTag's entity name, the VLM source's label)
     source: str | None = None  # instance name of the source that must have produced the detection
     # A lost target's walk is fitted from its centre, which does not swing round as it turns (about 0.15 m
-    # for a tag on a person's back). Not set in the sim configs: on the ideal gate it made no search better and
-    # hide_and_wait seed 9 slower (6.7 → 11.4 s), the target turning a corner just as it was lost.
+    # for a tag on a person's back). Not set in the sim configs: at 0.2 m it made hide_and_wait seed 9 slower
+    # under `ideal` (6.7 → 11.4 s), the target turning a corner just as it was lost.
     body_depth_m: float = Field(0.0, ge=0, le=2.0)  # m from the marker (or the VLM's point) back to the centre
 
 
