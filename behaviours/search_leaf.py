@@ -73,21 +73,17 @@ class SearchLeaf(MissionLeaf):
             return DEFAULT_HFOV
         return 2.0 * math.atan2(k.width / 2.0, k.fx)
 
-    def left_the_image_at(self, track: TargetTrack) -> int | None:
-        """+1 when the target's last reading touched the image's left side (within GLANCE_EDGE_FRACTION of
-        its width), −1 the right side (the signs of a turn toward it), None otherwise or with no corners."""
+    def left_through_the_images_side(self, track: TargetTrack) -> bool:
+        """Did the target's last reading touch the image's left or right side (within GLANCE_EDGE_FRACTION of
+        its width)? False without the image's width or the reading's corners."""
         frame: Frame | None = self.read(bbk.FRAME)
         width = None if frame is None or frame.intrinsics is None else frame.intrinsics.width
         det = track.detection
         if not width or det is None or det.corners is None or len(det.corners) == 0:
-            return None
+            return False
         xs = np.asarray(det.corners, dtype=float)[:, 0]
         edge = GLANCE_EDGE_FRACTION * width
-        if float(xs.min()) <= edge:
-            return 1
-        if float(xs.max()) >= width - edge:
-            return -1
-        return None
+        return float(xs.min()) <= edge or float(xs.max()) >= width - edge
 
     def glance_heading(self, track: TargetTrack, robot: Pose2D) -> float | None:
         """The robot heading that centres where the target has walked on to (its last velocity, up to
@@ -108,7 +104,7 @@ class SearchLeaf(MissionLeaf):
         if d > GLANCE_RANGE_M:
             return None
         off = abs(se3.wrap_angle(math.atan2(last[1] - cy, last[0] - cx) - cam_yaw))
-        if off < self.hfov() / 2 - GLANCE_EDGE_RAD and self.left_the_image_at(track) is None:
+        if off < self.hfov() / 2 - GLANCE_EDGE_RAD and not self.left_through_the_images_side(track):
             return None
         # up to the target's body: the lidar sees the target itself, which hides nothing
         short = max(0.0, d - GLANCE_BODY_M) / max(d, 1e-9)

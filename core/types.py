@@ -373,6 +373,6 @@ class TargetTrack:
     history: list[tuple[float, float, float]] = field(default_factory=list)
     # … and of its centre, body_depth_m behind the marker (perception.targets): what its velocity is fitted
     # from. A target turning on the spot swings a marker on its face round its centre, and a fit over the
-    # marker's placings says it walked off (hide_and_wait seed 9: 0.45 m/s north-east, walking west). Empty
-    # when only `history` was kept (a track written by hand): the velocity is fitted from `history` then.
+    # marker's placings says it walked off. Empty when body_depth_m is 0 (the centre is the marker) or the
+    # track was written by hand: the velocity is fitted from `history` then.
     centres: list[tuple[float, float, float]] = field(default_factory=list)

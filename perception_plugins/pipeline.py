@@ -84,6 +84,12 @@ def source_statuses(sources: list[PerceptionSource]) -> dict[str, dict]:
     return out
 
 
+def _keep_recent(points: list[tuple[float, float, float]], point: tuple[float, float, float]) -> None:
+    """Append (stamp, x, y) and drop what is older than HISTORY_S before it (at most HISTORY_MAX kept)."""
+    points.append(point)
+    points[:] = [h for h in points[-HISTORY_MAX:] if h[0] >= point[0] - HISTORY_S]
+
+
 def body_centre(
     T_map_target: np.ndarray, T_map_camera: np.ndarray, det: Detection, depth_m: float
 ) -> tuple[float, float]:
@@ -94,8 +100,6 @@ def body_centre(
     trust, and a marker lying flat no horizontal normal: the centre is then behind the point along the line
     of sight."""
     x, y = float(T_map_target[0, 3]), float(T_map_target[1, 3])
-    if depth_m <= 0:
-        return x, y
     back = (-float(T_map_target[0, 2]), -float(T_map_target[1, 2]))
     if det.marker_id is None or math.hypot(*back) < 0.5:
         back = (x - float(T_map_camera[0, 3]), y - float(T_map_camera[1, 3]))
@@ -324,10 +328,10 @@ class PerceptionStage:
                 continue
             tr.pose_map = se3.compose(T_map_camera, se3.from_pos_quat(det.position, det.orientation))
             tr.robot_at_last_seen = robot.pose if robot is not None else None
-            tr.history.append((stamp, float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3])))
-            tr.history[:] = [h for h in tr.history[-HISTORY_MAX:] if h[0] >= stamp - HISTORY_S]
-            tr.centres.append((stamp, *body_centre(tr.pose_map, T_map_camera, det, self.targets[name].body_depth_m)))
-            tr.centres[:] = [h for h in tr.centres[-HISTORY_MAX:] if h[0] >= stamp - HISTORY_S]
+            _keep_recent(tr.history, (stamp, float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3])))
+            depth_m = self.targets[name].body_depth_m
+            if depth_m > 0:  # at 0 the centre is the marker: the velocity is fitted from `history`
+                _keep_recent(tr.centres, (stamp, *body_centre(tr.pose_map, T_map_camera, det, depth_m)))
             notes.append(
                 f"{name} seen {det.distance:.2f} m by {hit.source} "
                 f"at ({tr.pose_map[0, 3]:.2f}, {tr.pose_map[1, 3]:.2f})"
