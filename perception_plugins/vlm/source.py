@@ -103,6 +103,7 @@ class VlmParams(StrictModel):
     min_consecutive_detections: int = Field(3, ge=1)  # agreeing answers needed to latch
     latch_position_tolerance_m: float = Field(0.10, gt=0.0)  # answers agree when this close in the map frame
     latch_bearing_tolerance_rad: float = Field(0.08, ge=0.0)  # or this bearing apart at their range (heading error)
+    target_speed_mps: float = Field(1.0, ge=0.0)  # m/s: an answer off the last one by no more is the object moved
     max_failed_latch_attempts: int = Field(5, ge=1)  # failures before the circuit breaker stops calls
     # the pose from depth
     patch_radius_m: float = Field(0.05, gt=0.0)  # depth patch around the answered pixel
@@ -522,7 +523,10 @@ class VlmSource:
         """True when the answer is dropped: it lies off the agreeing answers so far *and* at a depth they
         contradict (seen from this image, the run's place is nearer or farther by more than
         depth_tolerance_m) — a point read in the wrong convention lands on the wall or the floor. Two such
-        answers agreeing with each other are the target somewhere else: the consensus restarts with both.
+        answers agreeing with each other are the target somewhere else: the consensus restarts with both. So
+        does one no farther from the newest agreeing answer than the target walks (target_speed_mps) in the
+        time between them: a person carrying the object away at 0.3 m/s was three misreads a run before (the
+        sim's vlm_discovery, every seed), and now and then a swap that happened to fit named a false cause.
         Whether swapping x and y would have hit the run is the likely cause."""
         p = self.params
         run = self.latch.run
@@ -542,6 +546,12 @@ class VlmSource:
         if abs(float(np.linalg.norm(seen)) - float(np.linalg.norm(in_cam))) <= depth_tolerance:
             self._inconsistent_candidate = None
             return False  # the same depth elsewhere: the target moved (the consensus restarts)
+        newest = max(run, key=lambda c: c.stamp)
+        walked = p.target_speed_mps * max(0.0, candidate.stamp - newest.stamp)
+        if float(np.linalg.norm(here - newest.T_anchor_target[:3, 3])) <= within + walked:
+            self._inconsistent_candidate = None
+            self.counters["target_moved"] += 1
+            return False  # as far from the newest answer as the target can walk since: it walked on (restarts)
         last = self._inconsistent_candidate
         if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= agree_within_m(
             last, candidate, p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad

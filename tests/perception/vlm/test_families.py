@@ -319,17 +319,39 @@ def test_a_point_read_in_the_wrong_order_lands_off_the_others_depth_is_dropped_a
     assert np.linalg.norm(src.latch.T_anchor_target[:3, 3] - face) < 0.05
 
 
+def right_answer(frame, box) -> str:
+    """A 0-1000 [y, x] answer that points at the box's front face in `frame` (taken from CAM)."""
+    k = frame.intrinsics
+    u, v = k.project(se3.apply(se3.invert(CAM), box_front_face(box)[:3, 3])[None, :])[0]
+    return json.dumps([{"point": [round(v / k.height * 1000), round(u / k.width * 1000)], "label": "red box"}])
+
+
+def test_a_target_walking_away_between_answers_has_moved_and_is_not_called_misread(tmp_path):
+    """A person carrying the box walks away at 0.3 m/s; a model that reads it right answers once a second. Each
+    answer is off the last one's depth by 0.3 m, farther than the depth tolerance: as far as the box can walk
+    in the time between them, so the box moved — no answer is held back as misread, none names a cause."""
+    boxes = [Box((3.0 + 0.3 * i, 0.3, 0.25), BOX.size, BOX.bgr, yaw=0.2) for i in range(6)]
+    frames = [render(Scene([b]), CAM, stamp=float(i)) for i, b in enumerate(boxes)]
+
+    with FakeModelServer("openai") as server:
+        server.script(*[Reply.answer(right_answer(f, b)) for f, b in zip(frames, boxes, strict=True)])
+        src, clock = source_on(server, tmp_path, depth_tolerance_m=0.1)
+        for f in frames:
+            ask(src, clock, f, 1)
+        st = src.status()
+        src.close()
+    assert st["model_calls"] == 6
+    assert st.get("answers_misread", 0) == 0 and st.get("answers_off_depth", 0) == 0
+    assert st["target_moved"] >= 1 and st["misread_cause"] == ""
+
+
 def test_a_target_seen_twice_at_a_new_depth_has_moved_and_the_consensus_restarts(tmp_path):
     near = Box((2.0, 0.2, 0.25), BOX.size, BOX.bgr, yaw=0.2)
     frames = [render(Scene([b]), CAM) for b in (BOX, near)]
 
-    def point(frame, box) -> str:
-        k = frame.intrinsics
-        u, v = k.project(se3.apply(se3.invert(CAM), box_front_face(box)[:3, 3])[None, :])[0]
-        return json.dumps([{"point": [round(v / k.height * 1000), round(u / k.width * 1000)], "label": "red box"}])
-
     with FakeModelServer("openai") as server:
-        server.script(*[Reply.answer(point(frames[0], BOX))] * 2, *[Reply.answer(point(frames[1], near))] * 3)
+        there, here = Reply.answer(right_answer(frames[0], BOX)), Reply.answer(right_answer(frames[1], near))
+        server.script(*[there] * 2, *[here] * 3)
         src, clock = source_on(server, tmp_path)
         ask(src, clock, frames[0], 2)
         ask(src, clock, frames[1], 3)
