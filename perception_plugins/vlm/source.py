@@ -103,7 +103,7 @@ class VlmParams(StrictModel):
     min_consecutive_detections: int = Field(3, ge=1)  # agreeing answers needed to latch
     latch_position_tolerance_m: float = Field(0.10, gt=0.0)  # answers agree when this close in the map frame
     latch_bearing_tolerance_rad: float = Field(0.08, ge=0.0)  # or this bearing apart at their range (heading error)
-    target_speed_mps: float = Field(1.0, ge=0.0)  # m/s: an answer off the last one by no more is the object moved
+    target_speed_mps: float = Field(1.0, ge=0.0)  # m/s it may move between answers: that far off is no misread
     max_failed_latch_attempts: int = Field(5, ge=1)  # failures before the circuit breaker stops calls
     # the pose from depth
     patch_radius_m: float = Field(0.05, gt=0.0)  # depth patch around the answered pixel
