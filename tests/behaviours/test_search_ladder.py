@@ -615,3 +615,29 @@ def test_rotate_search_turns_to_plus_and_minus_ninety_degrees_three_times_then_f
     rates = [b - a for a, b in itertools.pairwise(yaws)]
     assert legs(rates)[:6] == [+1, -1] * 3  # left, right: three rounds about the start heading
 
+
+
+def test_the_first_turn_goes_the_way_most_of_where_the_target_can_be_lies_whatever_the_bearing_says():
+    # lost 10° to the left, where LOST has looked already; where the target can be (a belief that does not grow) is
+    # a patch ahead on the left and a strip round to the right (a corridor it turned down): the right holds half
+    # as much again, and the turn goes that way first. Without the strip, the bearing's way.
+    def first_turn(strip: bool) -> tuple[int, str]:
+        grid = grid_with_boxes([])
+        sg = search_grid(grid)
+        scene = Scene(robot=Pose2D(0.0, 0.0, 0.0), grid=grid, dt=0.05, clock=0.5)
+        track = lost_at(2.0, 0.35, last_seen=0.0)
+        belief = TargetBelief.start("target", 0.0, (2.0, 0.35), None, sg, now=0.5, speed_mps=0.0)
+        xs, ys = sg.centres()
+        where = np.hypot(xs - 1.0, ys - 1.6) < 0.3  # ahead on the left, about 60°
+        if strip:
+            where |= (np.abs(xs - 1.0) < 0.3) & (ys < -0.8) & (ys > -2.5)  # round to the right, -40° to -70°
+        belief.front = where
+        bbk.set_(board(), bbk.BELIEFS, {track.name: belief})
+        node = TurnToBearing(angular_speed=1.0)
+        scene.cycle(node)
+        return int(math.copysign(1, read(bbk.TWIST).w)), node.feedback_message
+
+    right, said = first_turn(strip=True)
+    assert right == -1 and said.startswith("SEARCH a: turning right (toward the side where it can be")
+    left, said = first_turn(strip=False)
+    assert left == +1 and said.startswith("SEARCH a: turning left (toward the predicted bearing +10°)")
