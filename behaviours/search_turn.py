@@ -4,7 +4,9 @@
   ``overshoot_deg``, then back the other way until ``back_deg`` beyond the bearing on the other side.
   Where the target went is its last position carried on along its last velocity (``horizon_s``, stopped at
   walls); when that bearing is within a few degrees of straight ahead, its sign says little, and the way
-  the target was crossing the view decides (it was last seen walking off to that side). A turn stops early
+  the target was crossing the view decides (it was last seen walking off to that side). When the loss's
+  belief holds SIDE_MAJORITY times as much of where the target can be in the quarter-turn on the other
+  side, the first turn goes that way instead: LOST has usually looked along the bearing already. A turn stops early
   when the directions still to turn would show little of what a whole turn here could of where the target
   can be (the loss's belief), and where turning in place cannot show the target at all (a whole turn would
   show little of it), the rung hands over to the viewpoint search at once.
