@@ -26,6 +26,7 @@ from mission.core.types import (
     OccupancyGrid,
     Pose2D,
     RobotState,
+    TargetTrack,
     Twist,
 )
 from mission.perception_plugins.pipeline import PerceptionStage
@@ -107,6 +108,44 @@ def grid_with_boxes(
         r1, c1 = grid.world_to_cell(x1, y1)
         data[max(r0, 0) : r1 + 1, max(c0, 0) : c1 + 1] = 100
     return grid
+
+
+WALL = (1.0, -4.0, 1.2, 1.0)  # a wall 20 cm thick from y = −4 to y = 1 at x ≈ 1.1; open north of y = 1
+
+
+def lost_at(x: float, y: float, *, last_seen: float = 0.0, walking: tuple[float, float] | None = None) -> TargetTrack:
+    """A target last seen at (x, y) at `last_seen`, walking at `walking` (m/s) for the second before."""
+    track = TargetTrack("target", last_seen=last_seen, misses=9, pose_map=marker_facing(x, y, math.pi))
+    if walking is not None:
+        vx, vy = walking
+        track.history = [
+            (last_seen - 1.0 + 0.1 * i, x - vx * (1.0 - 0.1 * i), y - vy * (1.0 - 0.1 * i)) for i in range(11)
+        ]
+    bbk.set_(board(), bbk.TRACKS, {"target": track})
+    return track
+
+
+def turns(
+    scene: Scene, node: py_trees.behaviour.Behaviour, ticks: int
+) -> tuple[list[float], list[py_trees.common.Status]]:
+    """Cycle the node; the yaw rate it commanded and its status, tick by tick."""
+    rates, statuses = [], []
+    for _ in range(ticks):
+        statuses.append(scene.cycle(node))
+        twist = read(bbk.TWIST)
+        rates.append(twist.w if isinstance(twist, Twist) else 0.0)
+        if statuses[-1] != py_trees.common.Status.RUNNING:
+            break
+    return rates, statuses
+
+
+def legs(rates: list[float]) -> list[int]:
+    """The directions turned, in order: +1 left, −1 right (consecutive ticks the same way are one leg)."""
+    out: list[int] = []
+    for w in rates:
+        if abs(w) > 1e-9 and (not out or out[-1] != math.copysign(1, w)):
+            out.append(int(math.copysign(1, w)))
+    return out
 
 
 def scan_with_wall(robot: Pose2D, bearing: float, distance: float, half_width: float = 0.1) -> LaserScan:
