@@ -15,7 +15,7 @@ Two parts, each a set of `mission sweep`s on one Dask cluster (a LocalCluster on
   a mission first.
 
 Seeds start at 1000: the missions and search benchmarks (and the behaviours tuned on them) use 0–19.
-vlm_discovery runs with its config (configs/sim_vlm.yaml) as its scenario file says.
+vlm_discovery runs with the config its scenario file names (``config: sim_vlm.yaml``), as every run does.
 
 Pictures: ``robustness.png`` (success rate per scenario and profile), ``robustness_curves.png`` (success
 vs level, one panel per factor) and ``robustness_frames.png`` (the same view under each profile, the robot
@@ -46,7 +46,6 @@ import numpy as np
 from bench.common import Figure, progress, save_figure
 from bench.missions import aggregate
 from bench.search_bench import _resumable, summarise
-from mission.app.shipped import resolve_config
 from mission.core.files import atomic_write_text
 from mission.sweep.engine import connect, run_sweep
 from mission.sweep.plan import SweepPlan
@@ -56,7 +55,6 @@ PROFILES = ("ideal", "typical", "harsh")
 SEED0 = 1000
 ACCEPTANCE = 0.95  # issue 33: under typical, every scenario
 DOCK_LIMITS = {"lateral_m": 0.03, "distance_m": 0.025, "skew_deg": 10.0}  # the design notes' docking tolerance
-CONFIGS = {"vlm_discovery": "sim_vlm.yaml"}  # scenarios that run with a config (their scenario file says so)
 QUICK_SCENARIOS = ("explore_dock", "follow_open")
 QUICK_MAX_DURATION_S = 25.0  # explore_dock docks in ~22 s
 SWEEPS = "robustness_sweeps"
@@ -167,24 +165,11 @@ def _scenarios() -> tuple[str, ...]:
     return tuple(shipped_scenarios())
 
 
-def _plans(
+def _plan(
     scenarios: tuple[str, ...], seeds: tuple[int, ...], sets: tuple[str, ...], max_duration: float | None, pictures: str
-) -> list[SweepPlan]:
-    """One plan per config the scenarios need (most none, vlm_discovery its own)."""
-    groups: dict[str | None, list[str]] = {}
-    for s in scenarios:
-        groups.setdefault(CONFIGS.get(s), []).append(s)
-    return [
-        SweepPlan.from_args(
-            tuple(group),
-            seeds,
-            list(sets),
-            config_file=resolve_config(config) if config else None,  # a shipped config's name, as --config takes
-            max_duration=max_duration,
-            pictures=pictures,
-        )
-        for config, group in groups.items()
-    ]
+) -> SweepPlan:
+    """The sweep of `scenarios` × `seeds` × `sets`; each scenario runs with the config its file names, if any."""
+    return SweepPlan.from_args(scenarios, seeds, list(sets), max_duration=max_duration, pictures=pictures)
 
 
 @dataclass
@@ -205,14 +190,13 @@ def _jobs(
 ) -> list[Job]:
     jobs: list[Job] = []
     profile_seeds = tuple(range(SEED0, SEED0 + seeds))
-    for plan in _plans(scenarios, profile_seeds, (f"realism={','.join(PROFILES)}",), max_duration, "failed"):
-        tag = "vlm" if plan.config_file else "all"
-        jobs.append(Job("profiles", ",".join(PROFILES), plan, out / SWEEPS / f"profiles__{tag}"))
+    plan = _plan(scenarios, profile_seeds, (f"realism={','.join(PROFILES)}",), max_duration, "failed")
+    jobs.append(Job("profiles", ",".join(PROFILES), plan, out / SWEEPS / "profiles__all"))
     level_seeds = tuple(range(SEED0, SEED0 + factor_seeds))
     for f in factors:
         for i, (label, sets) in enumerate(f.levels, start=1):
-            for plan in _plans(f.scenarios, level_seeds, sets, max_duration, "none"):
-                jobs.append(Job(f.name, label, plan, out / SWEEPS / f"{f.name}__level{i}"))
+            plan = _plan(f.scenarios, level_seeds, sets, max_duration, "none")
+            jobs.append(Job(f.name, label, plan, out / SWEEPS / f"{f.name}__level{i}"))
     return jobs
 
 

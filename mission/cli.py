@@ -62,7 +62,9 @@ port_pair = _number(int, lambda v: 0 <= v <= 65534, "a TCP port 0–65534 (PORT 
 
 def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", default=None, help="scenario name under sim/scenarios/ or a YAML path")
-    p.add_argument("--config", default=None, help="mission config YAML (defaults built in)")
+    p.add_argument(
+        "--config", default=None, help="mission config YAML (default: the scenario's `config`, else built in)"
+    )
     p.add_argument("--tree", default=None, help="tree XML file (overrides the config's `tree`)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="randomisation seed (default 0)")
     p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR")
@@ -123,7 +125,11 @@ def _add_tree(p: argparse.ArgumentParser) -> None:
 
 def _add_sim_robot(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", default=None, help="scenario name under sim/scenarios/ or a YAML path")
-    p.add_argument("--config", default=None, help="mission config YAML (its `sim:` keys apply; defaults built in)")
+    p.add_argument(
+        "--config",
+        default=None,
+        help="mission config YAML (its `sim:` keys apply; default: the scenario's `config`, else built in)",
+    )
     p.add_argument("--seed", type=non_negative_int, default=0, help="randomisation seed (default 0)")
     p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR at the end")
     p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds before stopping")
@@ -198,7 +204,9 @@ def _add_sweep(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", default=[], metavar="KEY=V1,V2",
                    help="a grid axis (repeatable): a tree port, config or scenario key and its values, "
                         "e.g. --set SearchSweep.angular_speed=0.6,1.0 --set run.tick_hz=10,15")
-    p.add_argument("--config", default=None, help="mission config YAML for every run")
+    p.add_argument(
+        "--config", default=None, help="mission config YAML for every run (default: each scenario's `config`)"
+    )
     p.add_argument("--tree", default=None, help="tree XML file for every run (overrides the config's `tree`)")
     p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds per run at most")
     p.add_argument("--out", default="out/sweep", metavar="DIR",

@@ -349,6 +349,7 @@ class Scenario(StrictModel):
     description: str = ""  # one line for people reading the file
     duration_s: float = Field(60.0, gt=0)  # simulated seconds of the run
     tree: str = "mission.xml"  # tree file (trees/ name or path) when the config does not choose one
+    config: str = ""  # mission config when none is given: a shipped config's name or a file beside this one
     success: Success = Field(default_factory=Success)
     room: Room = Field(default_factory=Room)  # walls round the world
     obstacles: list[Obstacle] = Field(default_factory=list)  # static: in the pre-built map

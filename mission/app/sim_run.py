@@ -22,7 +22,7 @@ from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner, checked_tree
-from mission.app.shipped import shipped_config
+from mission.app.shipped import shipped_config, shipped_configs
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, check_config, load_config, merge_mappings, read_yaml, validate_model
@@ -30,7 +30,7 @@ from mission.core.errors import ConfigError
 from mission.core.observers import RunObserver
 from mission.perception_plugins.pipeline import source_statuses
 from mission.sim.faults import fault_summary, wrap_sources
-from mission.sim.scenario import Scenario, Success, load_scenario
+from mission.sim.scenario import Scenario, Success, load_scenario, scenario_path
 from mission.sim.scenario_overrides import apply_overrides
 from mission.sim.sim_adapter import SimAdapter
 from mission.trees.factory import shipped_factory
@@ -340,16 +340,39 @@ def prepare_run(
     overrides: RunOverrides | None = None,
 ) -> PreparedRun:
     """Read the scenario and config and lay the overrides on them: the config file's ``sim:`` over the
-    scenario, then ``--set`` config keys over the config and scenario keys over the scenario. Raises
+    scenario, then ``--set`` config keys over the config and scenario keys over the scenario. Without
+    `config_file`, the config the scenario names (its ``config`` key), else the shipped sim config. Raises
     ConfigError naming the file (or ``--set``) and key."""
     overrides = overrides or RunOverrides()
     scenario = load_scenario(scenario_name)
+    if not config_file and scenario.config:
+        config_file = scenario_config(scenario_name, scenario.config)
     config_path = Path(config_file) if config_file else shipped_config(DEFAULT_SIM_CONFIG)
     config = overrides.apply_to_config(load_sim_config(config_file))
     scenario = apply_overrides(scenario, config.sim, file=str(config_path))
     scenario = overrides.apply_to_scenario(scenario)
     warnings = sim_mismatches(config, scenario, str(config_path)) if config_file else []
     return PreparedRun(config, config_path, scenario, choose_tree(tree, config, scenario), overrides, warnings)
+
+
+def scenario_config(scenario_name: str, name: str) -> Path:
+    """The config a scenario's ``config`` key names: a file of that name beside the scenario file, else a
+    shipped config (``sim_vlm.yaml`` or ``sim_vlm``, as ``--config`` takes). A scenario that only works with
+    its own perception (vlm_discovery: the VLM) says so where it is defined, so ``mission run --scenario``
+    and every sweep and bench run it right without being told."""
+    home = scenario_path(scenario_name)
+    beside = home.parent / name
+    if beside.is_file():
+        return beside
+    for candidate in (name, f"{name}.yaml"):
+        shipped = shipped_config(candidate)
+        if shipped.is_file():
+            return shipped
+    raise ConfigError(
+        f"{name!r} is neither a file beside the scenario nor a shipped config: {', '.join(shipped_configs())}",
+        file=str(home),
+        key="config",
+    )
 
 
 def check_prepared(run: PreparedRun) -> set[str]:
