@@ -19,6 +19,15 @@ def shipped_configs() -> list[str]:
     return sorted(p.name for p in Path(str(resources.files("mission") / "configs")).glob("*.yaml"))
 
 
+def shipped_config_named(name: str) -> Path | None:
+    """The shipped config a bare name means (``sim_apriltag.yaml`` or ``sim_apriltag``), or None."""
+    for candidate in (name, f"{name}.yaml"):
+        shipped = shipped_config(candidate)
+        if shipped.is_file():
+            return shipped
+    return None
+
+
 def resolve_config(name_or_path: str) -> str:
     """A ``--config`` value as a file: a path that exists, else a shipped config's name (``sim_apriltag.yaml``
     or ``sim_apriltag``) as trees and scenarios are named. A bare name that is neither is a ConfigError listing
@@ -26,10 +35,9 @@ def resolve_config(name_or_path: str) -> str:
     p = Path(name_or_path)
     if p.exists() or "/" in name_or_path or "\\" in name_or_path:
         return name_or_path
-    for candidate in (name_or_path, f"{name_or_path}.yaml"):
-        shipped = shipped_config(candidate)
-        if shipped.is_file():
-            return str(shipped)
+    shipped = shipped_config_named(name_or_path)
+    if shipped is not None:
+        return str(shipped)
     raise ConfigError(
         f"file not found; expected a config file or a shipped config: {', '.join(shipped_configs())}",
         file=name_or_path,

@@ -22,7 +22,7 @@ from mission.app.metrics import DockErrors, MetricsRecorder
 from mission.app.overrides import RunOverrides
 from mission.app.provenance import run_provenance
 from mission.app.runner import Pacer, TreeRunner, checked_tree
-from mission.app.shipped import shipped_config, shipped_configs
+from mission.app.shipped import shipped_config, shipped_config_named, shipped_configs
 from mission.core import blackboard as bbk
 from mission.core.blackboard import MissionState
 from mission.core.config import MissionConfig, check_config, load_config, merge_mappings, read_yaml, validate_model
@@ -364,10 +364,9 @@ def scenario_config(scenario_name: str, name: str) -> Path:
     beside = home.parent / name
     if beside.is_file():
         return beside
-    for candidate in (name, f"{name}.yaml"):
-        shipped = shipped_config(candidate)
-        if shipped.is_file():
-            return shipped
+    shipped = shipped_config_named(name)
+    if shipped is not None:
+        return shipped
     raise ConfigError(
         f"{name!r} is neither a file beside the scenario nor a shipped config: {', '.join(shipped_configs())}",
         file=str(home),
