@@ -13,7 +13,7 @@ or an OpenAI-compatible local server, ``openai`` (openai_chat.py)):
   run repeats whatever the machine's speed;
 * the remote clients ask each model family in its trained form and read its answer in its own convention
   (families.py); a point outside the image, or an answer at a depth the agreeing answers contradict, is
-  counted and dropped, and after :data:`MISREADS_BEFORE_CAUSE` misreads ``status()["misread_cause"]``
+  counted and dropped (misreads.py), and after a few misreads ``status()["misread_cause"]``
   names the likely cause ("answers look like [x, y] …; set family");
 * each answer (a pixel; a box bounds its depth patch) becomes a pose: back-projection with depth,
   MAD-filtered SVD plane (z axis), Canny + PCA in-plane axis (x axis) — depth_pose.py;
@@ -62,7 +62,8 @@ from mission.core.perception import TARGET_LABEL
 from mission.core.types import CameraIntrinsics, Detection, Frame
 from mission.perception_plugins.vlm.client import VlmClient, make_client
 from mission.perception_plugins.vlm.depth_pose import SurfacePose, depth_at, estimate_surface_pose
-from mission.perception_plugins.vlm.latch import AGREE_SIGMAS, Candidate, OneShotLatch, agree_within_m
+from mission.perception_plugins.vlm.latch import Candidate, OneShotLatch
+from mission.perception_plugins.vlm.misreads import AnswerScreen, MisreadLedger
 from mission.perception_plugins.vlm.quota import QuotaBudget, QuotaStore, default_state_file
 from mission.perception_plugins.vlm.settings import GeminiSettings, OpenAiSettings, RemoteSettings
 
@@ -135,11 +136,6 @@ class _Answer:
     pixel: tuple[float, float] | None = None
     dropped: int = 0  # points the client's reader set aside (outside the image, unreadable)
     hint: str = ""  # the reader's guess that the answer is in another family's convention
-
-
-#: Misread answers (points outside the image, on a depth the other answers contradict, or in another
-#: family's form) before the source's status names the likely cause.
-MISREADS_BEFORE_CAUSE = 3
 
 
 def colour_image_problem(image: object) -> str | None:
@@ -226,9 +222,10 @@ class VlmSource:
         self.state = "idle"
         self.counters: Counter[str] = Counter()
         self.last_error = ""  # the last failed model call, one line (no secrets: the clients redact them)
-        self._misreads: Counter[str] = Counter()  # likely cause of each misread answer → count
-        self._inconsistent_candidate: Candidate | None = None  # the last answer dropped as off the run's depth
-        self._inconsistent_cause = ""  # the misread cause it was counted under
+        self.misreads = MisreadLedger()
+        self.screen = AnswerScreen(
+            p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad, p.depth_tolerance_m, p.target_speed_mps
+        )
         self._logged: set[str] = set()
 
     # -- public controls ---------------------------------------------------------------------------
@@ -241,8 +238,8 @@ class VlmSource:
             self._next_attempt = -math.inf
             self.state = "idle"
             self._logged.discard("breaker")
-            self._misreads.clear()
-            self._inconsistent_candidate = None
+            self.misreads.clear()
+            self.screen.reset()
 
     def wait_idle(self, timeout: float) -> bool:
         """Block until the model call in flight (if any) has answered; False on timeout.
@@ -284,20 +281,11 @@ class VlmSource:
             }
 
     def misread_cause(self) -> str:
-        """The likely cause once :data:`MISREADS_BEFORE_CAUSE` answers were misread ("" before): the most
+        """The likely cause once a few answers were misread ("" before; misreads.py): the most
         frequent guess ("answers look like [x, y]; set family"), or, when most answers are misread, that
         points keep missing the target."""
-        total = sum(self._misreads.values())
-        if total < MISREADS_BEFORE_CAUSE:
-            return ""
-        known = Counter({k: v for k, v in self._misreads.items() if k})
-        if known:
-            return known.most_common(1)[0][0]
-        if 2 * total < self.counters["answers"] + self.counters["points_dropped"]:
-            return ""  # most answers read right: a target on the move, or an edge's depth, not a convention
-        family = getattr(self._client, "family", None)
-        return (f"{total} answers misread (points outside the image or off the other answers' depth); "
-                f"check the model's family{f' (now {family})' if family else ''}")
+        read_right = self.counters["answers"] + self.counters["points_dropped"]
+        return self.misreads.likely_cause(read_right, getattr(self._client, "family", None))
 
     def cost(self) -> dict[str, Any]:
         """What the model calls spent: the client's own accounting (requests, retries, tokens where the
@@ -501,7 +489,7 @@ class VlmSource:
         candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
                               req.stamp, answer.pose.sigma_m,
                               float(np.linalg.norm(answer.pose.T_camera_target[:3, 3])))
-        if self._off_the_runs_depth(candidate, answer):
+        if not self._screened_in(candidate, answer):
             return
         if self.latch.add(candidate):
             self.state = "latched"
@@ -514,80 +502,32 @@ class VlmSource:
 
     def _misread(self, cause: str) -> None:
         self.counters["answers_misread"] += 1
-        self._misreads[cause] += 1
+        self.misreads.add(cause)
         cause = self.misread_cause()
         if cause:
             self._log_once("misread", "answers are being misread: %s", cause)
 
-    def _off_the_runs_depth(self, candidate: Candidate, answer: _Answer) -> bool:
-        """True when the answer is dropped: it lies off the agreeing answers so far *and* at a depth they
-        contradict (seen from this image, the run's place is nearer or farther by more than
-        depth_tolerance_m) — a point read in the wrong convention lands on the wall or the floor. Two such
-        answers agreeing with each other are the target somewhere else: the consensus restarts with both. So
-        does one no farther from the newest agreeing answer than the target walks (target_speed_mps) in the
-        time between them: a person carrying the object away at 0.3 m/s was three misreads a run before (the
-        sim's vlm_discovery, every seed), and now and then a swap that happened to fit named a false cause.
-        Whether swapping x and y would have hit the run is the likely cause."""
-        p = self.params
-        run = self.latch.run
+    def _screened_in(self, candidate: Candidate, answer: _Answer) -> bool:
+        """Screen an answer against the run (misreads.py) and count what it was; False when it is held back."""
         req = answer.request
-        if not run or req.T_anchor_camera is None or answer.pose is None:
-            return False
-        expected = np.mean([c.T_anchor_target[:3, 3] for c in run], axis=0)
-        here = candidate.T_anchor_target[:3, 3]
-        noisiest = max(run, key=lambda c: c.sigma_m)
-        within = agree_within_m(candidate, noisiest, p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad)
-        if float(np.linalg.norm(here - expected)) <= within:
-            self._inconsistent_candidate = None
-            return False
-        in_cam = se3.apply(se3.invert(req.T_anchor_camera), expected[None, :])[0]
-        seen = answer.pose.T_camera_target[:3, 3]
-        depth_tolerance = p.depth_tolerance_m + AGREE_SIGMAS * math.hypot(candidate.sigma_m, noisiest.sigma_m)
-        if abs(float(np.linalg.norm(seen)) - float(np.linalg.norm(in_cam))) <= depth_tolerance:
-            self._inconsistent_candidate = None
-            return False  # the same depth elsewhere: the target moved (the consensus restarts)
-        newest = max(run, key=lambda c: c.stamp)
-        walked = p.target_speed_mps * max(0.0, candidate.stamp - newest.stamp)
-        if float(np.linalg.norm(here - newest.T_anchor_target[:3, 3])) <= within + walked:
-            self._inconsistent_candidate = None
+        assert req.T_anchor_camera is not None and answer.pose is not None
+        screened = self.screen.screen(
+            candidate, self.latch.run, req.T_anchor_camera, answer.pose.T_camera_target[:3, 3], answer.pixel,
+            req.image.shape[:2], req.intrinsics,
+        )
+        if screened.verdict == "walked":
             self.counters["target_moved"] += 1
-            return False  # as far from the newest answer as the target can walk since: it walked on (restarts)
-        last = self._inconsistent_candidate
-        if last is not None and np.linalg.norm(last.T_anchor_target[:3, 3] - here) <= agree_within_m(
-            last, candidate, p.latch_position_tolerance_m, p.latch_bearing_tolerance_rad
-        ):
-            self._inconsistent_candidate = None
-            self._unmisread(self._inconsistent_cause)  # the target moved: that answer was read right
-            self.latch.add(last)  # twice there: the target is there, and the answer held back counts again
+        elif screened.verdict == "confirms":  # the target moved: the answer held back was read right
+            self.counters["answers_misread"] -= 1
+            self.counters["target_moved"] += 1
+            self.misreads.withdraw(screened.cause)
+            assert screened.held is not None
+            self.latch.add(screened.held)  # and counts again
+        elif screened.verdict == "held":
+            self.counters["answers_off_depth"] += 1
+            self._misread(screened.cause)
             return False
-        self._inconsistent_candidate = candidate
-        self._inconsistent_cause = self._swap_cause(answer, in_cam)
-        self.counters["answers_off_depth"] += 1
-        self._misread(self._inconsistent_cause)
         return True
-
-    def _unmisread(self, cause: str) -> None:
-        """An answer held back as misread was confirmed by the next one (the target moved): it was not."""
-        self.counters["answers_misread"] -= 1
-        self.counters["target_moved"] += 1
-        self._misreads[cause] -= 1
-        if self._misreads[cause] <= 0:
-            del self._misreads[cause]
-
-    @staticmethod
-    def _swap_cause(answer: _Answer, run_in_cam: np.ndarray) -> str:
-        """"answers look like [x, y]; set family" when the answer's point with x and y swapped lands near
-        where the run's place appears in the image ("" when it does not)."""
-        req = answer.request
-        if answer.pixel is None or run_in_cam[2] <= 1e-3:
-            return ""
-        h, w = req.image.shape[:2]
-        u, v = answer.pixel
-        su, sv = v / h * w, u / w * h  # the same two numbers, read the other way round
-        eu, ev = req.intrinsics.project(run_in_cam[None, :])[0]
-        if abs(su - eu) <= 0.08 * w and abs(sv - ev) <= 0.08 * h:
-            return "answers look like [x, y], read as [y, x]; set family (qwen2.5-vl, qwen3-vl, molmo, molmo2)"
-        return ""
 
     def _call_failed(self, err: Exception) -> None:
         """A model call gave no answer: count it by kind and, unless the service only asked us to slow
