@@ -51,7 +51,12 @@ MAX_SPEED = 2.0  # m/s: a faster fitted velocity is noise, clamp it
 RING_DIRECTIONS = 16  # hypotheses per ring round the last seen position
 RING_FRACTIONS = (0.5, 1.0)  # rings at these fractions of reach_m
 FREE = 0  # only known-free cells can hold the target
-REACH_M = 1.0  # how far from its last position the target may have walked by the time the loss is decided
+# How far from its last position the target may have walked by the time turning toward where it went would show
+# it: the loss is decided a few frames after the last sighting, and a turn to face it takes a second more. A target
+# lost off the image's side as it rounds a wall's end is behind the wall by then; with every place within 1 m in
+# clear sight SEARCH turned in place beside the wall while it walked down the far side (search_corner seeds 5303,
+# 5308 and 5316 under typical: re-acquired after 15.8-20.1 s; LOST's look round the end finds it in 5.7-7.8 s).
+REACH_M = 1.5
 
 
 def first_occupied_cell(

@@ -49,7 +49,7 @@ def test_a_pillar_in_the_map_between_camera_and_target_blocks_the_line_of_sight(
 
 
 def test_a_clear_path_means_the_target_left_the_view():
-    seed(lost_target(misses=8), grid=grid_with_boxes([(1.4, 1.0, 1.8, 1.4)]))  # pillar off to the side
+    seed(lost_target(misses=8), grid=grid_with_boxes([(1.4, 1.6, 1.8, 2.0)]))  # pillar off to the side, 2 m from it
     node = IsLineOfSightBlocked(min_misses=5)
     assert tick(node) == S.FAILURE
     assert "line of sight clear" in node.feedback_message and "left the view" in node.feedback_message
@@ -148,6 +148,15 @@ def test_a_target_lost_just_round_the_end_of_a_wall_may_be_hiding_behind_it():
     assert tick(node) == S.SUCCESS
     assert node.feedback_message.startswith("target may be hidden at (")
     assert "from its last position (2.20, 1.30): line of sight blocked by map cell" in node.feedback_message
+
+
+def test_a_target_lost_off_the_images_side_as_it_rounds_a_walls_end_is_taken_as_hiding_behind_it():
+    # last seen at (2.2, 2.2), 45° off the camera's axis (past the image's side), 1.4 m beyond the wall's end: every
+    # place within 1 m of it is in clear sight, but by the time a turn faces it, it can be 1.5 m down the far side
+    seed(lost_target(misses=5, x=2.2, y=2.2), grid=grid_with_boxes([PARTITION]))
+    node = IsLineOfSightBlocked()
+    assert tick(node) == S.SUCCESS
+    assert node.feedback_message.startswith("target may be hidden at (2.20, 0.70), 1.5 m or less from its last")
 
 
 def test_places_beyond_a_wall_the_target_cannot_walk_through_do_not_count():
