@@ -34,6 +34,9 @@ SOFT_BAND_M = 0.35  # beyond the inflation, cost fades to nothing over this band
 INFLATED_COST = 25.0
 SOFT_COST = 4.0
 LETHAL_MARGIN_M = 0.02
+# Inside the lethal margin a move may lose a few millimetres (the grid is coarser than the world), but never past
+# this much of it: re-checked each period, that allowance let a robot creep along a wall's end into contact.
+FLOOR_MARGIN_M = 0.01
 TURN_IN_PLACE_RAD = 0.9
 SAFETY_HORIZON_S = 0.6
 
@@ -406,12 +409,18 @@ class Navigator:
         """Would driving (v, ω) for the safety horizon bring the robot closer to an obstacle than allowed?
 
         Moves that do not reduce the clearance are always allowed, so a robot that ended up close to
-        something (the grid is coarser than the world) can still drive away from it. `clear_now` is the clearance
-        where the robot stands, when the caller has it (the escape tries ~20 arcs from the same pose).
+        something (the grid is coarser than the world) can still drive away from it. Inside the lethal margin a
+        move may lose up to 5 mm, but not below the floor (radius + FLOOR_MARGIN_M): the allowance is granted
+        afresh every period, and an escape arc that lost its 5 mm each time crept along a partition's end into
+        contact (search_corner seed 5235, typical). `clear_now` is the clearance where the robot stands, when the
+        caller has it (the escape tries ~20 arcs from the same pose).
         """
         ahead = self.clearance(np.array(_rollout(pose, v, w)))
         now = self._clearance_at(pose.x, pose.y) if clear_now is None else clear_now
-        return bool(np.any((ahead < self.costmap.lethal_radius) & (ahead < now - 0.005)))
+        floor = self.costmap.robot_radius + FLOOR_MARGIN_M
+        losing = (ahead < self.costmap.lethal_radius) & (ahead < now - 0.005)
+        below_floor = (ahead < floor) & (ahead < now)
+        return bool(np.any(losing | below_floor))
 
 
 def _rollout(pose: Pose2D, v: float, w: float, steps: int = 6) -> list[tuple[float, float]]:

@@ -265,6 +265,25 @@ def test_a_robot_whose_pose_estimate_is_off_keeps_its_safety_margin_from_a_wall_
     assert truth.collisions == 0 and truth.robot.x > 6.3
 
 
+@pytest.mark.parametrize("yaw", [-0.96, -1.2])
+def test_a_robot_beside_a_walls_end_goes_round_it_without_creeping_into_it(yaw: float) -> None:
+    # search_corner seed 5235 (typical): following round the partition's end, the robot stood 0.228 m from its
+    # corner, inside the lethal margin. Each period the escape took an arc that lost the few millimetres a move
+    # there may lose, and re-checked from the new pose, the robot crept into the corner (one contact).
+    partition = {"name": "partition", "shape": "box", "x": 4.0, "y": 2.4, "size": [0.2, 4.8, 1.0]}  # end at y = 4.8
+    loc = {"odom_noise_m_per_m": 1e-9, "amcl": False}
+    loop = Loop(scenario({"x": 4.21, "y": 5.0, "yaw_deg": math.degrees(yaw)}, obstacles=[partition], localization=loc))
+    try:
+        loop.command(goal=Pose2D(4.49, 3.72, -1.36))  # down the partition's far side
+        loop.run_until(NavStatus.SUCCEEDED, timeout_s=20.0)
+        truth = loop.adapter.ground_truth()
+    finally:
+        loop.close()
+    closest = min(math.hypot(max(0.0, abs(p.x - 4.0) - 0.1), max(0.0, p.y - 4.8)) for p in loop.trajectory)
+    assert truth.collisions == 0
+    assert closest >= 0.22 + 0.005  # the radius and (near enough) the navigator's 1 cm floor
+
+
 def test_a_robot_whose_pose_estimate_jumped_into_an_obstacles_margin_drives_out_and_on_to_its_goal() -> None:
     # An AMCL relocalization put the estimate 12 cm off, 0.13 m from a crate's face: inside the navigator's
     # lethal margin, where every plan from there fails. The robot must drive out and on; frozen instead, it never
