@@ -31,7 +31,7 @@ from mission.behaviours.ports import PortsDeclared
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.blackboard import Key
-from mission.core.types import NavGoal, NavStatus, Pose2D, RobotState, TargetTrack, Twist
+from mission.core.types import Frame, NavGoal, NavStatus, Pose2D, RobotState, TargetTrack, Twist
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +43,7 @@ STOP = Twist(0.0, 0.0)
 
 # Camera at the base origin looking forward: what leaves assume (and say so) when the adapter gave no extrinsics.
 DEFAULT_EXTRINSICS = se3.transform(se3.R_BODY_OPTICAL)
+DEFAULT_HFOV = math.radians(70.0)  # when no frame with intrinsics has arrived yet
 
 
 class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
@@ -132,6 +133,20 @@ class MissionLeaf(py_trees.behaviour.Behaviour, PortsDeclared):
         ex, ey = float(ext[0, 3]), float(ext[1, 3])
         c, s = math.cos(robot.yaw), math.sin(robot.yaw)
         return robot.x + c * ex - s * ey, robot.y + s * ex + c * ey
+
+    def camera_pose(self, robot: Pose2D) -> tuple[float, float, float]:
+        """(x, y, yaw) of the camera's optical centre and viewing direction in the map."""
+        T = se3.planar(robot.x, robot.y, robot.yaw) @ self.extrinsics()
+        return float(T[0, 3]), float(T[1, 3]), math.atan2(float(T[1, 2]), float(T[0, 2]))
+
+    def hfov(self) -> float:
+        """The camera's horizontal field of view (rad), from the newest frame's intrinsics (a leaf that asks
+        declares FRAME in READS)."""
+        frame: Frame | None = self.read(bbk.FRAME)
+        k = None if frame is None else frame.intrinsics
+        if k is None or not k.fx > 0 or not k.width:
+            return DEFAULT_HFOV
+        return 2.0 * math.atan2(k.width / 2.0, k.fx)
 
     def track(self, target: str) -> TargetTrack | None:
         """The named target's track (TRACKS is written by PerceiveTargets); None if never configured."""

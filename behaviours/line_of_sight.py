@@ -47,6 +47,7 @@ SCAN_MARGIN_M = 0.30  # a scan return must be this much closer than the target (
 TARGET_HALF_WIDTH_M = 0.15  # angular window of scan rays that "look at" the target
 WIDE_MARGIN_M = 0.03  # a thing wider than the target hides it when it is this much nearer (range noise)
 PREDICT_HORIZON_S = 1.0
+TARGET_RADIUS_M = 0.3  # a scan return this close to the target's last or predicted place may be its own body
 MAX_SPEED = 2.0  # m/s: a faster fitted velocity is noise, clamp it
 RING_DIRECTIONS = 16  # hypotheses per ring round the last seen position
 RING_FRACTIONS = (0.5, 1.0)  # rings at these fractions of reach_m
@@ -210,6 +211,21 @@ class Blockage:
     at_m: float  # distance from the camera / base to the blocking thing
 
 
+def map_blockage(grid: OccupancyGrid, cam: tuple[float, float], goal: tuple[float, float]) -> Blockage | None:
+    """The first occupied map cell between the camera and `goal`, stopping END_MARGIN_M short of it (the target
+    may stand in a cell next to a wall); None when the map leaves the line clear."""
+    dx, dy = goal[0] - cam[0], goal[1] - cam[1]
+    dist = math.hypot(dx, dy)
+    if dist <= END_MARGIN_M:
+        return None
+    k = (dist - END_MARGIN_M) / dist
+    cell = first_occupied_cell(grid, cam, (cam[0] + k * dx, cam[1] + k * dy))
+    if cell is None:
+        return None
+    cx, cy = grid.cell_to_world(*cell)
+    return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
+
+
 def reachable_hypotheses(grid: OccupancyGrid, last: tuple[float, float], reach_m: float) -> list[tuple[float, float]]:
     """Free places within `reach_m` of `last` that the target can walk to in a straight line (map metres).
 
@@ -253,7 +269,7 @@ class IsLineOfSightBlocked(MissionLeaf):
         target: str = port("target", "name of the target (a key of perception.targets)")
         min_misses: int = port(5, "consecutive missed frames before an occlusion is considered")
         target_radius_m: float = port(
-            0.3,
+            TARGET_RADIUS_M,
             "a scan return this close to the target's last or predicted position, on a thing no wider than twice "
             "this, is its own body, not an occluder",
         )
@@ -267,20 +283,6 @@ class IsLineOfSightBlocked(MissionLeaf):
         self.reach_m = REACH_M
         self.verdict: Verdict | None = None
 
-    def _map_blockage(
-        self, grid: OccupancyGrid, cam: tuple[float, float], goal: tuple[float, float]
-    ) -> Blockage | None:
-        dx, dy = goal[0] - cam[0], goal[1] - cam[1]
-        dist = math.hypot(dx, dy)
-        if dist <= END_MARGIN_M:
-            return None
-        k = (dist - END_MARGIN_M) / dist
-        cell = first_occupied_cell(grid, cam, (cam[0] + k * dx, cam[1] + k * dy))
-        if cell is None:
-            return None
-        cx, cy = grid.cell_to_world(*cell)
-        return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
-
     def _blockage(
         self,
         cam: tuple[float, float],
@@ -291,7 +293,7 @@ class IsLineOfSightBlocked(MissionLeaf):
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         scan: LaserScan | None = self.read(bbk.SCAN)
         if grid is not None:
-            b = self._map_blockage(grid, cam, goal)
+            b = map_blockage(grid, cam, goal)
             if b is not None:
                 return b
         if scan is not None:
@@ -320,7 +322,7 @@ class IsLineOfSightBlocked(MissionLeaf):
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         places = reachable_hypotheses(grid, last, self.reach_m) if grid is not None else []
         for where in places:
-            b = self._map_blockage(grid, cam, where)  # type: ignore[arg-type]
+            b = map_blockage(grid, cam, where)  # type: ignore[arg-type]
             if b is not None:
                 return True, (
                     f"{self.params.target} may be hidden at ({where[0]:.2f}, {where[1]:.2f}), "

@@ -22,7 +22,6 @@ from mission.core import se3
 from mission.core.blackboard import Key
 from mission.core.types import Frame, LaserScan, OccupancyGrid, Pose2D, TargetTrack
 
-DEFAULT_HFOV = math.radians(70.0)  # when no frame with intrinsics has arrived yet
 # The velocity a lost target walks on with is fitted over its last 0.6 s: a second (what the line-of-sight
 # check uses) still holds the leg before a corner the target has just turned, and points the search there.
 HEADING_WINDOW_S = 0.6
@@ -59,20 +58,7 @@ class SearchLeaf(MissionLeaf):
         super().__init__(name, **ports)
         self._looked_at: float | None = None
 
-    # -- the camera ---------------------------------------------------------------------------------
-    def camera_pose(self, robot: Pose2D) -> tuple[float, float, float]:
-        """(x, y, yaw) of the camera's optical centre and viewing direction in the map."""
-        T = se3.planar(robot.x, robot.y, robot.yaw) @ self.extrinsics()
-        return float(T[0, 3]), float(T[1, 3]), math.atan2(float(T[1, 2]), float(T[0, 2]))
-
-    def hfov(self) -> float:
-        """The camera's horizontal field of view (rad), from the newest frame's intrinsics."""
-        frame: Frame | None = self.read(bbk.FRAME)
-        k = None if frame is None else frame.intrinsics
-        if k is None or not k.fx > 0 or not k.width:
-            return DEFAULT_HFOV
-        return 2.0 * math.atan2(k.width / 2.0, k.fx)
-
+    # -- the camera (its pose and field of view: MissionLeaf) ------------------------------------------
     def left_through_the_images_side(self, track: TargetTrack) -> bool:
         """Did the target's last reading touch the image's left or right side (within GLANCE_EDGE_FRACTION of
         its width)? False without the image's width or the reading's corners."""

@@ -12,7 +12,7 @@ from mission.trees.manifest import BuildContext
 # tag → (node type, {port: (type, default)}) — what tree files rely on (the docs' table shows the same)
 CATALOGUE = {
     "PerceiveTargets": ("Action", {}),
-    "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0)}),
+    "IsTargetVisible": ("Condition", {"target": (str, "target"), "max_misses": (int, 0), "grace_s": (float, 0.0)}),
     "IsLineOfSightBlocked": (
         "Condition",
         {"target": (str, "target"), "min_misses": (int, 5), "target_radius_m": (float, 0.3)},

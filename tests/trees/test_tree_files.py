@@ -42,7 +42,7 @@ def shape(desc: TreeDescription) -> str:
 
 FOLLOW = (
     "ReactiveFallback:coordinator["
-    "ReactiveSequence:FOLLOW[IsTargetVisible(target=target,max_misses=4),FollowTarget(target=target)],"
+    "ReactiveSequence:FOLLOW[IsTargetVisible(target=target,max_misses=4,grace_s=1.5),FollowTarget(target=target)],"
     "ReactiveSequence:LOST[IsLineOfSightBlocked(target=target,min_misses=5),PursueLastSeen(target=target)],"
     "SubTree(SearchTree)]"
 )
