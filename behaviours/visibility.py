@@ -11,16 +11,15 @@ import py_trees
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import TARGET_RADIUS_M, map_blockage, predicted_position, scan_hit_before
 from mission.behaviours.ports import port
+from mission.behaviours.search_leaf import GLANCE_EDGE_RAD, GLANCE_RANGE_M
 from mission.core import blackboard as bbk
 from mission.core import se3
 from mission.core.docking import floor_pose
 from mission.core.types import LaserScan, OccupancyGrid, Pose2D, TargetTrack
 
-# A target farther than this does not drop out of the view's side because the robot turned a little.
-TURNED_AWAY_RANGE_M = 4.0
-# A marker whose place is this close inside the view's side is partly off the image, and not detected: at
-# hide_and_wait seed 10 (ideal) the target's place was 1-3° inside when its marker was lost.
-EDGE_RAD = math.radians(8.0)
+# The view's side and the range are the glance's (search_leaf): a target this close inside the side has its marker
+# partly off the image (hide_and_wait seed 10, ideal: its place was 1-3° inside when the marker was lost), and one
+# farther off does not leave the view because the robot turned a little.
 TURNED_RAD = math.radians(1.0)  # the robot's own motion moved the place toward the side by at least this
 
 
@@ -96,9 +95,9 @@ class IsTargetVisible(MissionLeaf):
 
     def turned_away_by(self, tr: TargetTrack) -> float | None:
         """How far (rad) past the view's side the robot's own motion has put the target's place (negative:
-        still inside, but within EDGE_RAD, where its marker is partly off the image), when that is why it is not
+        still inside, but within GLANCE_EDGE_RAD, where its marker is partly off the image), when that is why it is not
         seen: from where the robot stood at the last sighting the place would be in view, the robot's motion
-        since moved it toward the side, it is within TURNED_AWAY_RANGE_M, and neither the map nor the lidar puts
+        since moved it toward the side, it is within GLANCE_RANGE_M, and neither the map nor the lidar puts
         anything between. None otherwise (it walked out of the view, or behind something, or it is well in
         view and simply not detected)."""
         state = self.robot()
@@ -112,9 +111,9 @@ class IsTargetVisible(MissionLeaf):
         tx, ty, then_yaw = self.camera_pose(then)
         off_now = abs(se3.wrap_angle(math.atan2(where[1] - cy, where[0] - cx) - cam_yaw)) - half
         off_then = abs(se3.wrap_angle(math.atan2(where[1] - ty, where[0] - tx) - then_yaw)) - half
-        if off_then > 0 or off_now <= max(-EDGE_RAD, off_then + TURNED_RAD):
+        if off_then > 0 or off_now <= max(-GLANCE_EDGE_RAD, off_then + TURNED_RAD):
             return None
-        if math.hypot(where[0] - cx, where[1] - cy) > TURNED_AWAY_RANGE_M:
+        if math.hypot(where[0] - cx, where[1] - cy) > GLANCE_RANGE_M:
             return None
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         scan: LaserScan | None = self.read(bbk.SCAN)
