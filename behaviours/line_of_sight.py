@@ -226,6 +226,28 @@ def map_blockage(grid: OccupancyGrid, cam: tuple[float, float], goal: tuple[floa
     return Blockage(f"map cell {cell}", math.hypot(cx - cam[0], cy - cam[1]))
 
 
+def sight_blockage(
+    grid: OccupancyGrid | None,
+    scan: LaserScan | None,
+    cam: tuple[float, float],
+    robot: Pose2D,
+    goal: tuple[float, float],
+    own_path: tuple[tuple[float, float], ...] = (),
+    own_radius_m: float = 0.0,
+) -> Blockage | None:
+    """What hides `goal` from the camera: the map's first occupied cell on the way (map_blockage), else a scan
+    return clearly nearer than it that is not the target's own body (scan_hit_before); None when neither."""
+    if grid is not None:
+        b = map_blockage(grid, cam, goal)
+        if b is not None:
+            return b
+    if scan is not None:
+        hit = scan_hit_before(scan, robot, goal, own_path, own_radius_m, grid)
+        if hit is not None:
+            return Blockage("scan return", hit)
+    return None
+
+
 def reachable_hypotheses(grid: OccupancyGrid, last: tuple[float, float], reach_m: float) -> list[tuple[float, float]]:
     """Free places within `reach_m` of `last` that the target can walk to in a straight line (map metres).
 
@@ -283,25 +305,6 @@ class IsLineOfSightBlocked(MissionLeaf):
         self.reach_m = REACH_M
         self.verdict: Verdict | None = None
 
-    def _blockage(
-        self,
-        cam: tuple[float, float],
-        robot: Pose2D,
-        goal: tuple[float, float],
-        own_path: tuple[tuple[float, float], ...] = (),
-    ) -> Blockage | None:
-        grid: OccupancyGrid | None = self.read(bbk.MAP)
-        scan: LaserScan | None = self.read(bbk.SCAN)
-        if grid is not None:
-            b = map_blockage(grid, cam, goal)
-            if b is not None:
-                return b
-        if scan is not None:
-            hit = scan_hit_before(scan, robot, goal, own_path, self.params.target_radius_m, grid)
-            if hit is not None:
-                return Blockage("scan return", hit)
-        return None
-
     def _classify(self, tr: TargetTrack, robot: Pose2D) -> tuple[bool, str]:
         """(blocked, why) for the current loss: last/predicted position (map + scan), then reachable places (map)."""
         assert tr.pose_map is not None
@@ -313,7 +316,9 @@ class IsLineOfSightBlocked(MissionLeaf):
             candidates.insert(0, ("predicted", pred))
         own_path = tuple(p for _, p in reversed(candidates))  # last → predicted: where the target's body can be
         for label, where in candidates:
-            b = self._blockage(cam, robot, where, own_path)
+            b = sight_blockage(
+                self.read(bbk.MAP), self.read(bbk.SCAN), cam, robot, where, own_path, self.params.target_radius_m
+            )
             if b is not None:
                 return True, (
                     f"line of sight to {label} {self.params.target} position ({where[0]:.2f}, {where[1]:.2f}) "

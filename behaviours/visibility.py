@@ -9,7 +9,7 @@ from typing import Any
 import py_trees
 
 from mission.behaviours.leaf import MissionLeaf
-from mission.behaviours.line_of_sight import TARGET_RADIUS_M, map_blockage, predicted_position, scan_hit_before
+from mission.behaviours.line_of_sight import TARGET_RADIUS_M, predicted_position, sight_blockage
 from mission.behaviours.ports import port
 from mission.behaviours.search_leaf import GLANCE_EDGE_RAD, GLANCE_RANGE_M
 from mission.core import blackboard as bbk
@@ -118,8 +118,6 @@ class IsTargetVisible(MissionLeaf):
         grid: OccupancyGrid | None = self.read(bbk.MAP)
         scan: LaserScan | None = self.read(bbk.SCAN)
         for place in {where, last}:
-            if grid is not None and map_blockage(grid, (cx, cy), place) is not None:
-                return None
-            if scan is not None and scan_hit_before(scan, state.pose, place, (last, where), TARGET_RADIUS_M, grid):
+            if sight_blockage(grid, scan, (cx, cy), state.pose, place, (last, where), TARGET_RADIUS_M) is not None:
                 return None
         return off_now
