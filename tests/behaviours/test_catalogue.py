@@ -19,7 +19,13 @@ CATALOGUE = {
     ),
     "FollowTarget": (
         "Action",
-        {"target": (str, "target"), "offset_m": (float, 0.5), "window": (int, 5), "rate_hz": (float, 10.0)},
+        {
+            "target": (str, "target"),
+            "offset_m": (float, 0.5),
+            "window": (int, 5),
+            "rate_hz": (float, 10.0),
+            "face_range_m": (float, 0.0),
+        },
     ),
     "HoldLastGoal": ("Action", {"target": (str, "target"), "timeout_s": (float, 3.0), "offset_m": (float, 0.5)}),
     "SearchSweep": (

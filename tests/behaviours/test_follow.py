@@ -93,3 +93,57 @@ def test_without_a_map_position_it_waits_and_holds_the_robot():
     assert follow.status == S.RUNNING and follow.feedback_message == "waiting for target's map position"
     assert read(bbk.TWIST) == Twist(0.0, 0.0)
     assert tick(follow) == S.RUNNING
+
+
+def near_target_scene(distance: float, bearing_deg: float, robot_yaw_deg: float) -> Scene:
+    """A marker `distance` from the camera at `bearing_deg` from the x axis, facing it; the robot at the origin."""
+    b = math.radians(bearing_deg)
+    x, y = 0.15 + distance * math.cos(b), distance * math.sin(b)
+    return Scene(robot=Pose2D(0.0, 0.0, math.radians(robot_yaw_deg)), marker=marker_facing(x, y, b + math.pi))
+
+
+def test_a_near_target_lost_off_the_images_side_is_faced_by_a_turn_on_the_spot_then_followed_again():
+    scene = near_target_scene(0.9, 40.0, robot_yaw_deg=40.0)
+    root = follow_tree(scene, face_range_m=1.2)
+    scene.cycle(root)  # seen straight ahead
+    assert read(bbk.NAV_GOAL) is not None
+    scene.robot = Pose2D(0.0, 0.0, 0.0)  # the path's bend turned the robot: the target is 40° left, off the image
+    scene.cycle(root)
+    twist = read(bbk.TWIST)
+    assert twist is not None and twist.v == 0.0 and twist.w > 0.0 and read(bbk.NAV_GOAL) is None
+    assert root.feedback_message.startswith("turning to face target: 40° to the left")
+    for _ in range(15):
+        scene.cycle(root)
+        if read(bbk.NAV_GOAL) is not None:
+            break
+    assert read(bbk.NAV_GOAL) is not None and read(bbk.TWIST) is None  # seen again: following, by goals
+    assert 0.0 < scene.robot.yaw < math.radians(10.0)
+
+
+def test_without_face_range_m_a_near_target_off_the_image_is_followed_by_goals_as_before():
+    scene = near_target_scene(0.9, 40.0, robot_yaw_deg=40.0)
+    root = follow_tree(scene)
+    scene.cycle(root)
+    scene.robot = Pose2D(0.0, 0.0, 0.0)
+    scene.cycle(root)
+    scene.cycle(root)
+    assert read(bbk.NAV_GOAL) is not None and read(bbk.TWIST) is None
+
+
+def test_a_target_off_the_image_farther_than_face_range_is_left_to_the_navigators_path():
+    scene = near_target_scene(2.0, 40.0, robot_yaw_deg=40.0)
+    root = follow_tree(scene, face_range_m=1.2)
+    scene.cycle(root)
+    scene.robot = Pose2D(0.0, 0.0, 0.0)
+    scene.cycle(root)
+    scene.cycle(root)
+    assert read(bbk.NAV_GOAL) is not None and read(bbk.TWIST) is None
+    assert root.feedback_message.startswith("following target 2.1 m away")  # from the base, 15 cm behind the camera
+
+
+def test_a_near_target_seen_at_the_images_side_is_followed_without_a_turn():
+    scene = near_target_scene(0.9, 32.0, robot_yaw_deg=0.0)  # inside the 35° half-view, near its side
+    root = follow_tree(scene, face_range_m=1.2)
+    for _ in range(3):
+        scene.cycle(root)
+        assert read(bbk.NAV_GOAL) is not None and read(bbk.TWIST) is None

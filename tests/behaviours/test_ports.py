@@ -74,7 +74,7 @@ def test_an_unknown_keyword_is_a_type_error_naming_it_and_the_ports_there_are():
         FollowTarget(ofset_m=0.7)
     assert str(err.value) == (
         "FollowTarget: unknown port 'ofset_m' (did you mean offset_m?); "
-        "FollowTarget ports: target, offset_m, window, rate_hz, goal"
+        "FollowTarget ports: target, offset_m, window, rate_hz, face_range_m, goal"
     )
 
 
