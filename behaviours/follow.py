@@ -23,13 +23,12 @@ from typing import Any
 
 import py_trees
 
-from mission.behaviours.approach import approach_goal
+from mission.behaviours.approach import approach_goal, bearing_to
 from mission.behaviours.leaf import MissionLeaf
 from mission.behaviours.line_of_sight import predicted_position
 from mission.behaviours.ports import port
 from mission.behaviours.search_leaf import GLANCE_EDGE_RAD, turn_rate
 from mission.core import blackboard as bbk
-from mission.core import se3
 from mission.core.blackboard import MissionState
 from mission.core.types import NavGoal, Pose2D
 
@@ -99,14 +98,16 @@ class FollowTarget(MissionLeaf):
         before the robot drives on: not detected this frame, its place (predicted from its walk, or where it
         was last seen) within face_range_m, and at the image's side (within GLANCE_EDGE_RAD of it, where its
         marker is partly cut off) or past it. None otherwise."""
+        if self.params.face_range_m <= 0:
+            return None
         tr = self.track(self.params.target)
-        if self.params.face_range_m <= 0 or tr is None or tr.misses == 0 or tr.pose_map is None:
+        if tr is None or tr.misses == 0 or tr.pose_map is None:
             return None
         place = predicted_position(tr, self.now()) or (float(tr.pose_map[0, 3]), float(tr.pose_map[1, 3]))
-        cx, cy, cam_yaw = self.camera_pose(robot)
-        if math.hypot(place[0] - cx, place[1] - cy) > self.params.face_range_m:
+        camera = Pose2D(*self.camera_pose(robot))
+        if math.hypot(place[0] - camera.x, place[1] - camera.y) > self.params.face_range_m:
             return None
-        bearing = se3.wrap_angle(math.atan2(place[1] - cy, place[0] - cx) - cam_yaw)
+        bearing = bearing_to(camera, place)
         if abs(bearing) < self.hfov() / 2 - GLANCE_EDGE_RAD:
             return None
         return bearing
