@@ -322,7 +322,7 @@ def _factor_figures(factors: dict[str, dict[str, Any]], profiles: dict[str, dict
                         f"factor {name} = {label} / {scenario}: success rate ({c['runs']} seeds)",
                         c["success_rate"],
                         "fraction",
-                        baseline="ideal, same seeds (profiles part)",
+                        baseline="ideal, the same seeds (from the profiles part)",
                         baseline_value=ideal,
                     )
                 )
@@ -385,8 +385,19 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             "breaks_scenario": scenario,
             "breaks_success": rate,
         }
-    figures = _profile_figures(profiles) + (_factor_figures(per_factor, profiles) if factors else [])
-    plots = [p for p in (_profiles_plot(profiles, out), _curves(per_factor, profiles, out), _frames(out)) if p]
+    # Each factor's level 0: `ideal` on the factor part's own seeds, so a curve's points share their seeds.
+    level_seeds = set(range(SEED0, SEED0 + factor_seeds))
+    ideal: dict[str, dict[str, Any]] = {}
+    for s in {s for f in factors for s in f.scenarios}:
+        runs = [
+            r
+            for r in rows
+            if r["part"] == "profiles" and r["scenario"] == s and r["level"] == "ideal" and r["seed"] in level_seeds
+        ]
+        if runs:
+            ideal[s] = {"ideal": cell(runs, s)}
+    figures = _profile_figures(profiles) + (_factor_figures(per_factor, ideal) if factors else [])
+    plots = [p for p in (_profiles_plot(profiles, out), _curves(per_factor, ideal, out), _frames(out)) if p]
     reduced = seeds < 10 or (factors and factor_seeds < 5) or set(scenarios) != set(_scenarios())
     cut = len(rows) < planned
     return {
@@ -444,7 +455,8 @@ def _profiles_plot(profiles: dict[str, dict[str, Any]], out: Path) -> str | None
 
 
 def _curves(per_factor: dict[str, dict[str, Any]], profiles: dict[str, dict[str, Any]], out: Path) -> str | None:
-    """Success rate vs level, one panel per factor, one line per scenario; level 0 is ideal."""
+    """Success rate vs level, one panel per factor, one line per scenario; level 0 is `ideal` on the factor
+    part's seeds (`profiles`: scenario → {"ideal": its cell})."""
     if not per_factor:
         return None
     import matplotlib
