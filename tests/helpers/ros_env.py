@@ -4,7 +4,8 @@ Importing this module sets the environment **before** any rclpy context exists (
 
 * ``FASTRTPS_DEFAULT_PROFILES_FILE`` = mission/ros/fastdds_shm.xml and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp``:
   shared memory only — nothing is sent on any network interface, loopback included;
-* ``ROS_DOMAIN_ID`` = 1 + pid % 100, private to this test run (other runs on the machine use others);
+* ``ROS_DOMAIN_ID`` private to this test run (other runs on the machine use others): 1 + pid % 100, or under
+  pytest-xdist one per worker of the run (:func:`_domain_id`);
 * ``ROS_AUTOMATIC_DISCOVERY_RANGE=SYSTEM_DEFAULT``. Not LOCALHOST: in Jazzy's rmw_fastrtps, LOCALHOST
   *adds* a UDPv4 transport to the profile and binds UDP sockets on every interface (measured; see
   mission/ros/dds.py). ``test_ros_node`` checks that the processes hold no inet socket at all.
@@ -32,7 +33,20 @@ ROOT = Path(__file__).resolve().parents[2]
 INSTALL = ROOT / "install"
 TREE_EXE = INSTALL / "mission" / "lib" / "mission" / "tree"
 PROFILE = dds.shm_profile_path()  # the repo's mission/ros/fastdds_shm.xml
-DOMAIN_ID = 1 + os.getpid() % 100
+
+
+def _domain_id() -> int:
+    """This process's ROS_DOMAIN_ID. Under pytest-xdist (scripts/test) the run's workers take consecutive ones
+    from a base drawn from the run's controller process, so two workers of one run never share a domain (by
+    pid alone they would, 1 in 100 for two); 1 … 200, FastDDS allows up to 232."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # "gw0", "gw1", …
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
+    if worker.startswith("gw") and worker[2:].isdigit() and 0 < count <= 200:
+        return 1 + (os.getppid() % (200 // count)) * count + int(worker[2:])
+    return 1 + os.getpid() % 100
+
+
+DOMAIN_ID = _domain_id()
 
 ROS_ENV = dds.private_env(DOMAIN_ID)
 os.environ.update(ROS_ENV)

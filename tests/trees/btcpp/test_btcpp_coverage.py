@@ -6,7 +6,7 @@ import importlib
 from pathlib import Path
 
 from tests.trees.btcpp.btcpp_tests import BTCPP_TESTS, SOURCE
-from tests.trees.btcpp.conftest import skipped_tests
+from tests.trees.btcpp.suite_summary import skipped_tests
 
 HERE = Path(__file__).parent
 
