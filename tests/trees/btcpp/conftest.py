@@ -14,10 +14,6 @@ import pytest
 from tests.trees.btcpp.suite_summary import PROPERTY
 
 
-def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line("markers", "btcpp(test, kind): the translation of a BehaviorTree.CPP TEST")
-
-
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         mark = item.get_closest_marker("btcpp")
