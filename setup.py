@@ -66,7 +66,6 @@ if __name__ == "__main__":
 
             return _ament_scripts(self, VersionlessRequirement(dist))
 
-
     class AmentDistribution(Distribution):
         """Reads setup.cfg (the ament install layout) but not pyproject.toml."""
 

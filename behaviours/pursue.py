@@ -402,8 +402,12 @@ class PursueLastSeen(SearchLeaf):
         belief = self.belief(track)
         where = f"({plan.aim[0]:.2f}, {plan.aim[1]:.2f})"
         if now > plan.deadline and plan.arrived_at is None:  # once there, the look is given in full
-            return self._finish(plan, belief, f"LOST: {p.target} not seen again within the loss timer "
-                                f"{plan.deadline - plan.started:.1f} s ({plan.path_m:.1f} m detour to see {where})")
+            return self._finish(
+                plan,
+                belief,
+                f"LOST: {p.target} not seen again within the loss timer "
+                f"{plan.deadline - plan.started:.1f} s ({plan.path_m:.1f} m detour to see {where})",
+            )
         v = plan.view
         robot = state.pose
         if plan.glance_to is not None:  # first the glance toward where it left the view
@@ -429,8 +433,9 @@ class PursueLastSeen(SearchLeaf):
                 return py_trees.common.Status.RUNNING
             if now - plan.arrived_at >= p.look_s and (plan.opens_at is None or now >= plan.opens_at + p.look_s):
                 seen_from = f"({v.x:.2f}, {v.y:.2f})"
-                return self._finish(plan, belief, f"LOST: looked from {seen_from} toward {where}, where "
-                                    f"{p.target} went: not there")
+                return self._finish(
+                    plan, belief, f"LOST: looked from {seen_from} toward {where}, where {p.target} went: not there"
+                )
             self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8) if not facing and not plan.swept else 0.0)
             self.feedback_message = f"LOST: looking toward {where}, {now - plan.arrived_at:.1f} s of {p.look_s:g} s"
             return py_trees.common.Status.RUNNING
@@ -439,8 +444,12 @@ class PursueLastSeen(SearchLeaf):
         else:
             outcome = self.nav_outcome(self._goal)
             if outcome == NavStatus.FAILED:
-                return self._finish(plan, belief, f"LOST: cannot reach ({v.x:.2f}, {v.y:.2f}) to see {where}: "
-                                    f"{self.nav_reason() or 'navigation failed'}")
+                return self._finish(
+                    plan,
+                    belief,
+                    f"LOST: cannot reach ({v.x:.2f}, {v.y:.2f}) to see {where}: "
+                    f"{self.nav_reason() or 'navigation failed'}",
+                )
             if outcome == NavStatus.SUCCEEDED and not facing:  # arrived not quite facing: turn on the spot
                 self.drive(0.0, turn_rate(bearing_to(robot, plan.aim), 0.8))
             else:

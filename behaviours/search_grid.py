@@ -176,7 +176,12 @@ def travel_distances(free: np.ndarray, start: tuple[int, int], resolution: float
 
 # ------------------------------------------------------------------------------------------- sight
 def _ray_samples(
-    sg: SearchGrid, xs: np.ndarray, ys: np.ndarray, angles: np.ndarray, range_m: float, min_range_m: float,
+    sg: SearchGrid,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    angles: np.ndarray,
+    range_m: float,
+    min_range_m: float,
     step: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Flat cell indices (N, R, S), whether each sample is inside the grid, and the samples' ranges (S,).

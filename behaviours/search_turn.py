@@ -265,8 +265,10 @@ class TurnToBearing(SearchLeaf):
             took = self.now() - turn.started
             done = f"SEARCH a: turned toward {p.target}'s {turn.why} and back the other way ({took:.0f} s)"
             if turn.handed_over:
-                done = (f"SEARCH a: a whole turn here would show under {100 * WORTH_FRACTION:.0f} % of where "
-                        f"{p.target} can be: moving instead ({took:.0f} s of turning, toward its {turn.why})")
+                done = (
+                    f"SEARCH a: a whole turn here would show under {100 * WORTH_FRACTION:.0f} % of where "
+                    f"{p.target} can be: moving instead ({took:.0f} s of turning, toward its {turn.why})"
+                )
             elif turn.skipped:
                 done += f"; {turn.skipped} turn(s) cut short: nothing it could be was left that way"
             if belief is not None and not (belief.log and belief.log[-1].startswith("turned")):

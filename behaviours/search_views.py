@@ -139,8 +139,9 @@ class ViewpointSearch(SearchLeaf):
             return self._finish(hunt, None, f"{rung}: no map to search on")
         now = self.now()
         if now - hunt.started > p.timeout_s:
-            return self._finish(hunt, belief, f"{rung}: {p.target} not found in {p.timeout_s:g} s "
-                                f"({self.summary(hunt, now)})")
+            return self._finish(
+                hunt, belief, f"{rung}: {p.target} not found in {p.timeout_s:g} s ({self.summary(hunt, now)})"
+            )
         why = self.exhausted(belief)
         if why:
             return self._finish(hunt, belief, f"{rung}: {why} ({self.summary(hunt, now)})")
@@ -157,8 +158,11 @@ class ViewpointSearch(SearchLeaf):
         if hunt.phase == "plan":
             visit = self._best(belief, robot)
             if visit is None:
-                return self._finish(hunt, belief, f"{rung}: no place within {p.max_travel_m:g} m sees any of "
-                                    f"{self.WHAT} ({self.summary(hunt, now)})")
+                return self._finish(
+                    hunt,
+                    belief,
+                    f"{rung}: no place within {p.max_travel_m:g} m sees any of {self.WHAT} ({self.summary(hunt, now)})",
+                )
             self._go(hunt, visit, now)
         assert hunt.visit is not None
         v = hunt.visit.pose

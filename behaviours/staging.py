@@ -37,8 +37,9 @@ class GoToStaging(MissionLeaf):
         target: str = port("dock", "name of the dock target (a key of perception.targets)")
         offset_m: float = port(0.7, "staging distance in front of the tag, along its normal (base pose)")
         timeout_s: float = port(40.0, "give up after this long")
-        dock_pose: Pose2D = port(doc="the dock marker on the floor (map frame; heading = its face normal)",
-                                 direction="output")
+        dock_pose: Pose2D = port(
+            doc="the dock marker on the floor (map frame; heading = its face normal)", direction="output"
+        )
         staging_pose: Pose2D = port(doc="the staging pose it navigates to (map frame)", direction="output")
 
     NODE_TYPE = "Action"

@@ -68,19 +68,44 @@ BENCHMARKS: tuple[Benchmark, ...] = (
     Benchmark("latency", "latency", "frame → command on the blackboard, p50/p99, vs the detector alone"),
     Benchmark("sim", "sim_bench", "render ms/frame per resolution/renderer; closed-loop sim-s per wall-s"),
     Benchmark("missions", "missions", "mission outcomes over many seeds per scenario vs the design targets"),
-    Benchmark("search", "search_bench", "finding the target again: the search ladder vs the in-place sweep vs a ±90° "
-              "rotation, same scenarios and seeds (only with --only search)", in_quick=False, in_full=False),
-    Benchmark("robustness", "robustness", "missions under a real robot's senses: every scenario × ideal / typical / "
-              "harsh, then one factor at a time at three levels (only with --only robustness)",
-              in_quick=False, in_full=False),
-    Benchmark("sweep", "sweep_scaling", "mission sweep: 1 vs 2 workers, per-run overhead vs mission run, 1,000 seeds",
-              in_quick=False),  # quick figures would be start-up costs only; `--quick --only sweep` smoke-tests it
+    Benchmark(
+        "search",
+        "search_bench",
+        "finding the target again: the search ladder vs the in-place sweep vs a ±90° "
+        "rotation, same scenarios and seeds (only with --only search)",
+        in_quick=False,
+        in_full=False,
+    ),
+    Benchmark(
+        "robustness",
+        "robustness",
+        "missions under a real robot's senses: every scenario × ideal / typical / "
+        "harsh, then one factor at a time at three levels (only with --only robustness)",
+        in_quick=False,
+        in_full=False,
+    ),
+    Benchmark(
+        "sweep",
+        "sweep_scaling",
+        "mission sweep: 1 vs 2 workers, per-run overhead vs mission run, 1,000 seeds",
+        in_quick=False,
+    ),  # quick figures would be start-up costs only; `--quick --only sweep` smoke-tests it
     Benchmark("ros", "ros_transport", "image → /detected_aruco_pose latency over shared-memory DDS at 30 Hz"),
-    Benchmark("ros_missions", "ros_missions", "the mission over ROS (sim-robot + node) vs in process, same seeds "
-              "(only with --only ros_missions)", in_quick=False, in_full=False),
-    Benchmark("nav2_actions", "nav2_actions", "Nav2's dock_robot / follow_object served by our trees (three "
-              "processes over DDS) vs the same trees in process, same seeds (only with --only nav2_actions)",
-              in_quick=False, in_full=False),
+    Benchmark(
+        "ros_missions",
+        "ros_missions",
+        "the mission over ROS (sim-robot + node) vs in process, same seeds (only with --only ros_missions)",
+        in_quick=False,
+        in_full=False,
+    ),
+    Benchmark(
+        "nav2_actions",
+        "nav2_actions",
+        "Nav2's dock_robot / follow_object served by our trees (three "
+        "processes over DDS) vs the same trees in process, same seeds (only with --only nav2_actions)",
+        in_quick=False,
+        in_full=False,
+    ),
     Benchmark("soak", "soak", "long-running soak test (only with --only soak)", in_quick=False, in_full=False),
 )
 
@@ -96,8 +121,6 @@ def select(only: str | None, quick: bool) -> list[Benchmark]:
         names = [n.strip() for n in only.split(",") if n.strip()]
         unknown = [n for n in names if n not in BY_NAME]
         if unknown:
-            raise MissionError(
-                f"unknown benchmark {', '.join(repr(n) for n in unknown)}; known: {', '.join(BY_NAME)}"
-            )
+            raise MissionError(f"unknown benchmark {', '.join(repr(n) for n in unknown)}; known: {', '.join(BY_NAME)}")
         return [b for b in BENCHMARKS if b.name in names]
     return [b for b in BENCHMARKS if (b.in_quick if quick else b.in_full)]

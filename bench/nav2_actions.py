@@ -86,7 +86,8 @@ def _goal_tree(work: Path, name: str, include: str, inputs: dict[str, Any], afte
     code = "; ".join(f"{k} := {_literal(v)}" for k, v in inputs.items())
     main = Path(include).stem.title().replace("_", "")
     path = work / f"{name}.xml"
-    path.write_text(textwrap.dedent(f"""\
+    path.write_text(
+        textwrap.dedent(f"""\
         <root BTCPP_format="4" main_tree_to_execute="Goal">
           <include path="{include}"/>
           <BehaviorTree ID="Goal">
@@ -97,7 +98,8 @@ def _goal_tree(work: Path, name: str, include: str, inputs: dict[str, Any], afte
             </Sequence>
           </BehaviorTree>
         </root>
-    """))
+    """)
+    )
     return path
 
 
@@ -158,14 +160,39 @@ def _follow_row(o: dict[str, Any]) -> dict[str, Any]:
 def _served(scenario: str, seed: int, duration: float, env: dict[str, str], work: Path, tag: str):
     report = work / f"{tag}_{seed}"
     node = Subprocess(
-        [str(TREE_EXE), "--config", str(CONFIG), "--tree", "none", "--params-file", str(PARAMS),
-         "--ros-args", "-p", "use_sim_time:=true"],
+        [
+            str(TREE_EXE),
+            "--config",
+            str(CONFIG),
+            "--tree",
+            "none",
+            "--params-file",
+            str(PARAMS),
+            "--ros-args",
+            "-p",
+            "use_sim_time:=true",
+        ],
         env,
         work / f"{tag}_{seed}_node.log",
     )
     robot = Subprocess(
-        [sys.executable, "-m", "mission", "sim-robot", "--scenario", scenario, "--seed", str(seed), "--serve",
-         "--config", str(CONFIG), "--max-duration", str(duration), "--report", str(report)],
+        [
+            sys.executable,
+            "-m",
+            "mission",
+            "sim-robot",
+            "--scenario",
+            scenario,
+            "--seed",
+            str(seed),
+            "--serve",
+            "--config",
+            str(CONFIG),
+            "--max-duration",
+            str(duration),
+            "--report",
+            str(report),
+        ],
         {**os.environ, **ros_env_overrides(env)},
         work / f"{tag}_{seed}_robot.log",
     )
@@ -272,8 +299,10 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                 rows.append(row)
                 with runs_path.open("a") as f:
                     f.write(json.dumps(row) + "\n")
-                progress(f"nav2_actions: {task} seed {seed} {world}: {'ok' if row['success'] else 'FAILED'} "
-                         f"({row['reason']})")
+                progress(
+                    f"nav2_actions: {task} seed {seed} {world}: {'ok' if row['success'] else 'FAILED'} "
+                    f"({row['reason']})"
+                )
     figs = []
     for task in tasks:
         a = [r for r in rows if r["task"] == task and r["world"] == "actions"]
@@ -282,16 +311,27 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
             continue
         sa, sb = sum(r["success"] for r in a) / len(a), sum(r["success"] for r in b) / max(1, len(b))
         figs.append(
-            Figure(f"{task}: success through the actions ({len(a)} seeds)", round(sa, 3), "fraction",
-                   baseline="the same tree in process, same seeds", baseline_value=round(sb, 3),
-                   ratio=ratio(sa, sb)).to_json()
+            Figure(
+                f"{task}: success through the actions ({len(a)} seeds)",
+                round(sa, 3),
+                "fraction",
+                baseline="the same tree in process, same seeds",
+                baseline_value=round(sb, 3),
+                ratio=ratio(sa, sb),
+            ).to_json()
         )
         keys = (
-            [("dock_lateral_m", "lateral error", "m"), ("dock_distance_m", "distance error", "m"),
-             ("dock_skew_deg", "skew", "°"), ("task_s", "time to dock", "s")]
+            [
+                ("dock_lateral_m", "lateral error", "m"),
+                ("dock_distance_m", "distance error", "m"),
+                ("dock_skew_deg", "skew", "°"),
+                ("task_s", "time to dock", "s"),
+            ]
             if task == "dock"
-            else [("reacquisition_max_s", "re-acquisition (worst per run)", "s"),
-                  ("tracking_fraction", "tracking fraction", "fraction")]
+            else [
+                ("reacquisition_max_s", "re-acquisition (worst per run)", "s"),
+                ("tracking_fraction", "tracking fraction", "fraction"),
+            ]
         )
         for key, label, unit in keys:
             for stat, fn in (("median", _median), ("p95", _p95)):
@@ -299,22 +339,37 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
                 if va is None and vb is None:
                     continue
                 figs.append(
-                    Figure(f"{task}: {label}, {stat}, through the actions", va, unit,
-                           baseline="in process, same seeds", baseline_value=vb, ratio=ratio(va, vb)).to_json()
+                    Figure(
+                        f"{task}: {label}, {stat}, through the actions",
+                        va,
+                        unit,
+                        baseline="in process, same seeds",
+                        baseline_value=vb,
+                        ratio=ratio(va, vb),
+                    ).to_json()
                 )
         if task == "follow":
             goals = sum(bool(r.get("goal_succeeded")) for r in a)
             figs.append(
-                Figure("follow: FollowObject goals SUCCEEDED (max_duration reached)", f"{goals}/{len(a)}", "",
-                       baseline="the action's own result").to_json()
+                Figure(
+                    "follow: FollowObject goals SUCCEEDED (max_duration reached)",
+                    f"{goals}/{len(a)}",
+                    "",
+                    baseline="the action's own result",
+                ).to_json()
             )
             lost = sum(r.get("loss_events") or 0 for r in a)
             back = sum(r.get("loss_recovered") or 0 for r in a)
             lost_b = sum(r.get("loss_events") or 0 for r in b)
             back_b = sum(r.get("loss_recovered") or 0 for r in b)
             figs.append(
-                Figure("follow: losses recovered through the actions", f"{back}/{lost}", "",
-                       baseline="in process", baseline_value=f"{back_b}/{lost_b}").to_json()
+                Figure(
+                    "follow: losses recovered through the actions",
+                    f"{back}/{lost}",
+                    "",
+                    baseline="in process",
+                    baseline_value=f"{back_b}/{lost_b}",
+                ).to_json()
             )
     return {
         "figures": figs,

@@ -208,8 +208,14 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
     return {
         "title": "Pose accuracy by range × angle: our sources vs the raw library's naive pose on the same frames",
         "figures": [f.to_json() for f in figures],
-        "details": {"image": "640x480", "marker_size_m": SIZE, "sequences_per_range": n_seq,
-                    "frames_per_sequence": n_frames, "max_off_axis_deg": 60, "table": table},
+        "details": {
+            "image": "640x480",
+            "marker_size_m": SIZE,
+            "sequences_per_range": n_seq,
+            "frames_per_sequence": n_frames,
+            "max_off_axis_deg": 60,
+            "table": table,
+        },
         "plots": [plot],
     }
 

@@ -493,10 +493,18 @@ def main(argv: list[str] | None = None) -> int:
         default=DEFAULT_RESULTS,
         help="results directory (default bench/results, the committed full-run figures)",
     )
-    ap.add_argument("--out", type=Path, default=None,
-                    help="markdown to write (default BENCHMARKS.md; RESULTS/BENCHMARKS.md for another results dir)")
-    ap.add_argument("--docs", type=Path, default=None,
-                    help="where plots are copied and notes.md is read (default docs/bench; RESULTS/docs for another)")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="markdown to write (default BENCHMARKS.md; RESULTS/BENCHMARKS.md for another results dir)",
+    )
+    ap.add_argument(
+        "--docs",
+        type=Path,
+        default=None,
+        help="where plots are copied and notes.md is read (default docs/bench; RESULTS/docs for another)",
+    )
     args = ap.parse_args(argv)
     # BENCHMARKS.md and docs/bench/ are made from the committed results; any other results directory
     # (out/bench-quick/ of `mission bench --quick`) gets its report beside its figures unless told otherwise.

@@ -367,8 +367,10 @@ def _trajectories(row: dict[str, Any], search: str, out: Path) -> Path:
     redo = next(r for r in again.rows if r["run_id"] == run_id)  # the directory may hold other seeds' runs
     picture = where / redo["report_dir"] / "trajectories.png"
     if redo["success"] != row["success"] or redo["reason"] != row["reason"]:
-        raise RuntimeError(f"{search} {row['scenario']} seed {row['seed']}: made again, it gave '{redo['reason']}' "
-                           f"where the recorded row says '{row['reason']}' — the rows are not of this code")
+        raise RuntimeError(
+            f"{search} {row['scenario']} seed {row['seed']}: made again, it gave '{redo['reason']}' "
+            f"where the recorded row says '{row['reason']}' — the rows are not of this code"
+        )
     return picture
 
 

@@ -218,8 +218,10 @@ def main() -> None:
         return
     print(f"load average before/after: {res['load_average_before']} / {res['load_average_after']}")
     for label, r in res["render"].items():
-        print(f"render {label:>16}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms per frame "
-              f"(bare getCameraImage {r['bare_median_ms']:.1f} ms)")
+        print(
+            f"render {label:>16}: median {r['median_ms']:6.1f} ms  p90 {r['p90_ms']:6.1f} ms per frame "
+            f"(bare getCameraImage {r['bare_median_ms']:.1f} ms)"
+        )
     for key in ("sim_only_follow_open", "closed_loop_follow_open"):
         r = res[key]
         print(

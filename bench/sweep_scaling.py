@@ -207,23 +207,34 @@ def run(quick: bool, out: Path) -> dict[str, Any]:
         + (" (QUICK: 2 runs of 2 s — a smoke test)" if quick else ""),
         "figures": [f.to_json() for f in figures],
         "details": {
-            "runs": {"scenarios": list(setup["scenarios"]), "seeds": list(setup["seeds"]),
-                     "max_duration_s": setup["max_duration"], "count": n},
+            "runs": {
+                "scenarios": list(setup["scenarios"]),
+                "seeds": list(setup["seeds"]),
+                "max_duration_s": setup["max_duration"],
+                "count": n,
+            },
             "alone_in_process_s": [round(w, 3) for w in alone],
             "alone_in_process_cpu_s": [round(c, 3) for _, c in alone_by_run.values()],
             "alone_as_processes_s": [round(w, 3) for w in processes],
             "sweep_1_worker": {k: v for k, v in one.items() if k != "by_run"},
             "sweep_2_workers": {k: v for k, v in two.items() if k != "by_run"},
             "cpu_ratio_by_run": [round(r, 3) for r in paired],
-            "estimate": {"runs": runs, "full_run_core_s": round(full_run_s, 1), "full_run_source": source,
-                         "per_run_cpu_vs_alone": round(per_run, 3), "fixed_s": one["fixed_s"],
-                         "parallel_efficiency_here": round(efficiency_here, 3),
-                         "cluster_hours_at_this_machines_efficiency": round(
-                             (core_s / (CLUSTER_CORES * efficiency_here) + one["fixed_s"]) / 3600, 2),
-                         "core_hours": round(core_s / 3600, 1), "cluster_cores": CLUSTER_CORES,
-                         "cluster_hours": round(cluster_h, 2),
-                         "method": "core_s = runs × full_run_core_s × per_run_cpu_vs_alone; hours = (core_s / cores "
-                                   "+ fixed_s) / 3600 (one worker per core, each run on its own core)"},
+            "estimate": {
+                "runs": runs,
+                "full_run_core_s": round(full_run_s, 1),
+                "full_run_source": source,
+                "per_run_cpu_vs_alone": round(per_run, 3),
+                "fixed_s": one["fixed_s"],
+                "parallel_efficiency_here": round(efficiency_here, 3),
+                "cluster_hours_at_this_machines_efficiency": round(
+                    (core_s / (CLUSTER_CORES * efficiency_here) + one["fixed_s"]) / 3600, 2
+                ),
+                "core_hours": round(core_s / 3600, 1),
+                "cluster_cores": CLUSTER_CORES,
+                "cluster_hours": round(cluster_h, 2),
+                "method": "core_s = runs × full_run_core_s × per_run_cpu_vs_alone; hours = (core_s / cores "
+                "+ fixed_s) / 3600 (one worker per core, each run on its own core)",
+            },
             "load_average_1min": {"before": load_before, "after": load_average()},
         },
         "plots": [],

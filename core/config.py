@@ -93,9 +93,7 @@ def _step(annotation: Any, part: Any) -> list[Any]:
     for t in _expand(annotation):
         origin = get_origin(t)
         if _is_model(t) and isinstance(part, str):
-            field = t.model_fields.get(part) or next(
-                (f for f in t.model_fields.values() if f.alias == part), None
-            )
+            field = t.model_fields.get(part) or next((f for f in t.model_fields.values() if f.alias == part), None)
             if field is not None:
                 out.append(field.annotation)
             elif part == t.__name__:  # pydantic names the union member it tried

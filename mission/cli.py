@@ -73,51 +73,108 @@ def _add_run(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record-bag", default=None, metavar="PATH", help="record sensors as a rosbag2")
     p.add_argument("--log", default=None, metavar="FILE", help="record every tick as JSON lines")
     p.add_argument("--serve", action="store_true", help="serve a live web view on localhost")
-    p.add_argument("--port", type=port, default=8765,
-                   help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)")
-    p.add_argument("--groot", type=port_pair, nargs="?", const=1667, default=None, metavar="PORT",
-                   help="serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (default 1667; 0 = any free)")
-    p.add_argument("--btlog", default=None, metavar="FILE",
-                   help="write a Groot2 log (.btlog, BT.CPP FileLogger2) of every node's transitions")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="a tree port, config or scenario key for this run (repeatable), e.g. "
-                        "--set SearchSweep.angular_speed=0.8 --set run.tick_hz=10 --set camera.width=320")
+    p.add_argument(
+        "--port", type=port, default=8765, help="port for --serve, 0–65535 (127.0.0.1 only; 0 picks a free one)"
+    )
+    p.add_argument(
+        "--groot",
+        type=port_pair,
+        nargs="?",
+        const=1667,
+        default=None,
+        metavar="PORT",
+        help="serve Groot2's live monitor on 127.0.0.1:PORT and PORT+1 (default 1667; 0 = any free)",
+    )
+    p.add_argument(
+        "--btlog",
+        default=None,
+        metavar="FILE",
+        help="write a Groot2 log (.btlog, BT.CPP FileLogger2) of every node's transitions",
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a tree port, config or scenario key for this run (repeatable), e.g. "
+        "--set SearchSweep.angular_speed=0.8 --set run.tick_hz=10 --set camera.width=320",
+    )
     p.add_argument("--quiet", action="store_true", help="no live progress, only the result line")
 
 
 def _add_detect(p: argparse.ArgumentParser) -> None:
     p.add_argument("images", nargs="+", metavar="IMAGE", help="image files (PNG, JPEG, …)")
     p.add_argument("--source", default="aruco", help="perception plugin name (default aruco)")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="plugin param, YAML value (repeatable), e.g. --set marker_size_m=0.15")
-    p.add_argument("--intrinsics", default=None, metavar="FX,FY,CX,CY",
-                   help="camera intrinsics; without them the fallback pinhole is used (fx=fy=0.9·W)")
-    p.add_argument("--calibration", default=None, metavar="FILE",
-                   help="camera calibration file (ROS camera_info YAML or OpenCV YAML) instead of --intrinsics")
-    p.add_argument("--depth", action="append", default=[], metavar="FILE",
-                   help="depth image for an IMAGE, in order (16-bit PNG/TIFF in mm, or .npy/float TIFF in m)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="plugin param, YAML value (repeatable), e.g. --set marker_size_m=0.15",
+    )
+    p.add_argument(
+        "--intrinsics",
+        default=None,
+        metavar="FX,FY,CX,CY",
+        help="camera intrinsics; without them the fallback pinhole is used (fx=fy=0.9·W)",
+    )
+    p.add_argument(
+        "--calibration",
+        default=None,
+        metavar="FILE",
+        help="camera calibration file (ROS camera_info YAML or OpenCV YAML) instead of --intrinsics",
+    )
+    p.add_argument(
+        "--depth",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="depth image for an IMAGE, in order (16-bit PNG/TIFF in mm, or .npy/float TIFF in m)",
+    )
     p.add_argument("--json", action="store_true", help="one JSON object per image on stdout")
 
 
 def _add_viz(p: argparse.ArgumentParser) -> None:
     p.add_argument("tree", nargs="?", default=None, metavar="TREE.xml", help="a tree file or a shipped tree name")
-    p.add_argument("--format", default="unicode", choices=["unicode", "ascii", "dot", "svg", "png", "html"],
-                   help="unicode|ascii|dot|svg|png|html (svg/html need no Graphviz; png uses `dot` when present)")
+    p.add_argument(
+        "--format",
+        default="unicode",
+        choices=["unicode", "ascii", "dot", "svg", "png", "html"],
+        help="unicode|ascii|dot|svg|png|html (svg/html need no Graphviz; png uses `dot` when present)",
+    )
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write here instead of stdout")
-    p.add_argument("--log", default=None, metavar="FILE",
-                   help="a JSON-lines tick log (`mission run --log`) or a Groot2 .btlog (`--btlog`, BT.CPP's)")
-    p.add_argument("--tick", type=non_negative_int, default=None,
-                   help="with --log: the tree as it was at tick N (a .btlog: at its Nth timestamp)")
-    p.add_argument("--nodes-model", action="append", default=[], metavar="FILE",
-                   help="a BT.CPP file whose <TreeNodesModel> describes nodes this project does not register "
-                        "(Nav2's nav2_tree_nodes.xml, say): they are drawn, not run; repeatable")
+    p.add_argument(
+        "--log",
+        default=None,
+        metavar="FILE",
+        help="a JSON-lines tick log (`mission run --log`) or a Groot2 .btlog (`--btlog`, BT.CPP's)",
+    )
+    p.add_argument(
+        "--tick",
+        type=non_negative_int,
+        default=None,
+        help="with --log: the tree as it was at tick N (a .btlog: at its Nth timestamp)",
+    )
+    p.add_argument(
+        "--nodes-model",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a BT.CPP file whose <TreeNodesModel> describes nodes this project does not register "
+        "(Nav2's nav2_tree_nodes.xml, say): they are drawn, not run; repeatable",
+    )
 
 
 def _add_tree(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, help="mission config YAML")
     p.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
-    p.add_argument("--params-file", action="append", default=[], metavar="FILE",
-                   help="with --tree none: a Nav2 params file (docking_server / following_server keys); repeatable")
+    p.add_argument(
+        "--params-file",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="with --tree none: a Nav2 params file (docking_server / following_server keys); repeatable",
+    )
     p.epilog = "ROS arguments follow --ros-args, e.g. `mission tree --ros-args -p image_topic:=/cam/image`"
     # `--ros-args -p name:=value …` is collected by main() (argparse cannot take options it does not know).
     p.set_defaults(ros_args=[])
@@ -134,49 +191,98 @@ def _add_sim_robot(p: argparse.ArgumentParser) -> None:
     p.add_argument("--report", default=None, metavar="DIR", help="write report.json and pictures to DIR at the end")
     p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds before stopping")
     p.add_argument("--rate", type=rate, default=1.0, help="sim time per wall second (1.0 = real time; 0 = flat out)")
-    p.add_argument("--serve", action="store_true",
-                   help="the node serves Nav2's actions (tree:=none): its trees ending do not end the run")
-    p.add_argument("--fault", action="append", default=[], metavar="NAME[=VALUE]",
-                   help="abort_goals, no_nav_server, no_tf, tf_loop, tf_stale_at=S, clock_back_at=S, "
-                        "image_delay_s=D (repeatable)")
+    p.add_argument(
+        "--serve",
+        action="store_true",
+        help="the node serves Nav2's actions (tree:=none): its trees ending do not end the run",
+    )
+    p.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="NAME[=VALUE]",
+        help="abort_goals, no_nav_server, no_tf, tf_loop, tf_stale_at=S, clock_back_at=S, image_delay_s=D (repeatable)",
+    )
 
 
 def _add_task(p: argparse.ArgumentParser) -> None:
     sub = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--namespace", default=None, metavar="NS",
-                        help="the servers' namespace: the goal goes to /NS/ACTION (default: none)")
-    common.add_argument("--server-timeout", type=positive_seconds, default=5.0, metavar="S",
-                        help="wait this long for the action server (exit 2 without one) and for each of its answers")
+    common.add_argument(
+        "--namespace",
+        default=None,
+        metavar="NS",
+        help="the servers' namespace: the goal goes to /NS/ACTION (default: none)",
+    )
+    common.add_argument(
+        "--server-timeout",
+        type=positive_seconds,
+        default=5.0,
+        metavar="S",
+        help="wait this long for the action server (exit 2 without one) and for each of its answers",
+    )
     what = "dock at a dock of the server's database (--id) or at a pose (--pose): dock_robot"
     dock = sub.add_parser("dock", parents=[common], help=what, description=what)
     where = dock.add_mutually_exclusive_group(required=True)
     where.add_argument("--id", default=None, metavar="DOCK_ID", help="a dock in the server's dock database")
-    where.add_argument("--pose", type=finite, nargs=3, default=None, metavar=("X", "Y", "YAW"),
-                       help="the dock's pose (the robot's when docked), m and rad")
-    dock.add_argument("--type", default=None, metavar="TYPE",
-                      help="with --pose: the dock's type (a dock_plugins name); not needed when the server has one")
+    where.add_argument(
+        "--pose",
+        type=finite,
+        nargs=3,
+        default=None,
+        metavar=("X", "Y", "YAW"),
+        help="the dock's pose (the robot's when docked), m and rad",
+    )
+    dock.add_argument(
+        "--type",
+        default=None,
+        metavar="TYPE",
+        help="with --pose: the dock's type (a dock_plugins name); not needed when the server has one",
+    )
     dock.add_argument("--frame", default=None, metavar="FRAME", help="with --pose: the pose's frame (default map)")
-    dock.add_argument("--no-nav", action="store_true",
-                      help="the robot is at the staging pose already: do not navigate there first")
-    dock.add_argument("--max-staging-time", type=non_negative_seconds, default=None, metavar="S",
-                      help="seconds to reach the staging pose (default: the goal's 1000)")
+    dock.add_argument(
+        "--no-nav", action="store_true", help="the robot is at the staging pose already: do not navigate there first"
+    )
+    dock.add_argument(
+        "--max-staging-time",
+        type=non_negative_seconds,
+        default=None,
+        metavar="S",
+        help="seconds to reach the staging pose (default: the goal's 1000)",
+    )
     what = "undock from the dock the robot is on: undock_robot"
     undock = sub.add_parser("undock", parents=[common], help=what, description=what)
-    undock.add_argument("--type", default=None, metavar="TYPE",
-                        help="the dock's type, when the server did not dock the robot itself and knows several")
-    undock.add_argument("--max-undocking-time", type=non_negative_seconds, default=None, metavar="S",
-                        help="seconds to undock (default: the goal's 30)")
+    undock.add_argument(
+        "--type",
+        default=None,
+        metavar="TYPE",
+        help="the dock's type, when the server did not dock the robot itself and knows several",
+    )
+    undock.add_argument(
+        "--max-undocking-time",
+        type=non_negative_seconds,
+        default=None,
+        metavar="S",
+        help="seconds to undock (default: the goal's 30)",
+    )
     what = "follow an object by its pose topic (--topic) or its TF frame (--frame): follow_object"
     follow = sub.add_parser("follow", parents=[common], help=what, description=what)
     target = follow.add_mutually_exclusive_group(required=True)
-    target.add_argument("--topic", default=None, metavar="TOPIC",
-                        help="the object's pose (geometry_msgs/PoseStamped) is published here")
+    target.add_argument(
+        "--topic", default=None, metavar="TOPIC", help="the object's pose (geometry_msgs/PoseStamped) is published here"
+    )
     target.add_argument("--frame", default=None, metavar="FRAME", help="the object is this TF frame")
-    follow.add_argument("--max-duration", type=non_negative_seconds, default=0.0, metavar="S",
-                        help="stop following after S seconds (succeeded); default 0: until canceled or failed")
-    p.epilog = ("Ctrl-C cancels the running goal (and waits for the server to end it); exit 0 succeeded, 1 failed, "
-                "2 bad arguments or no action server")
+    follow.add_argument(
+        "--max-duration",
+        type=non_negative_seconds,
+        default=0.0,
+        metavar="S",
+        help="stop following after S seconds (succeeded); default 0: until canceled or failed",
+    )
+    p.epilog = (
+        "Ctrl-C cancels the running goal (and waits for the server to end it); exit 0 succeeded, 1 failed, "
+        "2 bad arguments or no action server"
+    )
 
 
 def _add_replay(p: argparse.ArgumentParser) -> None:
@@ -192,36 +298,72 @@ def _add_replay(p: argparse.ArgumentParser) -> None:
         ("scan", "sensor_msgs/LaserScan"),
         ("map", "nav_msgs/OccupancyGrid"),
     ):
-        p.add_argument(f"--{name}-topic", default=None, metavar="TOPIC",
-                       help=f"{what} (default: the config's topics section, else the node's default)")
-    p.add_argument("--calibration", default=None, metavar="FILE",
-                   help="camera calibration (ROS camera_info YAML or OpenCV YAML) for every frame")
+        p.add_argument(
+            f"--{name}-topic",
+            default=None,
+            metavar="TOPIC",
+            help=f"{what} (default: the config's topics section, else the node's default)",
+        )
+    p.add_argument(
+        "--calibration",
+        default=None,
+        metavar="FILE",
+        help="camera calibration (ROS camera_info YAML or OpenCV YAML) for every frame",
+    )
 
 
 def _add_sweep(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenarios", default=None, metavar="A,B,…", help="scenario names or YAML paths, comma-separated")
     p.add_argument("--seeds", default=None, metavar="A-B", help="seeds: A-B (inclusive), N, or a comma list of them")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=V1,V2",
-                   help="a grid axis (repeatable): a tree port, config or scenario key and its values, "
-                        "e.g. --set SearchSweep.angular_speed=0.6,1.0 --set run.tick_hz=10,15")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2",
+        help="a grid axis (repeatable): a tree port, config or scenario key and its values, "
+        "e.g. --set SearchSweep.angular_speed=0.6,1.0 --set run.tick_hz=10,15",
+    )
     p.add_argument(
         "--config", default=None, help="mission config YAML for every run (default: each scenario's `config`)"
     )
     p.add_argument("--tree", default=None, help="tree XML file for every run (overrides the config's `tree`)")
     p.add_argument("--max-duration", type=positive_seconds, default=None, help="simulated seconds per run at most")
-    p.add_argument("--out", default="out/sweep", metavar="DIR",
-                   help="sweep directory (default out/sweep); the same --out resumes: finished runs are skipped")
-    p.add_argument("--scheduler", default=None, metavar="ADDR",
-                   help="an existing Dask scheduler (tcp://host:8786); default: a local cluster on 127.0.0.1")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="local cluster: worker processes (default: one per core)")
-    p.add_argument("--dashboard", type=port, default=None, metavar="PORT",
-                   help="local cluster: the scheduler's HTTP port on 127.0.0.1 (default: any free; needs bokeh)")
-    p.add_argument("--pictures", default="all", choices=["all", "failed", "none"],
-                   help="report pictures for all runs (default), failed runs only, or none (report.json always)")
+    p.add_argument(
+        "--out",
+        default="out/sweep",
+        metavar="DIR",
+        help="sweep directory (default out/sweep); the same --out resumes: finished runs are skipped",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDR",
+        help="an existing Dask scheduler (tcp://host:8786); default: a local cluster on 127.0.0.1",
+    )
+    p.add_argument(
+        "--workers", type=positive_int, default=None, help="local cluster: worker processes (default: one per core)"
+    )
+    p.add_argument(
+        "--dashboard",
+        type=port,
+        default=None,
+        metavar="PORT",
+        help="local cluster: the scheduler's HTTP port on 127.0.0.1 (default: any free; needs bokeh)",
+    )
+    p.add_argument(
+        "--pictures",
+        default="all",
+        choices=["all", "failed", "none"],
+        help="report pictures for all runs (default), failed runs only, or none (report.json always)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar, only the result lines")
-    p.add_argument("--compare", nargs=2, default=None, metavar=("A", "B"),
-                   help="compare two sweep directories cell by cell, with a significance note on each rate")
+    p.add_argument(
+        "--compare",
+        nargs=2,
+        default=None,
+        metavar=("A", "B"),
+        help="compare two sweep directories cell by cell, with a significance note on each rate",
+    )
     p.add_argument("-o", "--output", default=None, metavar="FILE.html", help="with --compare: also write a page")
 
 
@@ -231,12 +373,13 @@ def _add_bench(p: argparse.ArgumentParser) -> None:
 
 def _add_nodes_model(p: argparse.ArgumentParser) -> None:
     out = p.add_mutually_exclusive_group()
-    out.add_argument("-o", "--output", default=None, metavar="FILE",
-                     help="write a models file Groot2 can import (default: stdout)")
-    out.add_argument("--into", default=None, metavar="TREE.xml",
-                     help="replace (or add) the TreeNodesModel section of this tree file")
-    p.epilog = ("behaviours come from the shipped set and every installed package's "
-                "`mission.behaviours` entry points")
+    out.add_argument(
+        "-o", "--output", default=None, metavar="FILE", help="write a models file Groot2 can import (default: stdout)"
+    )
+    out.add_argument(
+        "--into", default=None, metavar="TREE.xml", help="replace (or add) the TreeNodesModel section of this tree file"
+    )
+    p.epilog = "behaviours come from the shipped set and every installed package's `mission.behaviours` entry points"
 
 
 def _version() -> str:
@@ -264,9 +407,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mission", description="Behaviour-tree missions for camera robots.")
     parser.add_argument("--version", action="version", version=f"mission {_version()}")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
-    adders = {"run": _add_run, "detect": _add_detect, "viz": _add_viz, "tree": _add_tree, "sim-robot": _add_sim_robot,
-              "task": _add_task, "replay": _add_replay, "sweep": _add_sweep, "bench": _add_bench,
-              "plugins": lambda p: None, "nodes-model": _add_nodes_model}
+    adders = {
+        "run": _add_run,
+        "detect": _add_detect,
+        "viz": _add_viz,
+        "tree": _add_tree,
+        "sim-robot": _add_sim_robot,
+        "task": _add_task,
+        "replay": _add_replay,
+        "sweep": _add_sweep,
+        "bench": _add_bench,
+        "plugins": lambda p: None,
+        "nodes-model": _add_nodes_model,
+    }
     for verb, help_text in VERBS.items():
         p = sub.add_parser(verb, help=help_text, description=help_text, add_help=verb not in FORWARDING)
         adders[verb](p)
@@ -348,7 +501,7 @@ def _main(argv: Sequence[str] | None) -> int:
         if args.verb != "tree" or "--ros-args" not in extra:
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
         # Everything from --ros-args on goes to rclpy, as `ros2 run mission tree --ros-args …` does.
-        args.ros_args = extra[extra.index("--ros-args"):]
+        args.ros_args = extra[extra.index("--ros-args") :]
     try:
         module = importlib.import_module(f"mission.commands.{_module(args.verb)}")
     except ModuleNotFoundError as err:

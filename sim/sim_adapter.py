@@ -289,8 +289,9 @@ class SimAdapter:
         cam = self.scenario.camera
         T = self.T_map_optical()
         model = self.camera_model
-        img, depth = self.world.render(T, cam if model is None else model.render_spec, self.scenario.lighting,
-                                       depth=cam.depth)
+        img, depth = self.world.render(
+            T, cam if model is None else model.render_spec, self.scenario.lighting, depth=cam.depth
+        )
         if model is not None:
             w = self.base.state.w if self.base is not None else 0.0
             img, depth = model.apply(img, depth, w, self._exposure(T))
@@ -342,8 +343,13 @@ class SimAdapter:
                 quads.append(PrintedQuad(side, start @ mount.T_body_marker, end @ mount.T_body_marker))
         if self.world.T_map_dock is not None and sc.dock is not None:
             d = sc.dock
-            quads.append(PrintedQuad(quad_side(d.dictionary, d.printed_size_m, d.quiet_cells),
-                                     self.world.T_map_dock, self.world.T_map_dock))
+            quads.append(
+                PrintedQuad(
+                    quad_side(d.dictionary, d.printed_size_m, d.quiet_cells),
+                    self.world.T_map_dock,
+                    self.world.T_map_dock,
+                )
+            )
         return Exposure(camera_at(-half), T_mid, camera_at(half), quads, sc.lighting.direction, sc.lighting.gloss)
 
     def _believed_T_map_optical(self) -> np.ndarray:

@@ -205,9 +205,7 @@ class HeadlessChromium:
         """A PNG of the viewport (or the whole page) at `path`."""
         params: dict[str, Any] = {"format": "png"}
         if full_page:
-            size = self.evaluate(
-                "[document.documentElement.scrollWidth, document.documentElement.scrollHeight]"
-            )
+            size = self.evaluate("[document.documentElement.scrollWidth, document.documentElement.scrollHeight]")
             params["clip"] = {"x": 0, "y": 0, "width": size[0], "height": size[1], "scale": 1}
             params["captureBeyondViewport"] = True
         data = base64.b64decode(self.send("Page.captureScreenshot", params)["data"])

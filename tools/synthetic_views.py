@@ -132,9 +132,11 @@ def random_pose(
             roll=rng.uniform(-math.pi, math.pi),
         )
         px = k.project(se3.apply(t, corners3d * 1.25))  # the quiet zone must fit too
-        if (px.min(axis=0) >= margin_px).all() and (px[:, 0] <= k.width - margin_px).all() and (
-            px[:, 1] <= k.height - margin_px
-        ).all():
+        if (
+            (px.min(axis=0) >= margin_px).all()
+            and (px[:, 0] <= k.width - margin_px).all()
+            and (px[:, 1] <= k.height - margin_px).all()
+        ):
             return t
     raise ValueError(f"a {marker_size_m} m marker at {distance_m} m does not fit in a {k.width}×{k.height} image")
 
@@ -314,8 +316,17 @@ def render_sequence(
     poses = pose_sequence(start, n, rng, step_m=0.003 * distance_m)
     return [
         render_marker_view(
-            t, marker_id=marker_id, marker_size_m=marker_size_m, dictionary=dictionary, intrinsics=k,
-            blur_sigma=blur_sigma, noise_sigma=noise_sigma, rng=rng, black=black, white=white, background=bg,
+            t,
+            marker_id=marker_id,
+            marker_size_m=marker_size_m,
+            dictionary=dictionary,
+            intrinsics=k,
+            blur_sigma=blur_sigma,
+            noise_sigma=noise_sigma,
+            rng=rng,
+            black=black,
+            white=white,
+            background=bg,
         )
         for t in poses
     ]

@@ -36,8 +36,10 @@ def _leaf(cls: type) -> Build:
 def _script(cls: type, port: str = "code") -> Build:
     def build(name: str, _children: list[Behaviour], ports: dict[str, Any], ctx: BuildContext) -> Behaviour:
         if port not in ctx.scripts:
-            raise ValueError(f"port {port}={ports.get(port)}: write the script in the tree file (it is parsed when "
-                             "the tree loads), not in a blackboard entry")
+            raise ValueError(
+                f"port {port}={ports.get(port)}: write the script in the tree file (it is parsed when "
+                "the tree loads), not in a blackboard entry"
+            )
         return cls(name, ctx.scripts[port])
 
     return build

@@ -310,8 +310,10 @@ class Binary(Expr):
                 return bool(a) or bool(b)
         if self.op == "+" and isinstance(a, str) and isinstance(b, str):
             return a + b
-        if self.op == ".." and (isinstance(a, str) or isinstance(b, str)) and all(
-            isinstance(v, str) or is_number(v) for v in (a, b)
+        if (
+            self.op == ".."
+            and (isinstance(a, str) or isinstance(b, str))
+            and all(isinstance(v, str) or is_number(v) for v in (a, b))
         ):
             return to_text(a) + to_text(b)
         raise ScriptError(f"[{self.op}] is not defined for {describe(a)} and {describe(b)}")

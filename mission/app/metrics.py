@@ -327,7 +327,6 @@ class MetricsRecorder(RunObserver):
             "collisions": self.collisions,
         }
 
-
     def _tracking_summary(self) -> dict[str, Any]:
         tracked, phase = self.tracking()
         return {
@@ -372,5 +371,9 @@ def _stats(values: list[float]) -> dict[str, float] | None:
     if not values:
         return None
     a = np.asarray(values)
-    return {"n": len(values), "median": round(float(np.median(a)), 3), "max": round(float(a.max()), 3),
-            "mean": round(float(a.mean()), 3)}
+    return {
+        "n": len(values),
+        "median": round(float(np.median(a)), 3),
+        "max": round(float(a.max()), 3),
+        "mean": round(float(a.mean()), 3),
+    }

@@ -33,7 +33,7 @@ def main(args: argparse.Namespace) -> int:
         path = Path(args.into)
         root = parse_file(path)  # a missing or malformed file: file:line, before anything is written
         if root.tag != "root":
-            raise MissionError(f"{path}: expected a tree file (<root BTCPP_format=\"4\">), found <{root.tag}>")
+            raise MissionError(f'{path}: expected a tree file (<root BTCPP_format="4">), found <{root.tag}>')
         _write(path, with_nodes_model(path.read_text(encoding="utf-8"), factory, descriptions=True), "--into")
         print(f"mission: {path}: TreeNodesModel of {count} behaviours", file=sys.stderr)
         return 0

@@ -73,8 +73,11 @@ def main(args: argparse.Namespace) -> int:
     where = "local cluster" if outcome.scheduler == "local" else outcome.scheduler
     print(
         f"sweep: {ok}/{len(rows)} runs succeeded, {len(rows) - ok} failed"
-        + (f", {len(outcome.unfinished)} {'not run' if outcome.interrupted else 'unfinished'}"
-           if outcome.unfinished else "")
+        + (
+            f", {len(outcome.unfinished)} {'not run' if outcome.interrupted else 'unfinished'}"
+            if outcome.unfinished
+            else ""
+        )
         + (f" ({outcome.skipped} finished before, skipped)" if outcome.skipped else "")
         + f"; {outcome.recorded} run now on {outcome.workers} worker(s) ({where}) in {outcome.wall_s:.0f} s"
         + ("; INTERRUPTED: run the same command to resume" if outcome.interrupted else "")

@@ -162,4 +162,3 @@ class RobotFrames:
             else se3.compose(t_map_odom, t_odom_base, t_base_cam)
         )
         return t, ""
-

@@ -182,8 +182,7 @@ def read_params_file(path: str | Path, *node_names: str) -> dict[str, Any]:
     if not sections:
         expected = " or ".join(repr(k) for k in ["/**", *node_names])
         raise ConfigError(
-            f"no section for this node: expected {expected}, found "
-            f"{', '.join(repr(k) for k in data) or 'nothing'}",
+            f"no section for this node: expected {expected}, found {', '.join(repr(k) for k in data) or 'nothing'}",
             file=str(path),
         )
     for key in sections:

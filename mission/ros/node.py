@@ -61,11 +61,16 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "camera_info_topic": ("/camera/camera_info", "camera calibration, paired with images by stamp"),
     "depth_topic": ("/camera/depth/image_raw", "depth images (16UC1 mm or 32FC1 m), paired by stamp"),
     "camera_frame": ("camera_optical_frame", "frame used when an image header has no frame_id"),
-    "camera_exposure_s": (0.0, "the camera's exposure time as its driver is set (s): EXPLORE turns no faster than "
-                          "keeps a marker readable through the smear; 0 = not known, no cap"),
+    "camera_exposure_s": (
+        0.0,
+        "the camera's exposure time as its driver is set (s): EXPLORE turns no faster than "
+        "keeps a marker readable through the smear; 0 = not known, no cap",
+    ),
     "marker_size_m": (_ARUCO_DEFAULTS.marker_size_m, "ArUco marker side length (without `config`)"),
-    "dictionary": (_ARUCO_DEFAULTS.dictionary, "ArUco dictionary (without `config`); an unknown name stops the node "
-                   "with the names there are"),
+    "dictionary": (
+        _ARUCO_DEFAULTS.dictionary,
+        "ArUco dictionary (without `config`); an unknown name stops the node with the names there are",
+    ),
     "config": ("", "mission config YAML; its perception sources and targets replace the two above"),
     "tree": ("", "tree file or shipped tree name; empty = the config's tree; `none` = perception only"),
     "tick_hz": (0.0, "tree ticks per second; 0 = the config's run.tick_hz (15)"),
@@ -78,8 +83,10 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "odom_frame": ("odom", "odometry frame: map → odom → base_frame on /tf"),
     "target_marker_id": (-1, "marker id of the `target` (>= 0 overrides the config's perception.targets)"),
     "camera_info_tolerance_s": (0.1, "largest stamp difference when pairing image ↔ camera info / depth"),
-    "camera_xyz_rpy": ([0.0, 0.0, 0.3, 0.0, 0.0, 0.0],
-                       "fallback camera mount (no TF base_frame → camera): camera body frame x y z roll pitch yaw"),
+    "camera_xyz_rpy": (
+        [0.0, 0.0, 0.3, 0.0, 0.0, 0.0],
+        "fallback camera mount (no TF base_frame → camera): camera body frame x y z roll pitch yaw",
+    ),
     "navigator": ("action", "`action`: Nav2's navigate_to_pose (status, errors reach the tree); `topic`: /goal_pose"),
     "nav_preempt_hz": (10.0, "at most this many new navigate_to_pose goals a second (the follow rate)"),
     "nav_server_timeout_s": (2.0, "wait this long for a navigate_to_pose server, then navigation leaves fail"),
@@ -162,8 +169,10 @@ def check_params(params: dict[str, Any], given: Sequence[str] = ()) -> None:
     for name, (default, _doc) in PARAMETERS.items():
         value, key = params[name], f"-p {name}"
         if isinstance(default, list):
-            ok = isinstance(value, list | tuple) and len(value) == len(default) and all(
-                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value
+            ok = (
+                isinstance(value, list | tuple)
+                and len(value) == len(default)
+                and all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)
             )
             if not ok:
                 raise ConfigError(f"expected 6 numbers [x, y, z, roll, pitch, yaw], got {value!r}", key=key)
@@ -301,6 +310,7 @@ class MissionNode:
                     warn=self.log.warning,
                     info=self.log.info,
                 )
+
         self.adapter = RosAdapter(n, topics, tf_message=tf_message, navigation=navigation)
         self.outputs = PerceptionOutputs(
             n,
@@ -397,7 +407,6 @@ class MissionNode:
         from mission.ros.external_poses import ExternalPoses
         from mission.ros.nav2_params import following_params
 
-
         flat, file = self._server_params("following_server")
         following = following_params(flat, file=file, warn=self.log.warning)
         if following.static_object_timeout > 0:
@@ -477,6 +486,7 @@ class MissionNode:
         self.adapter.extra_fault = fault
         if fault and now - self._last_step > limit and self.runner.tree is not None:
             self._on_tick()  # ROS time stands still: the tree still sees what is wrong
+
     def counters(self) -> dict[str, Any]:
         stats = dict(self.runner.get(bbk.PERCEPTION_STATS, {}) or {}) if self.runner else {}
         cache = self.adapter.cache.stats
@@ -491,8 +501,10 @@ class MissionNode:
             "ticks_failed": self._ticks_failed,
             "fault": self.runner.get(bbk.WORLD_FAULT, "") if self.runner else "",
             "time_jumps": self.adapter.time_jumps,
-            "navigation": {"sent": getattr(self.adapter.navigation, "sent", None),
-                           "results": getattr(self.adapter.navigation, "results", None)},
+            "navigation": {
+                "sent": getattr(self.adapter.navigation, "sent", None),
+                "results": getattr(self.adapter.navigation, "results", None),
+            },
             **cache.to_json(),
             "perception": {k: v for k, v in stats.items() if k not in ("frames_processed",)},
             "sources": source_statuses(self.sources),  # the VLM's budget, breaker (and why), model cost
@@ -545,8 +557,13 @@ def _parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="tree", description="the mission tree as a ROS 2 node")
     parser.add_argument("--config", default=None, help="mission config YAML (same as -p config:=FILE)")
     parser.add_argument("--tree", default=None, help="tree file, shipped tree name, or `none` (perception only)")
-    parser.add_argument("--params-file", action="append", default=[], metavar="FILE",
-                        help="with --tree none: a Nav2 params file (docking_server / following_server keys)")
+    parser.add_argument(
+        "--params-file",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="with --tree none: a Nav2 params file (docking_server / following_server keys)",
+    )
     return parser.parse_args(list(argv))
 
 

@@ -126,7 +126,7 @@ class TfBuffer:
         chain = [frame]
         while (link := self._links.get(chain[-1])) is not None:
             if link.parent in chain or len(chain) > MAX_DEPTH:
-                loop = " → ".join([*chain[chain.index(link.parent):], link.parent])
+                loop = " → ".join([*chain[chain.index(link.parent) :], link.parent])
                 raise TfError("loop", f"TF loop: {loop} (each frame must have one parent and no cycle)")
             chain.append(link.parent)
         return chain

@@ -22,7 +22,7 @@ def render_dot(root: VizNode, *, title: str | None = None, ports: bool = True, f
     """DOT source for the tree under `root`."""
     out = [
         "digraph behaviour_tree {",
-        "  graph [rankdir=TB, nodesep=0.25, ranksep=0.45, bgcolor=\"#fafbfc\", fontname=\"DejaVu Sans\""
+        '  graph [rankdir=TB, nodesep=0.25, ranksep=0.45, bgcolor="#fafbfc", fontname="DejaVu Sans"'
         + (f", label={_quote(title)}, labelloc=t, fontsize=16" if title else "")
         + "];",
         '  node [shape=box, style="rounded,filled", fontname="DejaVu Sans", fontsize=11, margin="0.12,0.06"];',
@@ -43,9 +43,7 @@ def render_dot(root: VizNode, *, title: str | None = None, ports: bool = True, f
         label = "<" + "<BR/>".join(rows) + ">"
         style = '"rounded,filled,dashed"' if n.kind == "SubTree" else '"rounded,filled"'
         width = 2.5 if n.status == "RUNNING" or n.kind == "Control" else 1.3
-        out.append(
-            f'  n{n.id} [label={label}, color="{frame}", fillcolor="{fill}", style={style}, penwidth={width}];'
-        )
+        out.append(f'  n{n.id} [label={label}, color="{frame}", fillcolor="{fill}", style={style}, penwidth={width}];')
     for n in root.walk():
         for c in n.children:
             colour = STATUS_COLOURS.get(c.status, STATUS_COLOURS["INVALID"])[0]

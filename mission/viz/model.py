@@ -208,9 +208,7 @@ def merge_static(live: VizNode, static: VizNode) -> bool:
     Returns False and changes nothing when the shapes differ (a tree built some other way).
     """
     pairs = list(zip(live.walk(), static.walk(), strict=False))
-    if count(live) != count(static) or any(
-        a.name != b.name or len(a.children) != len(b.children) for a, b in pairs
-    ):
+    if count(live) != count(static) or any(a.name != b.name or len(a.children) != len(b.children) for a, b in pairs):
         return False
     for a, b in pairs:
         a.type, a.kind, a.ports, a.defaults, a.line = b.type, b.kind, dict(b.ports), dict(b.defaults), b.line

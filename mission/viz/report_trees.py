@@ -145,13 +145,13 @@ class TransitionTrees(RunObserver):
             active = " › ".join(m.get("active", [])[-3:])
             cards.append(
                 f'<figure class="moment"><figcaption><span class="pill" style="background:{colour}">'
-                f'{html.escape(m["state"] or "—")}</span> t = {m["t"] or 0:.1f} s · tick {m["tick"]} · '
+                f"{html.escape(m['state'] or '—')}</span> t = {m['t'] or 0:.1f} s · tick {m['tick']} · "
                 f'{html.escape(what)}<br><span class="muted">{html.escape(active)}</span></figcaption>'
                 f'<a href="{rel.as_posix()}"><img src="{rel.as_posix()}" alt="tree at tick {m["tick"]}"></a></figure>'
             )
         verdict_colour = "#1e8e3e" if ok else "#d93025"
         return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>mission report — {html.escape(str(out.get('scenario', '')))}</title>
+<html lang="en"><head><meta charset="utf-8"><title>mission report — {html.escape(str(out.get("scenario", "")))}</title>
 <style>
 body {{ font-family: 'DejaVu Sans', Verdana, Arial, sans-serif; margin: 0; background: #eef0f3; color: #202124;
   font-size: 13px; }}
@@ -172,12 +172,12 @@ h2 {{ font-size: 15px; margin: 18px 0 8px; }}
 .muted {{ color: #6b7280; }}
 </style></head><body>
 <header><h1>mission report</h1><span class="verdict">{verdict}</span>
-<span>{html.escape(str(out.get('scenario', '')))} · seed {html.escape(str(out.get('seed', '')))}</span></header>
+<span>{html.escape(str(out.get("scenario", "")))} · seed {html.escape(str(out.get("seed", "")))}</span></header>
 <main>
 <div class="row"><div class="card"><table>{rows}</table></div>
 <div class="card"><img class="pic" src="trajectories.png" alt="trajectories"></div>
 <div class="card"><img class="pic" src="timeline.png" alt="timeline"></div></div>
 <h2>The tree at each state transition</h2>
-<div class="moments">{''.join(cards) or '<p class="muted">no ticks recorded</p>'}</div>
+<div class="moments">{"".join(cards) or '<p class="muted">no ticks recorded</p>'}</div>
 </main></body></html>
 """

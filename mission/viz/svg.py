@@ -45,13 +45,17 @@ def _legend(y: float) -> list[str]:
     x = 0.0
     for status, (frame, fill) in STATUS_COLOURS.items():
         label = "not ticked" if status == "INVALID" else status.lower()
-        out.append(f'<rect x="{x:.0f}" y="0" width="14" height="14" rx="3" fill="{fill}" stroke="{frame}" '
-                   f'stroke-width="1.5"/><text x="{x + 19:.0f}" y="11">{label}</text>')
+        out.append(
+            f'<rect x="{x:.0f}" y="0" width="14" height="14" rx="3" fill="{fill}" stroke="{frame}" '
+            f'stroke-width="1.5"/><text x="{x + 19:.0f}" y="11">{label}</text>'
+        )
         x += 30 + 7 * len(label)
     x += 14
     for kind, colour in KIND_COLOURS.items():
-        out.append(f'<rect x="{x:.0f}" y="0" width="5" height="14" fill="{colour}"/>'
-                   f'<text x="{x + 10:.0f}" y="11">{kind}</text>')
+        out.append(
+            f'<rect x="{x:.0f}" y="0" width="5" height="14" fill="{colour}"/>'
+            f'<text x="{x + 10:.0f}" y="11">{kind}</text>'
+        )
         x += 22 + 7 * len(kind)
     out.append("</g>")
     return out
@@ -101,14 +105,10 @@ def render_svg(
         )
         out.append(f"<title>{escape(node_tooltip(n))}</title>")
         out.append(f'<rect class="frame" width="{box.w:.1f}" height="{box.h:.1f}" rx="{radius:.0f}"/>')
-        out.append(
-            f'<rect class="stripe" x="1" y="1" width="{STRIPE_W:.0f}" height="{box.h - 2:.1f}" rx="2"/>'
-        )
+        out.append(f'<rect class="stripe" x="1" y="1" width="{STRIPE_W:.0f}" height="{box.h - 2:.1f}" rx="2"/>')
         for line in crd.lines:
             cls = {"name": "name", "type": "type", "port": "port", "feedback": "fb"}[line.role]
-            out.append(
-                f'<text class="{cls}" x="{PAD_X:.0f}" y="{line.baseline:.1f}">{escape(line.text)}</text>'
-            )
+            out.append(f'<text class="{cls}" x="{PAD_X:.0f}" y="{line.baseline:.1f}">{escape(line.text)}</text>')
         out.append("</g>")
     out.append("</g>")
     if legend:

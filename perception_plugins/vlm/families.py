@@ -169,8 +169,11 @@ def read_family(reader: AnswerReader, text: str) -> ReadAnswer:
 _HINT_FORMS: tuple[tuple[str, re.Pattern[str], str], ...] = (
     ("molmo2", re.compile(r"<points?\b[^>]*\bcoords\s*=", re.I), 'Molmo2\'s <points coords="…">; set family molmo2'),
     ("molmo", re.compile(r"<points?\b[^>]*\bx1?\s*=", re.I), "Molmo's <point x y> in percent; set family molmo"),
-    ("qwen", re.compile(r"[\"'](?:bbox_2d|point_2d)[\"']"), "Qwen's bbox_2d / point_2d [x, y]; set family qwen2.5-vl "
-     "(pixels) or qwen3-vl (0-1000)"),
+    (
+        "qwen",
+        re.compile(r"[\"'](?:bbox_2d|point_2d)[\"']"),
+        "Qwen's bbox_2d / point_2d [x, y]; set family qwen2.5-vl (pixels) or qwen3-vl (0-1000)",
+    ),
     ("gemini", re.compile(r"[\"'](?:point|box_2d)[\"']\s*:"), 'Gemini\'s [{"point": [y, x]}]; set family gemini-er'),
 )
 
@@ -334,6 +337,10 @@ def resolve_family(configured: str | None, model: str | None, *, key: str, fallb
     if found is not None:
         log.info("model %r: family %s, from its name (set %s to change it)", model, found, key)
         return found
-    log.warning("model %r: its name does not say its family; reading answers as %s ([y, x] in 0-1000 JSON) "
-                "- set %s", model, fallback, key)
+    log.warning(
+        "model %r: its name does not say its family; reading answers as %s ([y, x] in 0-1000 JSON) - set %s",
+        model,
+        fallback,
+        key,
+    )
     return fallback

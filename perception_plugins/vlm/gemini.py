@@ -160,7 +160,9 @@ def gemini_client(params: VlmParams, budget: RequestBudget) -> GeminiClient:
     s = params.gemini
     key = os.environ.get(s.api_key_env, "").strip()
     if not key:
-        why = (f"the environment variable {s.api_key_env} is not set; export your Gemini API key in it "
-               "(it is never read from config, so no report records it)")
+        why = (
+            f"the environment variable {s.api_key_env} is not set; export your Gemini API key in it "
+            "(it is never read from config, so no report records it)"
+        )
         raise ConfigError(why, key="gemini.api_key_env")
     return GeminiClient(s, params.remote, budget, api_key=key, seed=params.seed)

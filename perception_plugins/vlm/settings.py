@@ -91,9 +91,7 @@ class GeminiSettings(StrictModel):
             when, successor = SHUT_DOWN_MODELS[model]
             raise ValueError(f"{model} was shut down on {when}; use its successor {successor}")
         if model == GEMINI_STREAMING_MODEL:
-            raise ValueError(
-                f"{model} is served over the Live API only, not generateContent; use {GEMINI_MODEL}"
-            )
+            raise ValueError(f"{model} is served over the Live API only, not generateContent; use {GEMINI_MODEL}")
         return model
 
     @model_validator(mode="before")

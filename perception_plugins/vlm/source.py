@@ -375,8 +375,12 @@ class VlmSource:
         if refusal is not None:
             self.state = refusal
             if refusal == QuotaStore.QUOTA_EXHAUSTED:
-                self._log_once("quota", "daily quota of %d model calls is spent (%s); no more calls today",
-                               p.daily_quota, self.quota.path)
+                self._log_once(
+                    "quota",
+                    "daily quota of %d model calls is spent (%s); no more calls today",
+                    p.daily_quota,
+                    self.quota.path,
+                )
             return
         anchor = self._anchor(frame)
         if p.latch_in_map and anchor is None:
@@ -486,9 +490,13 @@ class VlmSource:
             self._fresh.append(answer)
             return
         assert req.T_anchor_camera is not None
-        candidate = Candidate(se3.compose(req.T_anchor_camera, answer.pose.T_camera_target), answer.confidence,
-                              req.stamp, answer.pose.sigma_m,
-                              float(np.linalg.norm(answer.pose.T_camera_target[:3, 3])))
+        candidate = Candidate(
+            se3.compose(req.T_anchor_camera, answer.pose.T_camera_target),
+            answer.confidence,
+            req.stamp,
+            answer.pose.sigma_m,
+            float(np.linalg.norm(answer.pose.T_camera_target[:3, 3])),
+        )
         if not self._screened_in(candidate, answer):
             return
         if self.latch.add(candidate):
@@ -497,8 +505,14 @@ class VlmSource:
             self._stale_frames = 0
             self._next_emit = None
             pos = self.latch.T_anchor_target[:3, 3]  # type: ignore[index]
-            log.info("%s: latched %r at %s in %s after %d model calls", self.name, self.params.label,
-                     np.round(pos, 3).tolist(), self.params.map_frame, self.model_calls)
+            log.info(
+                "%s: latched %r at %s in %s after %d model calls",
+                self.name,
+                self.params.label,
+                np.round(pos, 3).tolist(),
+                self.params.map_frame,
+                self.model_calls,
+            )
 
     def _misread(self, cause: str) -> None:
         self.counters["answers_misread"] += 1
@@ -512,8 +526,13 @@ class VlmSource:
         req = answer.request
         assert req.T_anchor_camera is not None and answer.pose is not None
         screened = self.screen.screen(
-            candidate, self.latch.run, req.T_anchor_camera, answer.pose.T_camera_target[:3, 3], answer.pixel,
-            req.image.shape[:2], req.intrinsics,
+            candidate,
+            self.latch.run,
+            req.T_anchor_camera,
+            answer.pose.T_camera_target[:3, 3],
+            answer.pixel,
+            req.image.shape[:2],
+            req.intrinsics,
         )
         if screened.verdict == "walked":
             self.counters["target_moved"] += 1
@@ -547,8 +566,9 @@ class VlmSource:
             permanent=permanent,
         )
 
-    def _detection(self, t_cam: np.ndarray, frame: Frame, confidence: float, latched: bool,
-                   extra: dict[str, Any]) -> Detection:
+    def _detection(
+        self, t_cam: np.ndarray, frame: Frame, confidence: float, latched: bool, extra: dict[str, Any]
+    ) -> Detection:
         pos, quat = se3.to_pos_quat(t_cam)
         return Detection(
             source=self.name,
@@ -582,9 +602,13 @@ class VlmSource:
         else:  # keep the stamp and frame of the image the model saw
             t_cam = t_then
             where = Frame(image=req.image, stamp=req.stamp, frame_id=req.frame_id)
-        return self._detection(t_cam, where, answer.confidence, False,
-                               {"pixel": [round(c, 1) for c in answer.pixel or (0.0, 0.0)],
-                                "age_s": round(frame.stamp - req.stamp, 3)})
+        return self._detection(
+            t_cam,
+            where,
+            answer.confidence,
+            False,
+            {"pixel": [round(c, 1) for c in answer.pixel or (0.0, 0.0)], "age_s": round(frame.stamp - req.stamp, 3)},
+        )
 
     def _republish(self, frame: Frame) -> list[Detection]:
         p = self.params
@@ -626,13 +650,26 @@ class VlmSource:
         behind = self._next_emit is None or frame.stamp - self._next_emit > period
         self._next_emit = frame.stamp + period if behind else self._next_emit + period  # type: ignore[operator]
         self.counters["republished"] += 1
-        return [self._detection(t_cam, frame, latch.confidence, True, {
-            "anchor_frame": p.map_frame,
-            "pose_anchor": [round(float(x), 5) for x in (*latch.T_anchor_target[:3, 3],  # type: ignore[index]
-                                                           *se3.matrix_to_quat(latch.T_anchor_target))],
-            "pixel": None if pixel is None else [round(pixel[0], 1), round(pixel[1], 1)],
-            "latch_age_s": round(frame.stamp - (latch.latched_at or frame.stamp), 3),
-        })]
+        return [
+            self._detection(
+                t_cam,
+                frame,
+                latch.confidence,
+                True,
+                {
+                    "anchor_frame": p.map_frame,
+                    "pose_anchor": [
+                        round(float(x), 5)
+                        for x in (
+                            *latch.T_anchor_target[:3, 3],  # type: ignore[index]
+                            *se3.matrix_to_quat(latch.T_anchor_target),
+                        )
+                    ],
+                    "pixel": None if pixel is None else [round(pixel[0], 1), round(pixel[1], 1)],
+                    "latch_age_s": round(frame.stamp - (latch.latched_at or frame.stamp), 3),
+                },
+            )
+        ]
 
     def _drop_latch(self, why: str) -> None:
         self.latch.unlatch()

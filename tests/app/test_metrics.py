@@ -30,8 +30,9 @@ class GT:
 
     @property
     def T_map_optical(self) -> np.ndarray:
-        return se3.compose(se3.planar(self.robot.x, self.robot.y, self.robot.yaw, 0.3),
-                           se3.transform(se3.R_BODY_OPTICAL))
+        return se3.compose(
+            se3.planar(self.robot.x, self.robot.y, self.robot.yaw, 0.3), se3.transform(se3.R_BODY_OPTICAL)
+        )
 
 
 def wall_tag(x: float, y: float, facing_yaw: float) -> np.ndarray:
@@ -65,8 +66,15 @@ def test_dock_errors_measure_lateral_distance_and_skew():
 def test_occlusion_latency_is_time_from_blocked_line_of_sight_to_lost():
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
-    script = [(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.2, False, "FOLLOW"), (1.4, False, "LOST"),
-              (4.4, False, "SEARCH"), (6.0, True, "SEARCH"), (6.4, True, "FOLLOW")]
+    script = [
+        (0.0, True, "FOLLOW"),
+        (1.0, False, "FOLLOW"),
+        (1.2, False, "FOLLOW"),
+        (1.4, False, "LOST"),
+        (4.4, False, "SEARCH"),
+        (6.0, True, "SEARCH"),
+        (6.4, True, "FOLLOW"),
+    ]
     for t, los, state in script:
         rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
     s = rec.summary(6.4)
@@ -93,8 +101,12 @@ def test_goal_jitter_counts_only_goals_while_the_target_stands_still():
         still = i >= 10
         noise = rng.normal(scale=0.05, size=2)
         x, y = (1.5 + noise[0], noise[1]) if still else (0.1 * i, 0.0)  # moving goals are far apart
-        rec.record(GT(i * 0.1, Pose2D(0, 0, 0), Pose2D(2, 0, 0), target_moving=not still),
-                   "FOLLOW", NavGoal(Pose2D(x, y, 0.0), stamp=i * 0.1, seq=i), None)
+        rec.record(
+            GT(i * 0.1, Pose2D(0, 0, 0), Pose2D(2, 0, 0), target_moving=not still),
+            "FOLLOW",
+            NavGoal(Pose2D(x, y, 0.0), stamp=i * 0.1, seq=i),
+            None,
+        )
     sd = rec.summary(4.0)["goal_jitter_sd_m"]
     assert 0.03 < sd < 0.1  # ≈ 0.05·√2, unaffected by the moving stretch
 
@@ -103,8 +115,13 @@ def test_an_occlusion_the_tree_calls_search_is_missed_not_detected():
     # line of sight breaks at 1.0 s and stays broken; the tree says SEARCH ("it left the view") at 1.4 s
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
-    for t, los, state in [(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "SEARCH"),
-                          (3.0, False, "SEARCH"), (3.5, True, "FOLLOW")]:
+    for t, los, state in [
+        (0.0, True, "FOLLOW"),
+        (1.0, False, "FOLLOW"),
+        (1.4, False, "SEARCH"),
+        (3.0, False, "SEARCH"),
+        (3.5, True, "FOLLOW"),
+    ]:
         rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
     s = rec.summary(3.5)
     assert s["occlusions"] == 1 and s["occlusions_over_0_5s"] == 1
@@ -116,10 +133,19 @@ def test_an_occlusion_the_tree_calls_search_is_missed_not_detected():
 def test_each_occlusion_has_its_own_latency_and_a_short_one_need_not_be_detected():
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
-    script = [(0.0, True, "FOLLOW"),
-              (1.0, False, "FOLLOW"), (1.3, True, "FOLLOW"),  # 0.3 s blink behind a thin pole: no LOST needed
-              (2.0, False, "FOLLOW"), (2.3, False, "LOST"), (4.0, True, "LOST"), (4.1, True, "FOLLOW"),
-              (6.0, False, "FOLLOW"), (6.45, False, "LOST"), (9.0, False, "SEARCH"), (12.0, True, "FOLLOW")]
+    script = [
+        (0.0, True, "FOLLOW"),
+        (1.0, False, "FOLLOW"),
+        (1.3, True, "FOLLOW"),  # 0.3 s blink behind a thin pole: no LOST needed
+        (2.0, False, "FOLLOW"),
+        (2.3, False, "LOST"),
+        (4.0, True, "LOST"),
+        (4.1, True, "FOLLOW"),
+        (6.0, False, "FOLLOW"),
+        (6.45, False, "LOST"),
+        (9.0, False, "SEARCH"),
+        (12.0, True, "FOLLOW"),
+    ]
     for t, los, state in script:
         rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
     s = rec.summary(12.0)
@@ -133,9 +159,11 @@ def test_each_occlusion_has_its_own_latency_and_a_short_one_need_not_be_detected
 
 def test_dock_errors_agree_with_the_docking_geometry_the_behaviours_steer_by():
     tag = wall_tag(1.0, 2.0, math.radians(30))
-    robot = Pose2D(1.0 + 0.33 * math.cos(math.radians(30)) - 0.02 * math.sin(math.radians(30)),
-                   2.0 + 0.33 * math.sin(math.radians(30)) + 0.02 * math.cos(math.radians(30)),
-                   math.radians(30 + 180 - 7))
+    robot = Pose2D(
+        1.0 + 0.33 * math.cos(math.radians(30)) - 0.02 * math.sin(math.radians(30)),
+        2.0 + 0.33 * math.sin(math.radians(30)) + 0.02 * math.cos(math.radians(30)),
+        math.radians(30 + 180 - 7),
+    )
     cam = se3.compose(se3.planar(robot.x, robot.y, robot.yaw, 0.3), se3.transform(se3.R_BODY_OPTICAL))
     off = dock_offsets(cam, tag, robot.yaw)
     e = dock_errors(cam, tag, robot_yaw=robot.yaw, standoff=0.30)
@@ -154,22 +182,64 @@ def test_a_run_is_judged_by_the_design_criteria_a_user_reads_in_the_report():
         return rec.summary(end)
 
     running = py_trees.common.Status.RUNNING
-    quick = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
-                            (4.4, False, "SEARCH"), (6.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+    quick = follow_summary(
+        [
+            (0.0, True, "FOLLOW"),
+            (1.0, False, "FOLLOW"),
+            (1.4, False, "LOST"),
+            (4.4, False, "SEARCH"),
+            (6.0, True, "FOLLOW"),
+            (30.0, True, "FOLLOW"),
+        ],
+        30.0,
+    )
     assert evaluate("follow", running, "FOLLOW", "", quick, 30.0) == (
-        True, "followed the target to the end, in view 83 % of the follow phase")
-    slow_find = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.4, False, "LOST"),
-                                (4.4, False, "SEARCH"), (13.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+        True,
+        "followed the target to the end, in view 83 % of the follow phase",
+    )
+    slow_find = follow_summary(
+        [
+            (0.0, True, "FOLLOW"),
+            (1.0, False, "FOLLOW"),
+            (1.4, False, "LOST"),
+            (4.4, False, "SEARCH"),
+            (13.0, True, "FOLLOW"),
+            (30.0, True, "FOLLOW"),
+        ],
+        30.0,
+    )
     assert evaluate("follow", running, "FOLLOW", "", slow_find, 30.0) == (
-        False, "target re-acquired after 11.6 s (> 10 s)")
-    late_call = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.7, False, "LOST"),
-                                (3.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+        False,
+        "target re-acquired after 11.6 s (> 10 s)",
+    )
+    late_call = follow_summary(
+        [
+            (0.0, True, "FOLLOW"),
+            (1.0, False, "FOLLOW"),
+            (1.7, False, "LOST"),
+            (3.0, True, "FOLLOW"),
+            (30.0, True, "FOLLOW"),
+        ],
+        30.0,
+    )
     assert evaluate("follow", running, "FOLLOW", "", late_call, 30.0) == (
-        False, "occlusion detected after 0.70 s (> 0.5 s)")
-    wrong_call = follow_summary([(0.0, True, "FOLLOW"), (1.0, False, "FOLLOW"), (1.3, False, "SEARCH"),
-                                 (3.0, True, "FOLLOW"), (30.0, True, "FOLLOW")], 30.0)
+        False,
+        "occlusion detected after 0.70 s (> 0.5 s)",
+    )
+    wrong_call = follow_summary(
+        [
+            (0.0, True, "FOLLOW"),
+            (1.0, False, "FOLLOW"),
+            (1.3, False, "SEARCH"),
+            (3.0, True, "FOLLOW"),
+            (30.0, True, "FOLLOW"),
+        ],
+        30.0,
+    )
     assert evaluate("follow", running, "FOLLOW", "", wrong_call, 30.0) == (
-        False, "1 occlusion(s) of 0.5 s or more never called LOST")
+        False,
+        "1 occlusion(s) of 0.5 s or more never called LOST",
+    )
     docked = {"dock": {"lateral_m": 0.01, "distance_m": 0.03, "standoff_m": 0.33, "skew_deg": 2.0}, "collisions": 0}
     ok, why = evaluate("dock", py_trees.common.Status.SUCCESS, "DONE", "", docked, 20.0)
     assert not ok and why == "docked out of tolerance: lateral 1.0 cm, distance 3.0 cm, skew 2.0°"
@@ -179,8 +249,16 @@ def test_an_occlusion_the_tree_saw_coming_counts_with_latency_zero():
     # the target turned away behind a pillar: LOST at 1.0 s, the marker's centre hidden only at 1.3 s
     rec = MetricsRecorder()
     robot, target = Pose2D(0, 0, 0), Pose2D(2, 0, 0)
-    for t, los, state in [(0.0, True, "FOLLOW"), (1.0, True, "LOST"), (1.3, False, "LOST"), (3.0, False, "SEARCH"),
-                          (4.0, True, "SEARCH"), (4.2, True, "FOLLOW"), (6.0, True, "SEARCH"), (6.5, False, "SEARCH")]:
+    for t, los, state in [
+        (0.0, True, "FOLLOW"),
+        (1.0, True, "LOST"),
+        (1.3, False, "LOST"),
+        (3.0, False, "SEARCH"),
+        (4.0, True, "SEARCH"),
+        (4.2, True, "FOLLOW"),
+        (6.0, True, "SEARCH"),
+        (6.5, False, "SEARCH"),
+    ]:
         rec.record(GT(t, robot, target, target_in_los=los), state, None, None)
     s = rec.summary(7.0)
     assert s["occlusions"] == 1 and s["occlusions_detected"] == 1 and s["occlusions_missed"] == 0
@@ -205,11 +283,20 @@ def test_the_tracking_fraction_is_time_in_follow_with_the_target_in_view_over_th
 
 def test_a_follow_run_that_spent_most_of_its_time_searching_did_not_follow_the_target():
     # the VLM run of issue 15: every loss recovered in time, following at the end — 28 % of the time in FOLLOW
-    summary = {"tracking_fraction": 0.28, "tracking_s": 25.2, "follow_phase_s": 90.0, "collisions": 0,
-               "loss_events": 6, "loss_events_recovered": 6, "reacquisition_time_s": {"max": 9.0}}
+    summary = {
+        "tracking_fraction": 0.28,
+        "tracking_s": 25.2,
+        "follow_phase_s": 90.0,
+        "collisions": 0,
+        "loss_events": 6,
+        "loss_events_recovered": 6,
+        "reacquisition_time_s": {"max": 9.0},
+    }
     running = py_trees.common.Status.RUNNING
     assert evaluate("follow", running, "FOLLOW", "", summary, 90.0) == (
-        False, "target tracked 28 % of the follow phase (< 70 %): in FOLLOW with it in view 25 s of 90 s")
+        False,
+        "target tracked 28 % of the follow phase (< 70 %): in FOLLOW with it in view 25 s of 90 s",
+    )
     assert evaluate("follow", running, "FOLLOW", "", summary, 90.0, min_tracking_fraction=0.25)[0]
 
 
@@ -218,12 +305,18 @@ def test_a_search_for_a_target_that_left_the_map_must_end_with_its_reason_within
     why = "SEARCH gave up: target not found 80 s after it was last seen at (7.00, 1.00): …"
     gave_up = {"target_gone_at_s": 30.0, "give_up_after_gone_s": 84.0, "collisions": 0, "duration_s": 114.0}
     assert evaluate("give_up", failed, "FAILED", why, gave_up, 114.0, give_up_within_s=110) == (
-        True, f"gave up 84 s after the target left the map: {why}")
+        True,
+        f"gave up 84 s after the target left the map: {why}",
+    )
     assert evaluate("give_up", failed, "FAILED", why, gave_up, 114.0, give_up_within_s=60) == (
-        False, "gave up 84 s after the target left the map (> 60 s)")
+        False,
+        "gave up 84 s after the target left the map (> 60 s)",
+    )
     searching = {"target_gone_at_s": 30.0, "give_up_after_gone_s": None, "collisions": 0, "duration_s": 150.0}
     assert evaluate("give_up", running, "SEARCH", "", searching, 150.0) == (
-        False, "still searching 120 s after the target left the map")
+        False,
+        "still searching 120 s after the target left the map",
+    )
 
 
 def test_an_occlusion_starts_when_the_camera_stops_seeing_the_target_not_when_a_grazing_line_breaks():

@@ -128,4 +128,3 @@ def test_lost_looks_from_off_a_crossing_carts_way_where_the_view_opens_first():
     assert opens - 1.5 < 4.0, "no sooner than driving round behind the cart"
     assert _crosses(after, plan.aim, cart_at(1.5)), "the scene no longer shows the cart in the way now"
     assert not _crosses(after, plan.aim, cart_at(opens)), "the cart, where it really is then, hides the walk"
-

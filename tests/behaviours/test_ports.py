@@ -26,8 +26,7 @@ class Camera(py_trees.behaviour.Behaviour, PortsDeclared):
         binning: int = port(1, "pixels per output pixel")
         colour: bool = port(True, "BGR rather than mono")
         last_stamp: float = port(doc="stamp of the newest image", direction="output")
-        frames: int = port("{frames}", "frames seen (into {frames} unless the tree says)",
-                           direction="output")
+        frames: int = port("{frames}", "frames seen (into {frames} unless the tree says)", direction="output")
 
     def __init__(self, name: str = "Camera", **ports: Any) -> None:
         super().__init__(name)

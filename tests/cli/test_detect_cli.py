@@ -39,8 +39,17 @@ def _intrinsics_arg(view: sv.SyntheticView) -> str:
 
 def test_json_prints_one_object_per_image_with_the_pose(images, capsys):
     paths, views = images
-    rc = main(["detect", *map(str, paths), "--json", "--set", f"marker_size_m={MARKER}",
-               "--intrinsics", _intrinsics_arg(views[0])])
+    rc = main(
+        [
+            "detect",
+            *map(str, paths),
+            "--json",
+            "--set",
+            f"marker_size_m={MARKER}",
+            "--intrinsics",
+            _intrinsics_arg(views[0]),
+        ]
+    )
     out = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert rc == 0 and len(out) == 3
     for rec, path, view in zip(out, paths, views, strict=True):

@@ -128,7 +128,8 @@ def test_into_gives_a_users_tree_its_palette_and_the_tree_still_loads(tmp_path):
     site = tmp_path / "site"
     install_acme(site)
     tree = tmp_path / "patrol.xml"
-    tree.write_text(textwrap.dedent("""\
+    tree.write_text(
+        textwrap.dedent("""\
         <root BTCPP_format="4" main_tree_to_execute="Patrol">
           <BehaviorTree ID="Patrol">
             <Sequence>
@@ -137,15 +138,18 @@ def test_into_gives_a_users_tree_its_palette_and_the_tree_still_loads(tmp_path):
             </Sequence>
           </BehaviorTree>
         </root>
-        """))
+        """)
+    )
     result = mission(["nodes-model", "--into", str(tree)], site=site)
     assert result.returncode == 0, result.stderr
     text = tree.read_text()
     assert text.count("<TreeNodesModel>") == 1 and '<Action ID="Beacon">' in text
     again = mission(["nodes-model", "--into", str(tree)], site=site)
     assert again.returncode == 0 and tree.read_text() == text  # replaced, not added twice
-    probe = ("import sys; sys.path.insert(0, sys.argv[1]); from mission.app.behaviour_plugins import mission_factory;"
-             " from mission.trees.loader import load_tree; print(load_tree(sys.argv[2], mission_factory()).name)")
+    probe = (
+        "import sys; sys.path.insert(0, sys.argv[1]); from mission.app.behaviour_plugins import mission_factory;"
+        " from mission.trees.loader import load_tree; print(load_tree(sys.argv[2], mission_factory()).name)"
+    )
     loaded = subprocess.run(
         [sys.executable, "-c", probe, str(site), str(tree)], capture_output=True, text=True, timeout=60
     )
@@ -161,8 +165,10 @@ def test_a_broken_plugin_stops_the_palette_with_one_line_naming_it(tmp_path):
     assert result.returncode == 2 and result.stdout == ""
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1
-    expected = ("mission: error: entry point Gone = 'acme_bt.missing:Gone' (mission.behaviours from acme-bt 0.1): "
-                "failed to load: ModuleNotFoundError")
+    expected = (
+        "mission: error: entry point Gone = 'acme_bt.missing:Gone' (mission.behaviours from acme-bt 0.1): "
+        "failed to load: ModuleNotFoundError"
+    )
     assert lines[0].startswith(expected)
 
 
@@ -185,13 +191,15 @@ def test_the_deprecated_no_op_is_left_out_of_the_palette_yet_an_old_tree_using_i
     for path in shipped_tree_files():
         assert "PerceiveTargets" not in path.read_text(), path.name
     old = tmp_path / "old.xml"
-    old.write_text(textwrap.dedent("""\
+    old.write_text(
+        textwrap.dedent("""\
         <root BTCPP_format="4" main_tree_to_execute="Old">
           <BehaviorTree ID="Old">
             <Sequence><ForceSuccess><PerceiveTargets/></ForceSuccess><AlwaysSuccess/></Sequence>
           </BehaviorTree>
         </root>
-    """))
+    """)
+    )
     root = load_tree(old, shipped_factory())
     root.setup_with_descendants()
     root.tick_once()

@@ -51,8 +51,7 @@ def test_the_apriltag_source_reads_its_old_keys_as_the_new_ones_and_says_which(f
         "the next release)",
         "config key 'refine_edges' is deprecated: use 'corner_refinement' (AprilTagParams; the old key is read "
         "until the next release)",
-        "config key 'size_m' is deprecated: use 'marker_size_m' (TagSpec; the old key is read until the next "
-        "release)",
+        "config key 'size_m' is deprecated: use 'marker_size_m' (TagSpec; the old key is read until the next release)",
     ]
 
 
@@ -81,12 +80,14 @@ def test_a_scenario_with_the_old_marker_size_key_loads_as_with_the_new_one(fresh
 
 def test_giving_both_spellings_is_one_line_naming_the_file_and_the_key(tmp_path):
     config = tmp_path / "robot.yaml"
-    config.write_text(textwrap.dedent("""\
+    config.write_text(
+        textwrap.dedent("""\
         perception:
           sources:
             - plugin: apriltag
               params: {tag_size_m: 0.2, marker_size_m: 0.2}
-    """))
+    """)
+    )
     with pytest.raises(ConfigError) as err:
         registry.create_all(load_config(config).perception.sources, file=str(config))
     assert str(err.value) == (
@@ -124,7 +125,8 @@ def installed_package(tmp_path, monkeypatch):
     entry_points.txt, on sys.path (importlib.metadata finds it as it finds every installed distribution)."""
     site = tmp_path / "site"
     (site / "acme_vlm").mkdir(parents=True)
-    (site / "acme_vlm" / "__init__.py").write_text(textwrap.dedent('''\
+    (site / "acme_vlm" / "__init__.py").write_text(
+        textwrap.dedent('''\
         """A client that always answers the image centre."""
         from mission.perception_plugins.vlm.client import VlmPoint
 
@@ -143,7 +145,8 @@ def installed_package(tmp_path, monkeypatch):
         def acme_client(params, budget):
             """Always the centre of the image (a test double of a remote model)."""
             return CentreClient(params.client_params.get("confidence", 0.9))
-    '''))
+    ''')
+    )
     info = site / "acme_vlm-1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: acme-vlm\nVersion: 1.0\n")

@@ -54,8 +54,9 @@ def box_front_face(box: Box) -> np.ndarray:
     return se3.compose(body, se3.transform(r, (-box.size[0] / 2, 0.0, 0.0)))
 
 
-def render(scene: Scene, T_map_camera: np.ndarray, stamp: float = 0.0, intr: CameraIntrinsics = INTR,
-           anchor: bool = True) -> Frame:
+def render(
+    scene: Scene, T_map_camera: np.ndarray, stamp: float = 0.0, intr: CameraIntrinsics = INTR, anchor: bool = True
+) -> Frame:
     h, w = intr.height, intr.width
     vv, uu = np.mgrid[0:h, 0:w].astype(np.float64)
     rays_c = np.stack([(uu - intr.cx) / intr.fx, (vv - intr.cy) / intr.fy, np.ones_like(uu)], -1)
@@ -81,8 +82,7 @@ def render(scene: Scene, T_map_camera: np.ndarray, stamp: float = 0.0, intr: Cam
 
     if scene.floor:
         hit_plane(np.zeros(3), np.array([0.0, 0.0, 1.0]), lambda p: np.ones(len(p), bool), (110, 120, 115))
-    hit_plane(np.array([scene.wall_x, 0, 0]), np.array([-1.0, 0, 0]), lambda p: np.ones(len(p), bool),
-              (170, 170, 170))
+    hit_plane(np.array([scene.wall_x, 0, 0]), np.array([-1.0, 0, 0]), lambda p: np.ones(len(p), bool), (170, 170, 170))
     for box in scene.boxes:
         body = se3.planar(box.centre[0], box.centre[1], box.yaw, box.centre[2])
         inv = se3.invert(body)

@@ -20,7 +20,8 @@ FACING_AWAY = "1.05;4.0;0.0"
 def goal_tree(tmp_path, staging: str, attempts: int) -> str:
     """A tree that writes one goal's inputs, as the server does, and runs the shipped DockRobot."""
     path = tmp_path / "goal.xml"
-    path.write_text(textwrap.dedent(f"""\
+    path.write_text(
+        textwrap.dedent(f"""\
         <root BTCPP_format="4" main_tree_to_execute="Goal">
           <include path="dock_robot.xml"/>
           <BehaviorTree ID="Goal">
@@ -33,7 +34,8 @@ def goal_tree(tmp_path, staging: str, attempts: int) -> str:
             </Sequence>
           </BehaviorTree>
         </root>
-    """))
+    """)
+    )
     return str(path)
 
 

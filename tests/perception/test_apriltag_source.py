@@ -293,8 +293,11 @@ def test_a_bad_image_raises_a_clear_error():
         ({"threads": 0}, "threads", ""),
         ({"tags": {7: {"name": "t", "marker_size_m": -1}}}, "tags[7].marker_size_m", ""),
         ({"tags": {"seven": "t"}}, "tags.seven.[key]", ""),
-        ({"tags": {7: {"name": "t", "T_tag_entity": {"quat": [0, 0, 0, 1], "rpy": [0, 0, 0]}}}}, "tags[7].T_tag_entity",
-         "either quat or rpy"),
+        (
+            {"tags": {7: {"name": "t", "T_tag_entity": {"quat": [0, 0, 0, 1], "rpy": [0, 0, 0]}}}},
+            "tags[7].T_tag_entity",
+            "either quat or rpy",
+        ),
         ({"camera_mount": {"xyz": [0, 0]}}, "camera_mount.xyz[2]", ""),
         ({"tag_sise_m": 0.2}, "tag_sise_m", "unknown key"),
     ],

@@ -34,8 +34,9 @@ def _rot_err_deg(det, view: sv.SyntheticView) -> float:
 def _one_view(distance: float = 1.0, seed: int = 0, **kw) -> sv.SyntheticView:
     rng = np.random.default_rng(seed)
     size = kw.pop("marker_size_m", MARKER)
-    return sv.render_marker_view(sv.random_pose(distance, 30, rng, marker_size_m=size), rng=rng,
-                                 marker_size_m=size, **kw)
+    return sv.render_marker_view(
+        sv.random_pose(distance, 30, rng, marker_size_m=size), rng=rng, marker_size_m=size, **kw
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -51,8 +52,13 @@ def test_detects_99_percent_and_median_translation_error_within_1_percent(distan
     found, errors = 0, []
     n = 40
     for i in range(n):
-        view = sv.render_marker_view(sv.random_pose(distance, 40, rng, marker_size_m=MARKER), rng=rng,
-                                     marker_size_m=MARKER, blur_sigma=0.8, noise_sigma=3.0)
+        view = sv.render_marker_view(
+            sv.random_pose(distance, 40, rng, marker_size_m=MARKER),
+            rng=rng,
+            marker_size_m=MARKER,
+            blur_sigma=0.8,
+            noise_sigma=3.0,
+        )
         dets = [d for d in src.process(_frame(view, stamp=10.0 * i)) if d.marker_id == view.marker_id]
         if dets:
             found += 1
@@ -61,13 +67,15 @@ def test_detects_99_percent_and_median_translation_error_within_1_percent(distan
     assert float(np.median(errors)) <= 0.01
 
 
-def _sequence_rotation_errors(source_params: dict, distance: float, n_seq: int, n_frames: int, seed: int,
-                              marker: float, blur: float, noise: float) -> np.ndarray:
+def _sequence_rotation_errors(
+    source_params: dict, distance: float, n_seq: int, n_frames: int, seed: int, marker: float, blur: float, noise: float
+) -> np.ndarray:
     rng = np.random.default_rng(seed)
     errs = []
     for _ in range(n_seq):
-        views = sv.render_sequence(distance, 40, n_frames, rng, marker_size_m=marker, blur_sigma=blur,
-                                   noise_sigma=noise)
+        views = sv.render_sequence(
+            distance, 40, n_frames, rng, marker_size_m=marker, blur_sigma=blur, noise_sigma=noise
+        )
         src = ArucoSource({"marker_size_m": marker, **source_params})
         for i, view in enumerate(views):
             dets = src.process(_frame(view, stamp=i / 30.0))
@@ -77,8 +85,9 @@ def _sequence_rotation_errors(source_params: dict, distance: float, n_seq: int, 
 
 @pytest.mark.parametrize("distance", [0.5, 1.0, 2.0, 3.0])
 def test_over_short_sequences_p90_rotation_error_is_within_5_degrees(distance):
-    errs = _sequence_rotation_errors({}, distance, n_seq=5, n_frames=12, seed=100 + int(distance * 10),
-                                     marker=MARKER, blur=0.8, noise=3.0)
+    errs = _sequence_rotation_errors(
+        {}, distance, n_seq=5, n_frames=12, seed=100 + int(distance * 10), marker=MARKER, blur=0.8, noise=3.0
+    )
     assert len(errs) >= 0.99 * 5 * 12
     assert float(np.percentile(errs, 90)) <= 5.0
 
@@ -90,8 +99,10 @@ def test_temporal_disambiguation_beats_the_naive_lowest_error_choice_where_the_p
     naive = _sequence_rotation_errors({"disambiguation": "naive"}, **kw)
     temporal = _sequence_rotation_errors({"disambiguation": "temporal"}, **kw)
     naive_flips, temporal_flips = np.mean(naive > 20.0), np.mean(temporal > 20.0)
-    print(f"p90 naive {np.percentile(naive, 90):.1f}° temporal {np.percentile(temporal, 90):.1f}°; "
-          f"flipped naive {naive_flips:.1%} temporal {temporal_flips:.1%}")
+    print(
+        f"p90 naive {np.percentile(naive, 90):.1f}° temporal {np.percentile(temporal, 90):.1f}°; "
+        f"flipped naive {naive_flips:.1%} temporal {temporal_flips:.1%}"
+    )
     assert naive_flips >= 0.10  # the problem is real in this regime …
     assert temporal_flips <= 0.6 * naive_flips  # … and the temporal choice removes a good part of it
     assert np.percentile(temporal, 90) < 0.8 * np.percentile(naive, 90)
@@ -152,8 +163,9 @@ def test_allowed_ids_and_per_id_sizes():
 
 def test_apriltag_36h11_dictionary_used_by_the_sim():
     rng = np.random.default_rng(8)
-    view = sv.render_marker_view(sv.random_pose(1.5, 30, rng), rng=rng, marker_id=0,
-                                 dictionary=cv2.aruco.DICT_APRILTAG_36h11)
+    view = sv.render_marker_view(
+        sv.random_pose(1.5, 30, rng), rng=rng, marker_id=0, dictionary=cv2.aruco.DICT_APRILTAG_36h11
+    )
     [det] = ArucoSource({"dictionary": "DICT_APRILTAG_36h11", "marker_size_m": MARKER}).process(_frame(view))
     assert det.marker_id == 0 and det.distance == pytest.approx(1.5, rel=0.02)
 
@@ -178,7 +190,7 @@ def test_a_dictionary_name_in_another_case_is_the_same_dictionary():
 
 
 def test_a_dictionary_file_that_is_missing_or_not_a_dictionary_is_a_config_error_naming_the_key(tmp_path):
-    (tmp_path / "bad.yml").write_text("%YAML:1.0\nnmarkers: 2\nmarkersize: 4\nmarker_0: \"0101\"\n")
+    (tmp_path / "bad.yml").write_text('%YAML:1.0\nnmarkers: 2\nmarkersize: 4\nmarker_0: "0101"\n')
     for path in (tmp_path / "missing.yml", tmp_path / "bad.yml"):
         with pytest.raises(ConfigError) as err:
             registry.create(

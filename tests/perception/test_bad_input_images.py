@@ -266,9 +266,7 @@ def test_vlm_rejects_an_image_it_cannot_look_at_before_spending_a_model_call(tmp
         ("other size", np.ones((120, 160), np.float32), "does not match image (240, 320)"),
     ],
 )
-def test_vlm_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(
-    tmp_path, caplog, kind, depth, words
-):
+def test_vlm_skips_frames_whose_depth_cannot_place_an_answer_and_spends_no_quota(tmp_path, caplog, kind, depth, words):
     src, clock = vlm(tmp_path)
     try:
         with caplog.at_level(logging.WARNING, logger="mission.perception_plugins.vlm.source"):

@@ -43,8 +43,10 @@ def _pair(true_err: float, wrong_err: float, wobble: float = 0.0) -> tuple[sp.Po
     r_true = se3.rot_y(math.radians(25) + wobble) @ np.diag([1.0, -1.0, -1.0])
     r_flip = se3.rot_y(math.radians(-25) + wobble) @ np.diag([1.0, -1.0, -1.0])
     t = np.array([0.0, 0.0, 3.0])
-    return (sp.PoseHypothesis(se3.matrix_to_rvec(r_true), t, true_err),
-            sp.PoseHypothesis(se3.matrix_to_rvec(r_flip), t, wrong_err))
+    return (
+        sp.PoseHypothesis(se3.matrix_to_rvec(r_true), t, true_err),
+        sp.PoseHypothesis(se3.matrix_to_rvec(r_flip), t, wrong_err),
+    )
 
 
 def _is_true(h: sp.PoseHypothesis) -> bool:

@@ -318,8 +318,10 @@ BAD_DOCK = """/**:
     [
         (None, "mission_tree: error: NOFILE: cannot read the params file (No such file or directory)"),
         (BAD_DOCK, "mission_tree: error: FILE: home_dock.pose: expected [x, y, yaw], got [1.0, 2.0]"),
-        (BAD_DOCK.replace('type: "tag_dock"', 'type: "charger"').replace("2.0]", "2.0, 0.0]"),
-         "mission_tree: error: FILE: home_dock.type: dock type 'charger' is not in dock_plugins; known: tag_dock"),
+        (
+            BAD_DOCK.replace('type: "tag_dock"', 'type: "charger"').replace("2.0]", "2.0, 0.0]"),
+            "mission_tree: error: FILE: home_dock.type: dock type 'charger' is not in dock_plugins; known: tag_dock",
+        ),
     ],
 )
 def test_a_bad_nav2_params_file_stops_the_server_with_one_line_naming_the_file_and_key(tmp_path, text, line):

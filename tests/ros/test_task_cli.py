@@ -24,8 +24,6 @@ pytestmark = pytest.mark.ros
 DISCOVERY = ["--server-timeout", "10"]  # discovery over shared memory can take 2–3 s on a busy machine
 
 
-
-
 @pytest.fixture
 def servers(fake):
     for name in fake.scripts:

@@ -23,8 +23,6 @@ from tests.helpers.ros_env import wait_for
 pytestmark = pytest.mark.ros
 
 
-
-
 @pytest.fixture(scope="module")
 def client(servers):
     """One client for the module's goals, as a script keeps one (discovery once: it can take 2–3 s here)."""

@@ -114,8 +114,9 @@ def test_camera_info_for_another_resolution_is_not_used(world, bb):
     world.cache.on_image(image(1.0, h=480, w=640))
     world.sense(bb)
     assert bbk.get(bb, bbk.FRAME).intrinsics == CameraIntrinsics.fallback(640, 480)
-    assert "camera info on camera_info: calibrated for 320×240, the image is 640×480; using the fallback" in (
-        world.warnings[-1]
+    assert (
+        "camera info on camera_info: calibrated for 320×240, the image is 640×480; using the fallback"
+        in (world.warnings[-1])
     )
 
 

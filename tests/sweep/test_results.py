@@ -88,7 +88,8 @@ def test_the_table_is_the_same_in_jsonl_and_parquet_and_a_result_recorded_twice_
     parquet = read_parquet(tmp_path / "a" / "results.parquet")
     assert len(jsonl) == len(parquet) == 20
     assert {r["run_id"]: (r["success"], r["params"], r["reacquisition_times_s"]) for r in jsonl} == {
-        r["run_id"]: (r["success"], r["params"], r["reacquisition_times_s"]) for r in parquet}
+        r["run_id"]: (r["success"], r["params"], r["reacquisition_times_s"]) for r in parquet
+    }
     import pyarrow.parquet as pq
 
     columns = pq.read_schema(tmp_path / "a" / "results.parquet").names

@@ -289,8 +289,8 @@ def test_bt_cpp_sequences_and_fallbacks_are_py_trees_composites_with_the_matchin
         ('<Repeat num_cycles="3">', "S", 1, Status.SUCCESS),
         ('<Repeat num_cycles="3">', "SF", 1, Status.FAILURE),
         ('<Repeat num_cycles="3">', "SRS", 1, Status.RUNNING),
-        ('<KeepRunningUntilFailure>', "SSF", 2, Status.RUNNING),
-        ('<KeepRunningUntilFailure>', "SSF", 3, Status.FAILURE),
+        ("<KeepRunningUntilFailure>", "SSF", 2, Status.RUNNING),
+        ("<KeepRunningUntilFailure>", "SSF", 3, Status.FAILURE),
         ('<RunOnce then_skip="false">', "F", 3, Status.FAILURE),
     ],
 )
@@ -557,7 +557,7 @@ ERROR_CASES = {
     "tree ID that is a node's name": (
         {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="TestProbe"><TestReady/></BehaviorTree>\n</root>'},
         ("main.xml", "BehaviorTree"),
-        '<BehaviorTree ID="TestProbe">: tree ID \'TestProbe\' is also the registered action TestProbe, which '
+        "<BehaviorTree ID=\"TestProbe\">: tree ID 'TestProbe' is also the registered action TestProbe, which "
         'BT.CPP 4.6.2+ refuses ("must not use the name of a registered Node"); rename the tree, e.g. '
         'TestProbeTree, and its <SubTree ID="TestProbe"> references',
     ),
@@ -609,7 +609,7 @@ ERROR_CASES = {
     "blackboard key with a dot": (
         {"main.xml": A_TREE.format(node='<TestProbe label="{goal.x}"/>')},
         ("main.xml", "{goal.x}"),
-        '<TestProbe>: port label="{{goal.x}}": \'.\' cannot be part of a key here; expected a blackboard key',
+        "<TestProbe>: port label=\"{{goal.x}}\": '.' cannot be part of a key here; expected a blackboard key",
     ),
     "an entry used with two types": (
         {"main.xml": A_TREE.format(node='<TestProbe gain="{g}"/>\n      <TestProbe count="{g}"/>')},
@@ -619,7 +619,7 @@ ERROR_CASES = {
     "unknown subtree": (
         {"main.xml": A_TREE.format(node='<SubTree ID="Missing"/>')},
         ("main.xml", "Missing"),
-        '<SubTree ID="Missing">: unknown subtree \'Missing\'; trees defined: T',
+        "<SubTree ID=\"Missing\">: unknown subtree 'Missing'; trees defined: T",
     ),
     "subtree recursion": (
         {
@@ -648,8 +648,10 @@ ERROR_CASES = {
         '<TestScripted>: port ticks="3" is an output: it takes a blackboard entry to write, such as ticks="{{ticks}}"',
     ),
     "missing include file": (
-        {"main.xml": '<root BTCPP_format="4">\n  <include path="nowhere.xml"/>\n'
-         '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'},
+        {
+            "main.xml": '<root BTCPP_format="4">\n  <include path="nowhere.xml"/>\n'
+            '  <BehaviorTree ID="T"><TestReady/></BehaviorTree>\n</root>'
+        },
         ("main.xml", "nowhere"),
         '<include path="nowhere.xml">: included file not found: {dir}/nowhere.xml '
         "(paths are relative to this file, or name a shipped tree: ",
@@ -699,15 +701,19 @@ ERROR_CASES = {
         "<TestReady>: unknown attribute '_skipif' (did you mean _skipIf?); BT.CPP's are _failureIf, _successIf, ",
     ),
     "two trees without a main": (
-        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="A"><TestReady/></BehaviorTree>\n'
-         '  <BehaviorTree ID="B"><TestReady/></BehaviorTree>\n</root>'},
+        {
+            "main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="A"><TestReady/></BehaviorTree>\n'
+            '  <BehaviorTree ID="B"><TestReady/></BehaviorTree>\n</root>'
+        },
         ("main.xml", "<root"),
         '<root>: the file defines 2 trees (A, B); expected exactly one <BehaviorTree ID="..."> '
         'or main_tree_to_execute="ID"',
     ),
     "unknown main tree": (
-        {"main.xml": '<root BTCPP_format="4" main_tree_to_execute="Mian">\n'
-         '  <BehaviorTree ID="Main"><TestReady/></BehaviorTree>\n</root>'},
+        {
+            "main.xml": '<root BTCPP_format="4" main_tree_to_execute="Mian">\n'
+            '  <BehaviorTree ID="Main"><TestReady/></BehaviorTree>\n</root>'
+        },
         ("main.xml", "<root"),
         '<root>: main_tree_to_execute="Mian" names no tree; trees defined: Main',
     ),
@@ -721,8 +727,10 @@ ERROR_CASES = {
         '<BehaviorTree ID="T">: tree T is already defined at {dir}/other.xml:2',
     ),
     "behaviour tree with two roots": (
-        {"main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <TestReady/><TestReady/>\n'
-         "  </BehaviorTree>\n</root>"},
+        {
+            "main.xml": '<root BTCPP_format="4">\n  <BehaviorTree ID="T">\n    <TestReady/><TestReady/>\n'
+            "  </BehaviorTree>\n</root>"
+        },
         ("main.xml", "<BehaviorTree"),
         '<BehaviorTree ID="T">: has 2 root nodes; expected exactly one',
     ),
@@ -901,8 +909,15 @@ def test_nodes_model_describes_every_leaf_with_port_types_and_defaults_for_groot
     model = ElementTree.fromstring(nodes_model_xml(FACTORY))
     assert model.tag == "TreeNodesModel"
     assert [(n.tag, n.get("ID")) for n in model] == sorted(
-        [("Action", "TestNeedsMode"), ("Action", "TestProbe"), ("Action", "TestRejects"), ("Action", "TestScripted"),
-         ("Action", "TestWithDeps"), ("Condition", "TestReady"), ("Decorator", "TestGate")],
+        [
+            ("Action", "TestNeedsMode"),
+            ("Action", "TestProbe"),
+            ("Action", "TestRejects"),
+            ("Action", "TestScripted"),
+            ("Action", "TestWithDeps"),
+            ("Condition", "TestReady"),
+            ("Decorator", "TestGate"),
+        ],
         key=lambda row: row[1],
     )
     probe = model.find("Action[@ID='TestProbe']")

@@ -183,9 +183,7 @@ def test_a_typo_in_a_copy_of_a_shipped_tree_names_file_line_and_element(tmp_path
     assert str(err.value) == f"{copy.resolve()}:{line}: <FollowTarget>: port offset_m expects float, got 'far'"
 
 
-def test_a_tree_written_before_perception_became_a_stage_still_runs_and_says_the_leaf_is_not_needed(
-    tmp_path, caplog
-):
+def test_a_tree_written_before_perception_became_a_stage_still_runs_and_says_the_leaf_is_not_needed(tmp_path, caplog):
     path = tmp_path / "old.xml"
     path.write_text("""<root BTCPP_format="4" main_tree_to_execute="Old">
   <BehaviorTree ID="Old">

@@ -33,6 +33,7 @@ def test_gif_has_one_frame_per_tick_at_the_tick_rate_and_the_expected_size(tmp_p
     map_w = 240  # the world's map is square
     assert frames.shape == (6, BANNER_H + 240, cam_w + 4 + map_w, 3)
     assert rec.frame_count == 6
+
     # the camera half shows the marker outline (green) while the marker is seen: first frame yes, last no
     def green(frame):
         cam = frame[BANNER_H:, :cam_w].astype(int)

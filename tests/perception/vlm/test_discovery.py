@@ -147,8 +147,11 @@ def run_with_family(family: str, tmp_path: Path, monkeypatch) -> None:
     api = "gemini" if family == "gemini-er" else "openai"
     monkeypatch.setenv("GOOGLE_API_KEY", "test-key-loopback-only")
     with FakeModelServer(api, model=model, answerer=family_answerer(oracle, family, sigma=4.0)) as server:
-        section = {"gemini": {"endpoint": server.url}} if api == "gemini" else {
-            "openai": {"base_url": server.url, "model": model}}
+        section = (
+            {"gemini": {"endpoint": server.url}}
+            if api == "gemini"
+            else {"openai": {"base_url": server.url, "model": model}}
+        )
         config = vlm_config(tmp_path, client=api, **section)
         watch = GroundTruthPixels(oracle)
         outcome, _, _ = run_scenario(DISCOVERY, config_file=config, seed=0, max_duration=25.0, observers=[watch])

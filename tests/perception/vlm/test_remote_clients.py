@@ -134,10 +134,16 @@ def test_a_large_image_is_sent_scaled_to_max_image_side_px(server, tmp_path):
 @pytest.mark.parametrize(
     ("text", "expected", "unread"),
     [
-        ('Sure! The red box:\n```json\n[{"point": [412, 618], "label": "red box"}]\n```\nAnything else?',
-         [(412, 618)], 0),
-        ('[{"point": [1030, -12], "label": "red box"}, {"point": [5000, 300], "label": "red box"}]',
-         [(1000, 0)], 0),  # a little past the edge: on the edge; far outside: not in the image
+        (
+            'Sure! The red box:\n```json\n[{"point": [412, 618], "label": "red box"}]\n```\nAnything else?',
+            [(412, 618)],
+            0,
+        ),
+        (
+            '[{"point": [1030, -12], "label": "red box"}, {"point": [5000, 300], "label": "red box"}]',
+            [(1000, 0)],
+            0,
+        ),  # a little past the edge: on the edge; far outside: not in the image
         ("[]", [], 0),
         ("I could not find a red box in this image.", [], 1),
         ('[{"point": [300, 400], "label": "red box"}, {"point": [310', [(300, 400)], 0),  # cut off at max tokens

@@ -427,8 +427,12 @@ def test_every_shipped_client_name_resolves_to_a_factory():
 
 
 def test_a_custom_client_class_can_replace_the_stub(tmp_path, clock):
-    src = make(tmp_path, clock, client="mission.perception_plugins.vlm.stub:ColourShapeClient",
-               client_params={"pixel_noise": 0.0})
+    src = make(
+        tmp_path,
+        clock,
+        client="mission.perception_plugins.vlm.stub:ColourShapeClient",
+        client_params={"pixel_noise": 0.0},
+    )
     latch(src, clock)
     assert src.model_calls == 3
     src.close()
