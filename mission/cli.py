@@ -449,11 +449,36 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         return _output_failed(err)
     except KeyboardInterrupt:  # Ctrl-C before a verb has its own handling (imports, set-up): no traceback
-        print("mission: interrupted", file=sys.stderr)
-        return 128 + signal.SIGINT
+        return _stopped(signal.SIGINT)
     except Terminated:
-        print("mission: terminated", file=sys.stderr)
-        return 128 + signal.SIGTERM
+        return _stopped(signal.SIGTERM)
+    except RuntimeError as err:
+        # A signal that lands while an import runs a class body's __set_name__ comes out wrapped in a
+        # RuntimeError (Python 3.11; lark's Transformer, measured under a loaded test run): still a stop.
+        stop = _stopping_signal(err)
+        if stop is None:
+            raise
+        return _stopped(stop)
+
+
+def _stopped(signum: int) -> int:
+    """One line for a stop before a verb has its own handling, and the shell's code for the signal."""
+    print(f"mission: {'interrupted' if signum == signal.SIGINT else 'terminated'}", file=sys.stderr)
+    return 128 + signum
+
+
+def _stopping_signal(err: BaseException) -> int | None:
+    """SIGINT or SIGTERM when `err` was caused by Ctrl-C or SIGTERM (through its chain of causes), else None."""
+    seen: set[int] = set()
+    cause: BaseException | None = err
+    while cause is not None and id(cause) not in seen:
+        seen.add(id(cause))
+        if isinstance(cause, KeyboardInterrupt):
+            return signal.SIGINT
+        if isinstance(cause, Terminated):
+            return signal.SIGTERM
+        cause = cause.__cause__ or cause.__context__
+    return None
 
 
 def _output_failed(err: OSError) -> int:

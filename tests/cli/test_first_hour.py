@@ -226,3 +226,34 @@ def test_a_stop_signal_in_the_first_second_stops_with_its_code_and_no_traceback(
     # our handler — its "unhandled KeyboardInterrupt" flag is then set for good; seen once under load in CI.
     killed = signame == "SIGINT" and proc.returncode == -signal.SIGINT
     assert proc.returncode == code or killed, err
+
+
+@pytest.mark.parametrize(("stop", "code", "line"), [("int", 130, "interrupted"), ("term", 143, "terminated")])
+def test_a_stop_that_lands_in_an_imports_class_body_is_still_a_stop(monkeypatch, capsys, stop, code, line):
+    """Python 3.11 wraps what a class attribute's __set_name__ raises in a RuntimeError; a Ctrl-C (or SIGTERM)
+    that lands there while a verb's imports run (lark's Transformer, once under a loaded test run) must still end
+    as a stop: one line, the shell's code, no traceback."""
+    from mission import cli
+
+    class _SignalArrives:
+        def __set_name__(self, owner, name):
+            raise KeyboardInterrupt if stop == "int" else cli.Terminated
+
+    def importing(argv):
+        type("PrepareAnonTerminals", (), {"pattern": _SignalArrives()})  # what an import's class statement does
+        return 0
+
+    monkeypatch.setattr(cli, "_main", importing)
+    assert cli.main(["run"]) == code
+    assert capsys.readouterr().err.strip() == f"mission: {line}"
+
+
+def test_a_runtime_error_that_no_signal_caused_is_not_taken_for_a_stop(monkeypatch):
+    from mission import cli
+
+    def broken(argv):
+        raise RuntimeError("a real bug")
+
+    monkeypatch.setattr(cli, "_main", broken)
+    with pytest.raises(RuntimeError, match="a real bug"):
+        cli.main(["run"])
