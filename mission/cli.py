@@ -448,27 +448,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         if err.errno not in (errno.ENOSPC, errno.EIO, errno.EBADF):
             raise
         return _output_failed(err)
-    except KeyboardInterrupt:  # Ctrl-C before a verb has its own handling (imports, set-up): no traceback
-        return _stopped(signal.SIGINT)
-    except Terminated:
-        return _stopped(signal.SIGTERM)
-    except RuntimeError as err:
-        # A signal that lands while an import runs a class body's __set_name__ comes out wrapped in a
-        # RuntimeError (Python 3.11; lark's Transformer, measured under a loaded test run): still a stop.
+    except (KeyboardInterrupt, Terminated, RuntimeError) as err:
+        # Ctrl-C or SIGTERM before a verb has its own handling (imports, set-up): one line, no traceback. One
+        # that lands while an import runs a class body's __set_name__ comes out wrapped in a RuntimeError
+        # (Python 3.11; lark's Transformer, seen under a loaded test run): a stop all the same.
         stop = _stopping_signal(err)
         if stop is None:
             raise
-        return _stopped(stop)
-
-
-def _stopped(signum: int) -> int:
-    """One line for a stop before a verb has its own handling, and the shell's code for the signal."""
-    print(f"mission: {'interrupted' if signum == signal.SIGINT else 'terminated'}", file=sys.stderr)
-    return 128 + signum
+        print(f"mission: {'interrupted' if stop == signal.SIGINT else 'terminated'}", file=sys.stderr)
+        return 128 + stop
 
 
 def _stopping_signal(err: BaseException) -> int | None:
-    """SIGINT or SIGTERM when `err` was caused by Ctrl-C or SIGTERM (through its chain of causes), else None."""
+    """SIGINT or SIGTERM when `err` is, or was caused by, Ctrl-C or SIGTERM (through its chain), else None."""
     seen: set[int] = set()
     cause: BaseException | None = err
     while cause is not None and id(cause) not in seen:
