@@ -52,7 +52,7 @@ from mission.perception_plugins.apriltag_backends import (
 )
 from mission.perception_plugins.aruco import to_grey
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
-from mission.perception_plugins.corner_refinement import refine_corners
+from mission.perception_plugins.corner_refinement import refine_corners, warm_up
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern, follow_quads
 from mission.perception_plugins.marker_quads import Box
@@ -245,6 +245,8 @@ class AprilTagSource:
         self._searcher = _searcher(p.family) if p.tracking else None
         edges = p.corner_refinement == "edges"
         self._pattern_check = _pattern_check(p.family, self._backend.cells) if p.tracking and edges else None
+        if edges:
+            warm_up()  # compiled refinement: paid now, not on the first frame of a running loop
 
     # -- lookups -----------------------------------------------------------------------------------
     def marker_size(self, tag_id: int) -> float:

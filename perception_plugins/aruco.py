@@ -30,7 +30,7 @@ from mission.core.errors import ConfigError
 from mission.core.types import Detection, Frame
 from mission.perception_plugins import marker_dictionaries, square_pose
 from mission.perception_plugins.aruco_detection import WINDOW_SIDE_PX, QuadDetector
-from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners
+from mission.perception_plugins.corner_refinement import refine_corners, subpix_corners, warm_up
 from mission.perception_plugins.frame_intrinsics import FrameIntrinsics
 from mission.perception_plugins.marker_bits import PatternCheck, aruco_pattern, follow_quads
 from mission.perception_plugins.marker_dictionaries import PREDEFINED, MarkerDictionary
@@ -142,6 +142,8 @@ class ArucoSource:
         follows = self.params.tracking and self.params.corner_refinement == "edges"
         pattern = aruco_pattern(self.marker_dictionary.dictionary)
         self._pattern_check = PatternCheck(self._cells, pattern) if follows else None
+        if self.params.corner_refinement == "edges":
+            warm_up()  # compiled refinement: paid now, not on the first frame of a running loop
 
     # ------------------------------------------------------------------------------------------------
 

@@ -24,13 +24,20 @@ The unrefined corner is a contour pixel, rarely more than a pixel or so from the
 refined corner further away than that is not the same corner, and the unrefined one is kept. So are
 corners whose sides had too few clear edge points (a marker partly hidden or cut by the image border).
 
-Everything is computed for all markers of a frame at once (one ``cv2.remap`` for every profile), so the
-refinement costs a fraction of the detection it follows (bench: perception).
+Every profile of a frame's markers is sampled by one ``cv2.remap``; the arithmetic round it is compiled
+(numba), because it runs for every marker of every frame, and tracking runs it again on every followed
+marker (perception_plugins/marker_bits.py). Written in numpy it cost ~150 µs for one marker, nearly all of it
+numpy's per-call overhead on arrays of a few hundred numbers; compiled, ~28 µs (bench: perception). The
+compiled loops compute exactly what the numpy expressions did, to the bit (tests/perception/
+test_corner_refinement.py holds that numpy definition and checks it): sums are numpy's pairwise sums
+(:func:`_pairwise_sum`), and the lines' angles, cosines and sines are left to numpy (:func:`_axes`), whose SIMD
+trigonometry differs from the C library's in the last bit.
 """
 
 from __future__ import annotations
 
 import cv2
+import numba
 import numpy as np
 
 SAMPLES = 20  # profiles per side
@@ -46,26 +53,13 @@ MIN_SIDE_FRACTION = 1 / 3  # of a side's profiles must find its edge
 
 _T = np.linspace(0.1, 0.9, SAMPLES)  # where the profiles cross a side: away from the corners
 _S = np.linspace(-1.0, 1.0, STEPS)  # along a profile, in units of its reach
-_CENTRES = np.arange(STEPS - 1, dtype=np.float32) + 0.5  # where each gradient sample sits on the profile
 _NEXT = np.array([1, 2, 3, 0])
-_PREV = np.array([3, 0, 1, 2])
 
 
 def module_size(quads: np.ndarray, cells: int) -> np.ndarray:
     """Mean side (px) of each quad (M×4×2) divided by the cells across the marker (data bits + black border)."""
     d = quads[:, _NEXT] - quads
     return np.sqrt((d * d).sum(axis=2)).mean(axis=1) / float(cells)
-
-
-def _fit_lines(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Weighted total-least-squares lines through the points (`x`, `y`), M×4×K with weights `w`:
-    (centroid x, centroid y, direction x, direction y), each M×4."""
-    total = np.maximum(w.sum(axis=2), 1e-9)
-    mx, my = (w * x).sum(axis=2) / total, (w * y).sum(axis=2) / total
-    dx, dy = x - mx[..., None], y - my[..., None]
-    wdx = w * dx
-    angle = 0.5 * np.arctan2(2.0 * (wdx * dy).sum(axis=2), (wdx * dx).sum(axis=2) - (w * dy * dy).sum(axis=2))
-    return mx, my, np.cos(angle), np.sin(angle)  # the principal axis of the 2×2 scatter matrix
 
 
 def refine_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarray:
@@ -76,57 +70,192 @@ def refine_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> np.ndarra
 
 
 def refined_corners(grey: np.ndarray, quads: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`refine_corners`, and which corners (M×4 bool) were refined: the others are returned as given.
-
-    Written as few whole-array operations as it can be (x and y kept apart): it runs for every marker
-    of every frame, and its cost is numpy's per-call overhead more than arithmetic (bench: perception)."""
-    quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
-    m_count = len(quads)
-    if m_count == 0:
+    """:func:`refine_corners`, and which corners (M×4 bool) were refined: the others are returned as given."""
+    quads = np.ascontiguousarray(np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2))
+    if len(quads) == 0:
         return quads.copy(), np.zeros((0, 4), dtype=bool)
-    along = quads[:, _NEXT] - quads
-    length = np.maximum(np.hypot(along[..., 0], along[..., 1]), 1e-9)  # (M, 4)
-    module = length.mean(axis=1) / float(cells)  # as module_size(), from the sides computed here anyway
-    reach = np.clip(REACH_MODULES * module, MIN_REACH_PX, MAX_REACH_PX)  # (M,)
-    nx, ny = along[..., 1] / length, -along[..., 0] / length
-    centre = quads.mean(axis=1, keepdims=True)
-    mid = quads + 0.5 * along - centre
-    flip = np.where(mid[..., 0] * nx + mid[..., 1] * ny < 0, -1.0, 1.0)  # outward: into the quiet zone
-    nx, ny = nx * flip, ny * flip
-
-    bx = quads[:, :, None, 0] + _T * along[:, :, None, 0]  # (M, 4, K): where the profiles cross the sides
-    by = quads[:, :, None, 1] + _T * along[:, :, None, 1]
-    step = _S * reach[:, None]  # (M, S)
-    mapx = (bx[..., None] + step[:, None, None, :] * nx[..., None, None]).astype(np.float32).reshape(-1, STEPS)
-    mapy = (by[..., None] + step[:, None, None, :] * ny[..., None, None]).astype(np.float32).reshape(-1, STEPS)
+    mapx, mapy, sides = _profile_maps(quads, float(cells), _T, _S)
     profiles = cv2.remap(grey, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    grad = np.diff(profiles.astype(np.float32), axis=1)  # (N, S−1), positive on a dark → bright edge
-    peak = grad.argmax(axis=1)
-    strong = (peak > 0) & (peak < STEPS - 2) & (grad.max(axis=1) >= MIN_EDGE_STEP)
-    # The edge is the gradient's centroid over the profile (only its rising part counts), as AprilTag's
-    # refine_edges takes it: steadier under noise than the peak alone.
-    weight = np.square(np.maximum(grad, 0.0))
-    where = (weight @ _CENTRES) / np.maximum(weight.sum(axis=1), 1e-9)
-    position = (np.repeat(reach, 4 * SAMPLES) * (where * (2.0 / (STEPS - 1)) - 1.0)).reshape(m_count, 4, SAMPLES)
-    ex, ey = bx + position * nx[..., None], by + position * ny[..., None]
-    w = strong.reshape(m_count, 4, SAMPLES).astype(np.float64)
+    ex, ey, weight, lines = _edge_points(quads, profiles, sides, _T)
+    ux, uy = _axes(lines)
+    weight, lines = _refit(ex, ey, weight, lines, ux, uy)
+    ux, uy = _axes(lines)
+    return _meet(quads, sides, weight, lines, ux, uy)
 
-    mx, my, ux, uy = _fit_lines(ex, ey, w)
-    residual = np.abs((ex - mx[..., None]) * uy[..., None] - (ey - my[..., None]) * ux[..., None])
-    count = np.maximum(w.sum(axis=2), 1.0)
-    sigma = np.maximum(0.25, 1.25 * (w * residual).sum(axis=2) / count)  # mean absolute deviation → σ
-    w = w * (residual <= 3.0 * sigma[..., None])
-    mx, my, ux, uy = _fit_lines(ex, ey, w)
-    enough = w.sum(axis=2) >= MIN_SIDE_FRACTION * SAMPLES  # (M, 4), per side
 
-    # Corner i is where side i−1 (which ends at it) meets side i (which starts at it).
-    px, py, vx, vy = mx[:, _PREV], my[:, _PREV], ux[:, _PREV], uy[:, _PREV]
-    cross = vx * uy - vy * ux
-    t = ((mx - px) * uy - (my - py) * ux) / np.where(np.abs(cross) > 1e-3, cross, 1.0)
-    meet = np.stack([px + t * vx, py + t * vy], axis=-1)
-    ok = enough & enough[:, _PREV] & (np.abs(cross) > 0.05)
-    ok &= _within(meet, quads, module)
-    return np.where(ok[..., None], meet, quads), ok
+def warm_up() -> None:
+    """Compile the refinement (numba; ~3 s the first time on a machine, ~0.3 s from its cache after), so a
+    source pays it when it is made, not on the first frame of a running loop."""
+    grey = np.zeros((16, 16), dtype=np.uint8)
+    refined_corners(grey, np.array([[[4.0, 4.0], [11.0, 4.0], [11.0, 11.0], [4.0, 11.0]]]), 6)
+
+
+def _axes(lines: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each side's line direction (cos, sin; M×4 each) from its scatter (:func:`_scatter`): the principal axis
+    of the 2×2 scatter matrix. In numpy, not in the compiled loops: numpy's SIMD arctan2, cos and sin differ
+    from the C library's (which numba calls) in the last bit, and the corners are to stay numpy's exactly."""
+    angle = 0.5 * np.arctan2(lines[..., 2], lines[..., 3])
+    return np.cos(angle), np.sin(angle)
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a: np.ndarray) -> float:  # pragma: no cover - compiled
+    """numpy's sum of a contiguous float64 vector, in numpy's order (pairwise: eight running sums, then the
+    remainder), so the compiled fit adds exactly as ``ndarray.sum`` did (n ≤ 128, numpy's block)."""
+    n = a.shape[0]
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
+    i = 8
+    while i < n - n % 8:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
+def _profile_maps(
+    quads: np.ndarray, cells: float, t: np.ndarray, s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Step 1: the sampling maps of every profile (N×STEPS float32 x and y, N = M·4·SAMPLES, side by side)
+    and each side's geometry (M×4×6: along x, along y, outward normal x, y, the marker's reach, its module)."""
+    m_count, k_n, s_n = quads.shape[0], t.shape[0], s.shape[0]
+    mapx = np.empty((m_count * 4 * k_n, s_n), np.float32)
+    mapy = np.empty((m_count * 4 * k_n, s_n), np.float32)
+    sides = np.empty((m_count, 4, 6))
+    lengths = np.empty(4)
+    for m in range(m_count):
+        q = quads[m]
+        total = 0.0
+        for i in range(4):
+            j = (i + 1) % 4
+            lengths[i] = max(np.hypot(q[j, 0] - q[i, 0], q[j, 1] - q[i, 1]), 1e-9)
+            total += lengths[i]
+        module = total / 4 / cells
+        reach = min(max(REACH_MODULES * module, MIN_REACH_PX), MAX_REACH_PX)
+        cx = ((((0.0 + q[0, 0]) + q[1, 0]) + q[2, 0]) + q[3, 0]) / 4
+        cy = ((((0.0 + q[0, 1]) + q[1, 1]) + q[2, 1]) + q[3, 1]) / 4
+        for i in range(4):
+            j = (i + 1) % 4
+            ax, ay = q[j, 0] - q[i, 0], q[j, 1] - q[i, 1]
+            nx, ny = ay / lengths[i], -ax / lengths[i]
+            flip = -1.0 if (q[i, 0] + 0.5 * ax - cx) * nx + (q[i, 1] + 0.5 * ay - cy) * ny < 0 else 1.0
+            nx, ny = nx * flip, ny * flip  # outward: into the quiet zone
+            sides[m, i, 0], sides[m, i, 1], sides[m, i, 2], sides[m, i, 3] = ax, ay, nx, ny
+            sides[m, i, 4], sides[m, i, 5] = reach, module
+            for k in range(k_n):
+                bx, by = q[i, 0] + t[k] * ax, q[i, 1] + t[k] * ay  # where the profile crosses the side
+                row = (m * 4 + i) * k_n + k
+                for p in range(s_n):
+                    step = s[p] * reach
+                    mapx[row, p] = np.float32(bx + step * nx)
+                    mapy[row, p] = np.float32(by + step * ny)
+    return mapx, mapy, sides
+
+
+@numba.njit(cache=True)
+def _scatter(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[float, float, float, float]:  # pragma: no cover
+    """A weighted total-least-squares line through (`x`, `y`): its centroid, and the two arguments of the
+    arctan2 that gives twice its angle (:func:`_axes`)."""
+    total = max(_pairwise_sum(w), 1e-9)
+    mx, my = _pairwise_sum(w * x) / total, _pairwise_sum(w * y) / total
+    dx, dy = x - mx, y - my
+    wdx = w * dx
+    return mx, my, 2.0 * _pairwise_sum(wdx * dy), _pairwise_sum(wdx * dx) - _pairwise_sum(w * dy * dy)
+
+
+@numba.njit(cache=True)
+def _edge_points(
+    quads: np.ndarray, profiles: np.ndarray, sides: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Step 2 and the first fit of step 3: each profile's edge point (M×4×SAMPLES x, y), its weight (1 where
+    the profile's steepest step is strong and inside it), and each side's line through them (M×4×4, as
+    :func:`_scatter`). The gradient's centroid is taken in float32, as numpy took it from the uint8 profiles."""
+    m_count, k_n, s_n = quads.shape[0], t.shape[0], profiles.shape[1]
+    ex, ey, w = np.empty((m_count, 4, k_n)), np.empty((m_count, 4, k_n)), np.empty((m_count, 4, k_n))
+    lines = np.empty((m_count, 4, 4))
+    scale = np.float32(2.0 / (s_n - 1))
+    for m in range(m_count):
+        for i in range(4):
+            ax, ay, nx, ny, reach = sides[m, i, 0], sides[m, i, 1], sides[m, i, 2], sides[m, i, 3], sides[m, i, 4]
+            for k in range(k_n):
+                row = (m * 4 + i) * k_n + k
+                best, peak = np.float32(-1e30), 0
+                num, den = np.float32(0.0), np.float32(0.0)
+                for p in range(s_n - 1):
+                    d = np.float32(profiles[row, p + 1]) - np.float32(profiles[row, p])  # dark → bright > 0
+                    if d > best:
+                        best, peak = d, p
+                    if d > 0:
+                        num += d * d * np.float32(p + 0.5)
+                        den += d * d
+                where = num / max(den, np.float32(1e-9))
+                position = reach * np.float64(where * scale - np.float32(1.0))
+                ex[m, i, k] = quads[m, i, 0] + t[k] * ax + position * nx
+                ey[m, i, k] = quads[m, i, 1] + t[k] * ay + position * ny
+                w[m, i, k] = 1.0 if 0 < peak < s_n - 2 and best >= MIN_EDGE_STEP else 0.0
+            lines[m, i, 0], lines[m, i, 1], lines[m, i, 2], lines[m, i, 3] = _scatter(ex[m, i], ey[m, i], w[m, i])
+    return ex, ey, w, lines
+
+
+@numba.njit(cache=True)
+def _refit(
+    ex: np.ndarray, ey: np.ndarray, w: np.ndarray, lines: np.ndarray, ux: np.ndarray, uy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Step 3's refit: each side's points more than 3σ off its first line dropped (σ from their mean absolute
+    deviation), and the line fitted again."""
+    m_count, k_n = ex.shape[0], ex.shape[2]
+    kept, out = np.empty_like(w), np.empty_like(lines)
+    for m in range(m_count):
+        for i in range(4):
+            residual = np.abs((ex[m, i] - lines[m, i, 0]) * uy[m, i] - (ey[m, i] - lines[m, i, 1]) * ux[m, i])
+            count = max(_pairwise_sum(w[m, i]), 1.0)
+            sigma = max(0.25, 1.25 * _pairwise_sum(w[m, i] * residual) / count)
+            for k in range(k_n):
+                kept[m, i, k] = w[m, i, k] * (1.0 if residual[k] <= 3.0 * sigma else 0.0)
+            out[m, i, 0], out[m, i, 1], out[m, i, 2], out[m, i, 3] = _scatter(ex[m, i], ey[m, i], kept[m, i])
+    return kept, out
+
+
+@numba.njit(cache=True)
+def _meet(
+    quads: np.ndarray, sides: np.ndarray, w: np.ndarray, lines: np.ndarray, ux: np.ndarray, uy: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """The corners: corner i where side i−1 (which ends at it) meets side i (which starts at it), kept where
+    both sides had enough edge points, they cross clearly, and the corner moved within its uncertainty."""
+    m_count, k_n = quads.shape[0], w.shape[2]
+    out, ok = quads.copy(), np.zeros((m_count, 4), np.bool_)
+    for m in range(m_count):
+        limit = max(MIN_SHIFT_PX, SHIFT_MODULES * sides[m, 0, 5])
+        for i in range(4):
+            p = (i + 3) % 4
+            px, py, vx, vy = lines[m, p, 0], lines[m, p, 1], ux[m, p], uy[m, p]
+            cross = vx * uy[m, i] - vy * ux[m, i]
+            t = ((lines[m, i, 0] - px) * uy[m, i] - (lines[m, i, 1] - py) * ux[m, i]) / (
+                cross if abs(cross) > 1e-3 else 1.0
+            )
+            x, y = px + t * vx, py + t * vy
+            sx, sy = x - quads[m, i, 0], y - quads[m, i, 1]
+            enough = min(_pairwise_sum(w[m, i]), _pairwise_sum(w[m, p])) >= MIN_SIDE_FRACTION * k_n
+            near = np.isfinite(x) and np.isfinite(y) and sx * sx + sy * sy <= limit * limit
+            if enough and abs(cross) > 0.05 and near:
+                out[m, i, 0], out[m, i, 1] = x, y
+                ok[m, i] = True
+    return out, ok
 
 
 def _within(refined: np.ndarray, quads: np.ndarray, module: np.ndarray) -> np.ndarray:

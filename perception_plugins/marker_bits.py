@@ -26,6 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import cv2
+import numba
 import numpy as np
 
 from mission.perception_plugins.corner_refinement import refine_corners, refined_corners
@@ -82,6 +83,13 @@ class PatternCheck:
         self._sides, self._inward = _side_points(cells)
         self._border = np.ones((cells, cells), dtype=bool)
         self._border[1:-1, 1:-1] = False
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Compile the check (numba) now, not on a running loop's first frame: a quad on a blank image."""
+        side = 2.0 * self.cells
+        quad = np.array([[[4.0, 4.0], [4.0 + side, 4.0], [4.0 + side, 4.0 + side], [4.0, 4.0 + side]]])
+        self(np.zeros((8 + int(side), 8 + int(side)), np.uint8), quad, np.zeros(1, dtype=np.int64))
 
     def pattern(self, marker_id: int) -> np.ndarray:
         if marker_id not in self._patterns:
@@ -89,41 +97,112 @@ class PatternCheck:
         return self._patterns[marker_id]
 
     def __call__(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> np.ndarray:
-        """Which of the M quads (M×4×2 px, corners in the detector's order) hold their id's pattern (M bool)."""
-        quads = np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2)
-        m_count = len(quads)
-        if m_count == 0:
+        """Which of the M quads (M×4×2 px, corners in the detector's order) hold their id's pattern (M bool).
+
+        Every point of every quad is sampled by one ``cv2.remap``; the arithmetic round it is compiled (numba),
+        as the corner refinement's is (perception_plugins/corner_refinement.py): it runs on every followed
+        marker of every frame, and in numpy it was ~110 µs for one marker, nearly all per-call overhead."""
+        quads = np.ascontiguousarray(np.asarray(quads, dtype=np.float64).reshape(-1, 4, 2))
+        if len(quads) == 0:
             return np.zeros(0, dtype=bool)
         c = self.cells
         unit = np.array([[0, 0], [c, 0], [c, c], [0, c]], dtype=np.float32)
         homs = np.stack([cv2.getPerspectiveTransform(unit, q.astype(np.float32)) for q in quads])  # M×3×3
-        module = np.linalg.norm(quads[:, [1, 2, 3, 0]] - quads, axis=2).mean(axis=1) / c
-        across = np.minimum(BAND_PX / np.maximum(module, 1e-6), BAND_MODULES)[:, None, None]
-        band = np.concatenate([self._sides + across * self._inward, self._sides - across * self._inward], axis=1)
-        unit_pts = np.concatenate([np.broadcast_to(self._points, (m_count, *self._points.shape)), band], axis=1)
-        u, v = unit_pts[..., 0], unit_pts[..., 1]  # through each homography, written out: ~3× a batched matmul
-        h = homs[..., None]
-        w = h[:, 2, 0] * u + h[:, 2, 1] * v + h[:, 2, 2]
-        x = ((h[:, 0, 0] * u + h[:, 0, 1] * v + h[:, 0, 2]) / w).astype(np.float32)
-        y = ((h[:, 1, 0] * u + h[:, 1, 1] * v + h[:, 1, 2]) / w).astype(np.float32)
-        values = cv2.remap(
-            grey, x.reshape(1, -1), y.reshape(1, -1), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
-        ).reshape(m_count, -1)
-        n_cells = c * c * SUBSAMPLES * SUBSAMPLES
-        n_fixed = len(self._points)
-        cell = values[:, :n_cells].reshape(m_count, c, c, SUBSAMPLES * SUBSAMPLES).mean(axis=3)
-        white = values[:, n_cells:n_fixed].mean(axis=1)
-        black = np.median(cell[:, self._border], axis=1)
-        mid = ((black + white) / 2)[:, None, None]
-        sides = values[:, n_fixed:].reshape(m_count, 2, 4, BAND_POINTS)
-        on_edges = (((sides[:, 0] < mid) & (sides[:, 1] > mid)).mean(axis=2) >= BAND_FRACTION).all(axis=1)
-        wrong = (cell > mid) != np.stack([self.pattern(int(i)) for i in ids])
-        return (
-            (white - black >= MIN_CONTRAST)
-            & on_edges
-            & ~wrong[:, ~self._border].any(axis=1)
-            & (wrong[:, self._border].sum(axis=1) <= MAX_BORDER_ERRORS)
-        )
+        x, y = _sample_maps(quads, homs, float(c), self._points, self._sides, self._inward)
+        values = cv2.remap(grey, x, y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        patterns = np.stack([self.pattern(int(i)) for i in ids])
+        return _holds(values, patterns, self._border, c, len(self._points))
+
+
+@numba.njit(cache=True)
+def _sample_maps(
+    quads: np.ndarray, homs: np.ndarray, cells: float, points: np.ndarray, sides: np.ndarray, inward: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
+    """Where to sample each quad (1×M·P float32 x and y, quad after quad): the cell and ring `points`, then the
+    band across each side, BAND_PX inside and outside it (at most BAND_MODULES), through each quad's homography."""
+    m_count, n_fixed, n_side = quads.shape[0], points.shape[0], sides.shape[0]
+    per = n_fixed + 2 * n_side
+    x, y = np.empty((1, m_count * per), np.float32), np.empty((1, m_count * per), np.float32)
+    for m in range(m_count):
+        total = 0.0
+        for i in range(4):
+            j = (i + 1) % 4
+            dx, dy = quads[m, j, 0] - quads[m, i, 0], quads[m, j, 1] - quads[m, i, 1]
+            total += np.sqrt(0.0 + dx * dx + dy * dy)
+        module = total / 4 / cells
+        across = min(BAND_PX / max(module, 1e-6), BAND_MODULES)
+        h = homs[m]
+        for k in range(per):
+            if k < n_fixed:
+                u, v = points[k, 0], points[k, 1]
+            else:
+                j = (k - n_fixed) % n_side
+                du, dv = across * inward[j, 0], across * inward[j, 1]
+                if k - n_fixed < n_side:  # inside the side, then outside it
+                    u, v = sides[j, 0] + du, sides[j, 1] + dv
+                else:
+                    u, v = sides[j, 0] - du, sides[j, 1] - dv
+            w = h[2, 0] * u + h[2, 1] * v + h[2, 2]
+            x[0, m * per + k] = np.float32((h[0, 0] * u + h[0, 1] * v + h[0, 2]) / w)
+            y[0, m * per + k] = np.float32((h[1, 0] * u + h[1, 1] * v + h[1, 2]) / w)
+    return x, y
+
+
+@numba.njit(cache=True)
+def _holds(
+    values: np.ndarray, patterns: np.ndarray, border: np.ndarray, cells: int, n_fixed: int
+) -> np.ndarray:  # pragma: no cover - compiled
+    """The check itself, on the sampled grey levels (1×M·P, as :func:`_sample_maps` laid them out): see the
+    module for each condition."""
+    m_count = patterns.shape[0]
+    per = values.shape[1] // m_count
+    sub = SUBSAMPLES * SUBSAMPLES
+    n_border = 4 * cells - 4
+    out = np.zeros(m_count, np.bool_)
+    cell = np.empty((cells, cells))
+    edge = np.empty(n_border)
+    for m in range(m_count):
+        base = m * per
+        n_edge = 0
+        for r in range(cells):
+            for q in range(cells):
+                first = base + (r * cells + q) * sub
+                total = 0.0
+                for k in range(sub):
+                    total += values[0, first + k]
+                cell[r, q] = total / sub
+                if border[r, q]:
+                    edge[n_edge] = cell[r, q]
+                    n_edge += 1
+        ring = 0.0
+        for k in range(base + cells * cells * sub, base + n_fixed):
+            ring += values[0, k]
+        white = ring / (n_fixed - cells * cells * sub)
+        ordered = np.sort(edge)
+        half = n_border // 2
+        black = ordered[half] if n_border % 2 else (ordered[half - 1] + ordered[half]) / 2
+        mid = (black + white) / 2
+        if not white - black >= MIN_CONTRAST:
+            continue
+        on_edges = True
+        for side in range(4):
+            good = 0
+            for k in range(BAND_POINTS):
+                inside = values[0, base + n_fixed + side * BAND_POINTS + k]
+                outside = values[0, base + n_fixed + 4 * BAND_POINTS + side * BAND_POINTS + k]
+                good += inside < mid and outside > mid
+            on_edges = on_edges and good / BAND_POINTS >= BAND_FRACTION
+        border_errors = 0
+        data_error = False
+        for r in range(cells):
+            for q in range(cells):
+                if (cell[r, q] > mid) != patterns[m, r, q]:
+                    if border[r, q]:
+                        border_errors += 1
+                    else:
+                        data_error = True
+        out[m] = on_edges and not data_error and border_errors <= MAX_BORDER_ERRORS
+    return out
 
 
 def aruco_pattern(dictionary: cv2.aruco.Dictionary) -> Pattern:
