@@ -118,11 +118,12 @@ class PatternCheck:
 def _sample_maps(
     quads: np.ndarray, homs: np.ndarray, cells: float, points: np.ndarray, sides: np.ndarray, inward: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - compiled
-    """Where to sample each quad (1×M·P float32 x and y, quad after quad): the cell and ring `points`, then the
-    band across each side, BAND_PX inside and outside it (at most BAND_MODULES), through each quad's homography."""
+    """Where to sample each quad (M×P float32 x and y, a row per quad: cv2.remap takes no row of 32,767 points or
+    more, which one row for all 33 AprilTag 36h11 tags' would be): the cell and ring `points`, then the band
+    across each side, BAND_PX inside and outside it (at most BAND_MODULES), through each quad's homography."""
     m_count, n_fixed, n_side = quads.shape[0], points.shape[0], sides.shape[0]
     per = n_fixed + 2 * n_side
-    x, y = np.empty((1, m_count * per), np.float32), np.empty((1, m_count * per), np.float32)
+    x, y = np.empty((m_count, per), np.float32), np.empty((m_count, per), np.float32)
     for m in range(m_count):
         total = 0.0
         for i in range(4):
@@ -143,8 +144,8 @@ def _sample_maps(
                 else:
                     u, v = sides[j, 0] - du, sides[j, 1] - dv
             w = h[2, 0] * u + h[2, 1] * v + h[2, 2]
-            x[0, m * per + k] = np.float32((h[0, 0] * u + h[0, 1] * v + h[0, 2]) / w)
-            y[0, m * per + k] = np.float32((h[1, 0] * u + h[1, 1] * v + h[1, 2]) / w)
+            x[m, k] = np.float32((h[0, 0] * u + h[0, 1] * v + h[0, 2]) / w)
+            y[m, k] = np.float32((h[1, 0] * u + h[1, 1] * v + h[1, 2]) / w)
     return x, y
 
 
@@ -152,31 +153,29 @@ def _sample_maps(
 def _holds(
     values: np.ndarray, patterns: np.ndarray, border: np.ndarray, cells: int, n_fixed: int
 ) -> np.ndarray:  # pragma: no cover - compiled
-    """The check itself, on the sampled grey levels (1×M·P, as :func:`_sample_maps` laid them out): see the
-    module for each condition."""
+    """The check itself, on the sampled grey levels (M×P, as :func:`_sample_maps` laid them out): see the module
+    for each condition."""
     m_count = patterns.shape[0]
-    per = values.shape[1] // m_count
     sub = SUBSAMPLES * SUBSAMPLES
     n_border = 4 * cells - 4
     out = np.zeros(m_count, np.bool_)
     cell = np.empty((cells, cells))
     edge = np.empty(n_border)
     for m in range(m_count):
-        base = m * per
         n_edge = 0
         for r in range(cells):
             for q in range(cells):
-                first = base + (r * cells + q) * sub
+                first = (r * cells + q) * sub
                 total = 0.0
                 for k in range(sub):
-                    total += values[0, first + k]
+                    total += values[m, first + k]
                 cell[r, q] = total / sub
                 if border[r, q]:
                     edge[n_edge] = cell[r, q]
                     n_edge += 1
         ring = 0.0
-        for k in range(base + cells * cells * sub, base + n_fixed):
-            ring += values[0, k]
+        for k in range(cells * cells * sub, n_fixed):
+            ring += values[m, k]
         white = ring / (n_fixed - cells * cells * sub)
         ordered = np.sort(edge)
         half = n_border // 2
@@ -188,8 +187,8 @@ def _holds(
         for side in range(4):
             good = 0
             for k in range(BAND_POINTS):
-                inside = values[0, base + n_fixed + side * BAND_POINTS + k]
-                outside = values[0, base + n_fixed + 4 * BAND_POINTS + side * BAND_POINTS + k]
+                inside = values[m, n_fixed + side * BAND_POINTS + k]
+                outside = values[m, n_fixed + 4 * BAND_POINTS + side * BAND_POINTS + k]
                 good += inside < mid and outside > mid
             on_edges = on_edges and good / BAND_POINTS >= BAND_FRACTION
         border_errors = 0

@@ -73,3 +73,16 @@ def test_no_quads_is_no_work():
     corners, ok = refined_corners(grey, np.zeros((0, 4, 2)), 6)
     assert corners.shape == (0, 4, 2) and ok.shape == (0, 4)
     assert PatternCheck(6, aruco_pattern(DICTIONARY))(grey, np.zeros((0, 4, 2)), np.zeros(0)).shape == (0,)
+
+
+def test_forty_tags_followed_at_once_are_checked_as_each_alone():
+    # one row of samples for every quad would be 40 × 1,004 points, over cv2.remap's 32,767 columns
+    # (an OpenCV assertion, before the samples were laid out a row per quad)
+    check = PatternCheck(10, aruco_pattern(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_APRILTAG_36h11)))
+    grey, quads = VIEWS[5]
+    many = np.concatenate([quads + 0.1 * k for k in range(40)])
+    ids = np.arange(40, dtype=np.int64)
+    alone = [bool(check(grey, q[None], ids[k : k + 1])[0]) for k, q in enumerate(many)]
+    assert check(grey, many, ids).tolist() == alone
+    refined, _ = refined_corners(grey, many, 10)
+    assert np.array_equal(refined, np.concatenate([refined_corners(grey, q[None], 10)[0] for q in many]))
