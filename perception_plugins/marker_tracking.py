@@ -40,6 +40,7 @@ two faces are often in view) is one track per copy, each moving on from the near
 
 from __future__ import annotations
 
+import functools
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -107,14 +108,27 @@ class _Track:
     missed: int = 0  # frames since it was last found (a coasting track: its quad is where it would be by now)
     extra: Any = None  # what its source kept of it when last detected (Found.extra), for a frame that follows it
 
-    @property
+    # Cached: a track is made anew each frame and never changed after, and these are read several times a frame
+    # for every tracked marker (numpy's per-call overhead: bench "perception").
+    @functools.cached_property
     def centre(self) -> np.ndarray:
         return self.quad.mean(axis=0)
 
-    @property
+    @functools.cached_property
     def predicted(self) -> np.ndarray:
         """Its quad in the next frame if it moves on as it last moved (4×2 px)."""
         return self.quad + self.motion
+
+    @functools.cached_property
+    def _predicted_box(self) -> tuple[float, float, float, float]:
+        (x0, y0), (x1, y1) = self.predicted.min(axis=0).tolist(), self.predicted.max(axis=0).tolist()
+        return x0, y0, x1, y1
+
+    def leaves(self, width: int, height: int) -> bool:
+        """Whether its predicted quad reaches off a `width`×`height` image: a marker leaving the view, which no
+        detector finds whole."""
+        x0, y0, x1, y1 = self._predicted_box
+        return x0 < 0 or y0 < 0 or x1 > width - 1 or y1 > height - 1
 
 
 @dataclass
@@ -143,7 +157,7 @@ class RegionTracker:
 
     def followable(self, width: int, height: int) -> list[_Track]:
         """The tracks a window frame may follow (:func:`_follow`): found last frame, and predicted whole in view."""
-        return [tr for tr in self.tracks if tr.missed == 0 and not _leaves(tr.predicted, width, height)]
+        return [tr for tr in self.tracks if tr.missed == 0 and not tr.leaves(width, height)]
 
     def windows(self, width: int, height: int, followed: Sequence[_Track] = ()) -> list[Window] | None:
         """The windows to detect in this frame for the tracks not `followed` already (none when nothing is
@@ -153,7 +167,7 @@ class RegionTracker:
         wins: list[Window] = []
         self.leaving = []
         for tr in self.tracks:
-            if _leaves(tr.predicted, width, height):
+            if tr.leaves(width, height):
                 self.leaving.append(tr)  # predicted partly off the image: not looked for, not missed
                 continue
             if any(tr is t for t in followed):
@@ -212,11 +226,6 @@ class RegionTracker:
     def reset(self) -> None:
         self.tracks.clear()
         self.since_full = self.full_frame_every - 1
-
-
-def _leaves(quad: np.ndarray, width: int, height: int) -> bool:
-    """Whether a predicted quad reaches off the image: a marker leaving the view, which no detector finds whole."""
-    return bool((quad < 0).any() or (quad[:, 0] > width - 1).any() or (quad[:, 1] > height - 1).any())
 
 
 def window_round(quad: np.ndarray, motion: np.ndarray, width: int, height: int, slack_px: float = 0.0) -> Window | None:
