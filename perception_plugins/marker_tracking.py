@@ -12,8 +12,10 @@ in a window round each predicted quad instead of the whole frame, and the whole 
 * on the first frame, and every ``full_frame_every``-th frame after, so a marker that comes into view is
   found at most ``full_frame_every − 1`` frames after the full-frame detector would have found it;
 * at once, on the same frame, when a tracked marker is not found in its window (it moved faster than
-  predicted, or something hid it) nor in its window alone: a marker the full frame finds is never lost to
-  the tracking.
+  predicted, or something hid it) nor in its window alone: a marker the full frame finds is not lost to the
+  tracking — unless every other marker tracked, EXCUSE_MIN_FOUND at least, was found where its motion put it
+  (:meth:`RegionTracker.excuse`): then the scene did not jump, the marker was not detected rather than moved,
+  and it coasts (below) while the search pass looks everywhere else.
 
 On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
 (the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
@@ -61,6 +63,8 @@ GUTTER_PX = 8  # each window's border in the mosaic the windows are detected in 
 EDGE_PX = 3  # of which its edge replicated (more drew streaks that lost markers: _tile), the rest flat
 MIN_SHRINK = 0.4  # a window is never shrunk further: a pixel of it is 2.5 px of the frame, half the refiner's reach
 MIN_WINDOW_PX = 32  # a window is never smaller than this on a side (the detector's own border and kernels)
+EXCUSE_MIN_FOUND = 3  # a missed marker is excused (RegionTracker.excuse) only beside this many found as predicted
+EXCUSE_REACH = 0.25  # … each within this many of its marker sides of where its motion put it
 ALONE_MIN_SIDE_PX = 30.0  # a marker missed in the mosaic is looked for in its window alone from this side (_alone)
 
 
@@ -145,6 +149,8 @@ class RegionTracker:
     rescues: int = 0  # full-frame passes run because a tracked marker was not in its window
     discovered: int = 0  # markers the search pass found between full-frame passes
     leaving: list[_Track] = field(default_factory=list)  # tracks this frame's windows left out (off the edge)
+    excused: list[_Track] = field(default_factory=list)  # tracks missed this frame where the rest were found (excuse)
+    excused_misses: int = 0  # tracked markers excused from a full-frame pass (excuse)
 
     def __post_init__(self) -> None:
         self.since_full = self.full_frame_every - 1  # the first frame is a full-frame pass
@@ -166,6 +172,7 @@ class RegionTracker:
             return None
         wins: list[Window] = []
         self.leaving = []
+        self.excused = []
         for tr in self.tracks:
             if tr.leaves(width, height):
                 self.leaving.append(tr)  # predicted partly off the image: not looked for, not missed
@@ -189,7 +196,33 @@ class RegionTracker:
         live = [tr for tr in self.tracks if tr.missed == 0 and not any(tr is t for t in self.leaving)]
         expected = Counter(tr.marker_id for tr in live)
         found = Counter(ids)
-        return [tr for tr in live if found[tr.marker_id] < expected[tr.marker_id]]
+        return [
+            tr for tr in live if found[tr.marker_id] < expected[tr.marker_id] and not any(tr is t for t in self.excused)
+        ]
+
+    def excuse(self, missed: list[_Track], found: Sequence[Found]) -> None:
+        """Excuse the `missed` tracks from the full-frame pass when every other marker tracked last frame was
+        `found` where its motion put it, and there were at least EXCUSE_MIN_FOUND of them: the prediction held
+        for the scene, so a marker missing from it was not moved out of its window (a board is rigid, a scene
+        still) but not detected on this frame — blurred, glared, at the detector's threshold. The full frame then
+        misses it too, and a frame that went to it cost the window pass, the full pass and its rescue pass: on
+        hand-held webcam video of a ChArUco board (caliscope, 6 fps), a third of the frames. An excused track
+        coasts (COAST_FRAMES) as any track the full frame did not find."""
+        others = [
+            tr
+            for tr in self.tracks
+            if tr.missed == 0 and not any(tr is t for t in self.leaving) and not any(tr is t for t in missed)
+        ]
+        if len(others) < EXCUSE_MIN_FOUND:
+            return
+        for tr in others:
+            reach = EXCUSE_REACH * side(tr.quad)
+            at = tr.predicted.mean(axis=0)
+            near = (f for f in found if f.marker_id == tr.marker_id)
+            if not any(float(np.linalg.norm(f.quad.mean(axis=0) - at)) <= reach for f in near):
+                return
+        self.excused = list(missed)
+        self.excused_misses += len(missed)
 
     def found(self, quads: np.ndarray, ids: np.ndarray, full: bool, extras: Sequence[Any] | None = None) -> bool:
         """Take this frame's detections (M×4×2, M, and each one's Found.extra); False when a window pass missed
@@ -308,6 +341,9 @@ def detect_tracked(
         # or two apart): that is the same marker, not a second copy of its id.
         found = followed + [f for f in _in_windows(grey, wins, detect, shrink) if not _among(f, followed)]
         missed = tracker.missing([f.marker_id for f in found])
+        if missed:
+            tracker.excuse(missed, found)
+            missed = tracker.missing([f.marker_id for f in found])
         if missed and recover is not None:
             found += _alone(grey, missed, wins, found, recover, shrink and Shrink(shrink.side_px, recover))
         elif missed:
