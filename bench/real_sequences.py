@@ -287,6 +287,7 @@ def report(seq: Sequence, summary: dict[str, Any]) -> list[str]:
     row("speed-up (means)", lambda x: _cell(x["speedup"], "×"))
     row("recall", lambda x: _cell(x["recall"]))
     row("new-marker wait, max frames", lambda x: x["new_marker_wait_max_frames"])
+    row("new markers left unfound", lambda x: f"{x['new_markers_unfound']} of {x['new_markers']}")
     row("longest miss run, frames", lambda x: x["longest_miss_run_frames"])
     if with_truth:
         row(
