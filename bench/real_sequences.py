@@ -182,6 +182,10 @@ def cases(
     """Per frame: markers the baseline found and tracking did not (and why, as far as the tracker tells), markers
     tracking found and the baseline did not, and markers tracking placed > WORSE_PX worse than the baseline.
 
+    With a board (`board_ids`), also the recall of the board's markers alone: an id the baseline reports that
+    the board does not carry is a false detection (OpenCV decodes one now and then from a 1,000-id dictionary on
+    a 6 px speck), and track_sequence's recall counts tracking's not repeating it as a miss.
+
     Also the longest run of frames in which the baseline kept finding a marker tracking did not report: what
     ``full_frame_every`` bounds. track_sequence's new-marker wait runs on across frames where the baseline lost
     the marker too, so on real footage, where a marker at the edge of detectability flickers, it can be far
@@ -191,8 +195,13 @@ def cases(
     extra = 0
     run: dict[int, int] = {}  # marker → frames in a row the baseline had it and tracking did not
     longest = 0
+    on_board = found_on_board = off_board = 0
     for i, (sf, found, ref) in enumerate(zip(seq.frames, mine.found, base, strict=True)):
         extra += len(found.keys() - ref.keys())
+        if board_ids is not None:
+            on_board += len(ref.keys() & board_ids)
+            found_on_board += len(ref.keys() & board_ids & found.keys())
+            off_board += len(ref.keys() - board_ids)
         run = {m: run.get(m, 0) + 1 for m in ref.keys() - found.keys()}
         longest = max([longest, *run.values()])
         for m in sorted(ref.keys() - found.keys()):
@@ -216,7 +225,14 @@ def cases(
                     {"frame": i, "label": seq.labels[i], "marker_id": m, "side_px": round(_side(ref[m]), 1),
                      "tracked_worst_px": round(a, 3), "baseline_worst_px": round(b, 3), "full_pass": mine.full[i]}
                 )  # fmt: skip
-    return {"missed": missed, "less_accurate": worse, "tracked_only": extra, "longest_miss_run_frames": longest}
+    return {
+        "missed": missed,
+        "less_accurate": worse,
+        "tracked_only": extra,
+        "longest_miss_run_frames": longest,
+        "recall_on_board": round(found_on_board / on_board, 4) if on_board else None,
+        "baseline_off_board": off_board if board_ids is not None else None,
+    }
 
 
 def miss_runs(missed: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -286,6 +302,9 @@ def report(seq: Sequence, summary: dict[str, Any]) -> list[str]:
     row("median ms, tracked / baseline", lambda x: f"{x['tracked_median_ms']:.2f} / {x['baseline_median_ms']:.2f}")
     row("speed-up (means)", lambda x: _cell(x["speedup"], "×"))
     row("recall", lambda x: _cell(x["recall"]))
+    if r[0]["recall_on_board"] is not None:
+        row("recall of the board's markers", lambda x: _cell(x["recall_on_board"]))
+        row("baseline's ids not on the board", lambda x: x["baseline_off_board"])
     row("new-marker wait, max frames", lambda x: x["new_marker_wait_max_frames"])
     row("new markers left unfound", lambda x: f"{x['new_markers_unfound']} of {x['new_markers']}")
     row("longest miss run, frames", lambda x: x["longest_miss_run_frames"])

@@ -41,7 +41,7 @@ WINDOW_THRESHOLD_PX = 13  # and thresholded with this one window (OpenCV's defau
 
 SEARCH_SIDE_PX = 480  # tracking's search pass looks at the frame sampled down to about this on its longer side
 SEARCH_THRESHOLD_PX = 7  # with this one adaptive-threshold window
-SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 32 px at 1280×720, 48 at 1920×1080
+SEARCH_MIN_SIDE_PX = 12.0  # and keeps markers from this side (sampled px): 36 px at 1280×720, 48 at 1920×1080
 SEARCH_BORDER_PX = 1  # and this close to the sampled image's edge (OpenCV's default, 3, is 6–12 px of the frame)
 
 Configure = Callable[[Any], None]  # sets a DetectorParameters' refinement and error-correction fields

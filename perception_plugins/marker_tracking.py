@@ -19,7 +19,7 @@ in a window round each predicted quad instead of the whole frame, and the whole 
 
 On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
 (the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
-that frame, so the bound above holds only for markers under the search's floor (~32 px at 1280×720). With
+that frame, so the bound above holds only for markers under the search's floor (~36 px at 1280×720). With
 nothing tracked — exploring, searching, the view empty of markers — the full frame comes every
 IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
 was two fifths of a rendered explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board

@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from bench.real_sequences import main
@@ -35,6 +36,7 @@ def test_tracking_loses_no_marker_and_places_them_as_well_as_tracking_off(tmp_pa
         x = r[key]
         assert x["markers_baseline"] >= 100  # 17 markers on the board, some under the hand for three frames
         assert x["recall"] == 1.0, x["missed"]
+        assert x["recall_on_board"] == 1.0 and x["baseline_off_board"] == 0
         assert x["missed"] == [] and x["less_accurate"] == []
         assert x["new_marker_wait_max_frames"] == 0 and x["longest_miss_run_frames"] == 0  # found again at once
         assert x["corner_p95_tracked_px"] < 1.6 and x["corner_max_tracked_px"] < 2.0
@@ -71,3 +73,26 @@ def test_unreadable_input_and_unknown_dictionary_are_one_line_and_exit_2(tmp_pat
         out, err = capsys.readouterr()
         assert out == ""  # nothing measured, no table
         assert len(err.strip().splitlines()) == 1 and named in err
+
+
+def test_an_id_the_board_does_not_carry_is_the_baselines_false_detection_not_a_miss():
+    # caliscope's webcam videos, DICT_4X4_1000: OpenCV's full frame decodes ids 660, 17 and 441 from 6–12 px specks
+    # beside a 4×5 board of ids 0–9; tracking does not repeat them, and the recall of the board's markers is
+    # what says whether it lost a marker
+    from types import SimpleNamespace
+
+    from bench.real_sequences import cases
+
+    quad = np.array([[0.0, 0.0], [20.0, 0.0], [20.0, 20.0], [0.0, 20.0]])
+    refs = [{1: quad, 2: quad + 40}, {1: quad, 2: quad + 40, 660: quad + 80}, {1: quad, 2: quad + 40}]
+    founds = [{1: quad, 2: quad + 40}, {1: quad, 2: quad + 40}, {1: quad}]
+    seq = SimpleNamespace(frames=[SimpleNamespace(truth={}) for _ in refs], labels=[f"f{i}" for i in range(3)])
+    mine = SimpleNamespace(found=founds, full=[True, False, False])
+    r = cases(seq, mine, refs, board_ids=set(range(10)))
+    assert r["baseline_off_board"] == 1
+    assert r["recall_on_board"] == round(5 / 6, 4)  # frame 2's marker 2 is the one real miss
+    assert [(m["frame"], m["marker_id"], m["why"].split(":")[0]) for m in r["missed"]] == [
+        (1, 660, "not on the board"),
+        (2, 2, "tracked last frame, window pass did not find it"),
+    ]
+    assert cases(seq, mine, refs, board_ids=None)["recall_on_board"] is None  # no board, no truth to tell by
