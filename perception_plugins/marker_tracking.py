@@ -20,7 +20,8 @@ in a window round each predicted quad instead of the whole frame, and the whole 
 On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
 (the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
 that frame, so the bound above holds only for markers under the search's floor (~36 px at 1280×720). With
-nothing tracked — exploring, searching, the view empty of markers — the full frame comes every
+nothing found last frame — exploring, searching, the view empty of markers, or tracks only coasting — the full
+frame comes every
 IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
 was two fifths of a rendered explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board
 coming into a webcam's empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
@@ -156,9 +157,15 @@ class RegionTracker:
         self.since_full = self.full_frame_every - 1  # the first frame is a full-frame pass
 
     def full_frame_due(self) -> bool:
-        """Whether this frame is a full-frame pass (every `full_frame_every`-th frame; with nothing tracked,
-        every IDLE_FULL_FRAME_EVERY-th)."""
-        every = self.full_frame_every if self.tracks else min(self.full_frame_every, IDLE_FULL_FRAME_EVERY)
+        """Whether this frame is a full-frame pass (every `full_frame_every`-th frame; with no marker found last
+        frame, every IDLE_FULL_FRAME_EVERY-th).
+
+        Tracks that only coast do not count as tracked: each is looked for where its last motion puts it, and a
+        marker that vanished for a frame during a fast turn shows again anywhere. On aisle seed 5812 under
+        `typical`, a followed target's coasting track kept the full frame away for the three frames it coasted
+        while the target, ~70 px from it and under the search pass's floor, was in plain view."""
+        found_last = any(tr.missed == 0 for tr in self.tracks)
+        every = self.full_frame_every if found_last else min(self.full_frame_every, IDLE_FULL_FRAME_EVERY)
         return self.since_full + 1 >= every
 
     def followable(self, width: int, height: int) -> list[_Track]:
