@@ -200,36 +200,37 @@ class RegionTracker:
     def missing(self, ids: list[int]) -> list[_Track]:
         """The tracks a window pass that found `ids` did not find (of those it had to: see all_found); of an id
         tracked more than once and found fewer times, every copy."""
-        live = [tr for tr in self.tracks if tr.missed == 0 and not any(tr is t for t in self.leaving)]
+        live = self._live()
         expected = Counter(tr.marker_id for tr in live)
         found = Counter(ids)
         return [
             tr for tr in live if found[tr.marker_id] < expected[tr.marker_id] and not any(tr is t for t in self.excused)
         ]
 
-    def excuse(self, missed: list[_Track], found: Sequence[Found]) -> None:
+    def _live(self) -> list[_Track]:
+        """The tracks a window pass has to find: found last frame, and not leaving the view."""
+        return [tr for tr in self.tracks if tr.missed == 0 and not any(tr is t for t in self.leaving)]
+
+    def excuse(self, missed: list[_Track], found: Sequence[Found]) -> bool:
         """Excuse the `missed` tracks from the full-frame pass when every other marker tracked last frame was
         `found` where its motion put it, and there were at least EXCUSE_MIN_FOUND of them: the prediction held
         for the scene, so a marker missing from it was not moved out of its window (a board is rigid, a scene
         still) but not detected on this frame — blurred, glared, at the detector's threshold. The full frame then
         misses it too, and a frame that went to it cost the window pass, the full pass and its rescue pass: on
         hand-held webcam video of a ChArUco board (caliscope, 6 fps), a third of the frames. An excused track
-        coasts (COAST_FRAMES) as any track the full frame did not find."""
-        others = [
-            tr
-            for tr in self.tracks
-            if tr.missed == 0 and not any(tr is t for t in self.leaving) and not any(tr is t for t in missed)
-        ]
+        coasts (COAST_FRAMES) as any track the full frame did not find. Whether they were excused."""
+        others = [tr for tr in self._live() if not any(tr is t for t in missed)]
         if len(others) < EXCUSE_MIN_FOUND:
-            return
+            return False
         for tr in others:
             reach = EXCUSE_REACH * side(tr.quad)
             at = tr.predicted.mean(axis=0)
             near = (f for f in found if f.marker_id == tr.marker_id)
             if not any(float(np.linalg.norm(f.quad.mean(axis=0) - at)) <= reach for f in near):
-                return
+                return False
         self.excused = list(missed)
         self.excused_misses += len(missed)
+        return True
 
     def found(self, quads: np.ndarray, ids: np.ndarray, full: bool, extras: Sequence[Any] | None = None) -> bool:
         """Take this frame's detections (M×4×2, M, and each one's Found.extra); False when a window pass missed
@@ -348,9 +349,8 @@ def detect_tracked(
         # or two apart): that is the same marker, not a second copy of its id.
         found = followed + [f for f in _in_windows(grey, wins, detect, shrink) if not _among(f, followed)]
         missed = tracker.missing([f.marker_id for f in found])
-        if missed:
-            tracker.excuse(missed, found)
-            missed = tracker.missing([f.marker_id for f in found])
+        if missed and tracker.excuse(missed, found):
+            missed = []
         if missed and recover is not None:
             found += _alone(grey, missed, wins, found, recover, shrink and Shrink(shrink.side_px, recover))
         elif missed:
