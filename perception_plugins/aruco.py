@@ -181,38 +181,47 @@ class ArucoSource:
         return float(self.params.marker_sizes.get(marker_id, self.params.marker_size_m))
 
     def process(self, frame: Frame) -> list[Detection]:
-        grey = to_grey(frame.image)
+        corners, ids = self.markers(to_grey(frame.image))
+        return self.detections(frame, corners, ids)
+
+    def markers(self, grey: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The frame's markers before pose (N×4×2 corners, final; N ids): what OpenCV's ``detectMarkers`` gives,
+        so a bench can time the detection against it alone (process = detections of markers)."""
         if self.tracker is not None:
             edges = self.params.corner_refinement == "edges"
             shrink = Shrink(WINDOW_SIDE_PX, self._found_shrunk) if edges else None
             follow = self._follow if self._pattern_check is not None else None
             found = detect_tracked(grey, self.tracker, self._found, self._search, shrink, self._recovered, follow)
-            corners_list, ids = as_arrays(found)
+            corners, ids = as_arrays(found)
             final = np.array([f.refined for f in found], dtype=bool)
         else:
-            corners_list, ids = self._detect(grey, None)
+            corners, ids = self._detect(grey, None)
             final = np.zeros(len(ids), dtype=bool)
+        if len(ids) and not final.all():  # a followed marker's corners are final already (follow_quads)
+            corners[~final] = self._refine(grey, corners[~final])
+        return corners, ids
+
+    def detections(self, frame: Frame, corners: np.ndarray, ids: np.ndarray) -> list[Detection]:
+        """`markers`' result for `frame` as Detections: each marker's pose (IPPE, disambiguated), skipping ids not
+        allowed and markers whose pose fails."""
         if len(ids) == 0:
             return []
-        if not final.all():  # a followed marker's corners are final already (follow_quads)
-            corners_list[~final] = self._refine(grey, corners_list[~final])
         intrinsics, degraded = self._intrinsics(frame)
         K, D = intrinsics.matrix, intrinsics.dist_coeffs
         out: list[Detection] = []
-        for c, mid in zip(corners_list, np.asarray(ids).reshape(-1), strict=True):
+        for c, mid in zip(corners, np.asarray(ids).reshape(-1), strict=True):
             marker_id = int(mid)
             if self._allowed is not None and marker_id not in self._allowed:
                 continue
-            corners = c
             size = self.marker_size(marker_id)
-            hyps = square_pose.solve_square(corners, size, K, D)
+            hyps = square_pose.solve_square(c, size, K, D)
             if not hyps:
                 continue
             if self.params.disambiguation == "temporal":
                 choice = self._disambiguator.choose(marker_id, frame.stamp, hyps)
             else:
                 choice = square_pose.choose_naive(hyps)
-            out.append(self._detection(frame, marker_id, corners, size, choice, degraded))
+            out.append(self._detection(frame, marker_id, c, size, choice, degraded))
         return out
 
     def _detection(

@@ -127,6 +127,22 @@ def test_detection_carries_pose_corners_confidence_and_extra_in_the_documented_f
     assert json.loads(json.dumps(det.to_json()))["marker_id"] == 7
 
 
+@pytest.mark.parametrize("tracking", [False, True])
+def test_the_markers_alone_are_the_detections_corners_before_their_pose(tracking):
+    # what a bench times against OpenCV's detectMarkers, which computes no pose: process = detections of markers
+    views = [_one_view(1.0, seed=s) for s in (3, 5)]
+    whole = ArucoSource({"marker_size_m": MARKER, "tracking": tracking})
+    staged = ArucoSource({"marker_size_m": MARKER, "tracking": tracking})
+    for i, view in enumerate(views + views):
+        frame = _frame(view, stamp=i / 30)
+        corners, ids = staged.markers(cv2.cvtColor(view.image, cv2.COLOR_BGR2GRAY))
+        assert corners.shape == (len(ids), 4, 2) and ids.tolist() == [7]
+        [a] = whole.process(frame)
+        [b] = staged.detections(frame, corners, ids)
+        assert np.array_equal(a.corners, b.corners) and np.array_equal(a.position, b.position)
+        assert a.orientation.tolist() == b.orientation.tolist() and a.extra == b.extra
+
+
 def test_confidence_is_lower_for_a_far_small_marker_than_a_near_one():
     near = ArucoSource({"marker_size_m": MARKER}).process(_frame(_one_view(0.5, seed=1)))[0]
     far = ArucoSource({"marker_size_m": MARKER}).process(_frame(_one_view(3.0, seed=1)))[0]
