@@ -289,13 +289,13 @@ class AprilTagSource:
         assert self._pattern_check is not None
         return follow_quads(grey, quads, ids, self._backend.cells, self._pattern_check)
 
-    def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
+    def _search(self, grey: np.ndarray, skip: Sequence[Box], finer: bool) -> list[Found]:
         """Tracking's search pass: OpenCV's detector for the family on the frame sampled down (QuadDetector.search;
         AprilTag 3 costs most of a full frame even there). It only says where to look: each tag it finds is
         detected again by the backend, at full resolution, in a window of its own."""
         if self._searcher is None:
             return []
-        return as_found(*self._searcher.search(grey, skip))
+        return as_found(*self._searcher.search(grey, skip, finer))
 
     # -- the tick ----------------------------------------------------------------------------------
     def process(self, frame: Frame) -> list[Detection]:

@@ -169,8 +169,8 @@ class ArucoSource:
         """A tracking window where a tracked marker was missed, read as the rescue pass reads the frame."""
         return as_found(*self._detect.recover(grey, min_perimeter_rate))
 
-    def _search(self, grey: np.ndarray, skip: Sequence[Box]) -> list[Found]:
-        return as_found(*self._detect.search(grey, skip))
+    def _search(self, grey: np.ndarray, skip: Sequence[Box], finer: bool) -> list[Found]:
+        return as_found(*self._detect.search(grey, skip, finer))
 
     def _follow(self, grey: np.ndarray, quads: np.ndarray, ids: np.ndarray) -> list[np.ndarray | None]:
         assert self._pattern_check is not None

@@ -132,14 +132,15 @@ class QuadDetector:
         quads, ids = self._detect(self._rescue, self._rescue_params, grey, self._rate(min_perimeter_rate))
         return np.array([outline(grey, q, self._cells) for q in quads]).reshape(-1, 4, 2), ids
 
-    def search(self, grey: np.ndarray, skip: Sequence[Box] = ()) -> tuple[np.ndarray, np.ndarray]:
+    def search(self, grey: np.ndarray, skip: Sequence[Box] = (), finer: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Tracking's search pass (marker_tracking.detect_tracked): the markers in the whole frame sampled down
-        (search_step) with one threshold window, in the frame's pixels — for finding markers that came into
-        view, not for their corners (they are detected again at full resolution). The `skip` boxes (x0, y0,
-        x1, y1 frame px: windows searched already) are filled flat, each with its own mean, in the sampled
-        image: the pass then spends nothing on the markers found there (a marker costs it ~0.1 ms, a flat box
-        one candidate), and filling the sampled image costs a ninth of filling a copy of the frame."""
-        step = search_step(grey)
+        (search_step; one step finer with `finer`) with one threshold window, in the frame's pixels — for
+        finding markers that came into view, not for their corners (they are detected again at full
+        resolution). The `skip` boxes (x0, y0, x1, y1 frame px: windows searched already) are filled flat, each
+        with its own mean, in the sampled image: the pass then spends nothing on the markers found there (a
+        marker costs it ~0.1 ms, a flat box one candidate), and filling the sampled image costs a ninth of
+        filling a copy of the frame."""
+        step = max(1, search_step(grey) - 1) if finer else search_step(grey)
         small = sampled(grey, step)
         for x0, y0, x1, y1 in skip:
             region = small[_first(y0, step) : _first(y1, step), _first(x0, step) : _first(x1, step)]

@@ -25,6 +25,10 @@ frame comes every
 IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
 was two fifths of a rendered explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board
 coming into a webcam's empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
+The search pass between samples the frame one step finer then (320×240 → 640×480, 427×240 → 640×360): with no
+marker to follow and no window, the frame is cheap, and at 320×240 a tag36h11 marker (8 modules across) under
+~32 px had under 2 px a module — the target coming back into view at 26–30 px in typical-realism missions waited
+for the next frame's full pass.
 
 A window is sized for the marker it expects: OpenCV's size thresholds are fractions of the image it is
 given (``minMarkerPerimeterRate`` 0.03 of the larger side), so on a 200-px window they would admit every
@@ -156,6 +160,11 @@ class RegionTracker:
     def __post_init__(self) -> None:
         self.since_full = self.full_frame_every - 1  # the first frame is a full-frame pass
 
+    @property
+    def idle(self) -> bool:
+        """No marker was found last frame: nothing is tracked, or the tracks only coast (see full_frame_due)."""
+        return not any(tr.missed == 0 for tr in self.tracks)
+
     def full_frame_due(self) -> bool:
         """Whether this frame is a full-frame pass (every `full_frame_every`-th frame; with no marker found last
         frame, every IDLE_FULL_FRAME_EVERY-th).
@@ -164,8 +173,7 @@ class RegionTracker:
         marker that vanished for a frame during a fast turn shows again anywhere. On aisle seed 5812 under
         `typical`, a followed target's coasting track kept the full frame away for the three frames it coasted
         while the target, ~70 px from it and under the search pass's floor, was in plain view."""
-        found_last = any(tr.missed == 0 for tr in self.tracks)
-        every = self.full_frame_every if found_last else min(self.full_frame_every, IDLE_FULL_FRAME_EVERY)
+        every = min(self.full_frame_every, IDLE_FULL_FRAME_EVERY) if self.idle else self.full_frame_every
         return self.since_full + 1 >= every
 
     def followable(self, width: int, height: int) -> list[_Track]:
@@ -304,7 +312,8 @@ class Found:
 
 
 Detect = Callable[[np.ndarray, float | None], list[Found]]  # (grey, min perimeter rate or None) → markers
-Search = Callable[[np.ndarray, list[Box]], list[Found]]  # the whole frame, cheaply, these windows left out → markers
+# the whole frame, cheaply, these windows left out, one sampling step finer or not → markers (QuadDetector.search)
+Search = Callable[[np.ndarray, list[Box], bool], list[Found]]
 # (grey, predicted quads N×4×2, their ids) → for each, its quad refined onto the frame's edges, or None where the
 # refined quad does not hold the id's pattern (see follow)
 Follow = Callable[[np.ndarray, np.ndarray, np.ndarray], list[np.ndarray | None]]
@@ -357,7 +366,8 @@ def detect_tracked(
             found += _alone(grey, missed, wins, found, detect, shrink)
         due = tracker.window_passes % SEARCH_EVERY == 0 or not wins
         if search is not None and due and tracker.all_found([f.marker_id for f in found]):
-            new = _new_markers(grey, wins, found, search, detect, shrink, [_box(f.quad) for f in followed])
+            boxes = [_box(f.quad) for f in followed]
+            new = _new_markers(grey, wins, found, search, detect, shrink, boxes, finer=tracker.idle)
             tracker.discovered += len(new)
             found += new
         if tracker.found(*as_arrays(found), full=False, extras=[f.extra for f in found]):
@@ -427,12 +437,14 @@ def _new_markers(
     detect: Detect,
     shrink: Shrink | None,
     followed: list[Box],
+    finer: bool = False,
 ) -> list[Found]:
-    """Markers `search` finds in `grey` outside the windows `wins` and the `followed` markers' boxes (found
-    already) that are not among `found`, each detected again in its own full-resolution window of `grey`."""
+    """Markers `search` finds in `grey` (one sampling step `finer` or not) outside the windows `wins` and the
+    `followed` markers' boxes (found already) that are not among `found`, each detected again in its own
+    full-resolution window of `grey`."""
     h, w = grey.shape[:2]
     new: list[Found] = []
-    for candidate in search(grey, [win.box for win in wins] + followed):
+    for candidate in search(grey, [win.box for win in wins] + followed, finer):
         if _among(candidate, found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)

@@ -15,6 +15,7 @@ from mission.core import se3
 from mission.core.types import Frame
 from mission.perception_plugins.apriltag import AprilTagSource
 from mission.perception_plugins.aruco import ArucoSource
+from mission.perception_plugins.marker_quads import shortest_side as side_px
 from mission.perception_plugins.marker_tracking import RegionTracker, Window, detect_tracked
 from tests.helpers.marker_sequences import K, sliding
 from tools import synthetic_views as sv
@@ -217,11 +218,12 @@ def test_with_nothing_tracked_the_full_frame_comes_every_other_frame_and_the_sea
             np.zeros((480, 640), np.uint8),
             tracker,
             lambda g, rate: full.append(rate) or [],
-            lambda g, skip: searched.append(skip) or [],
+            lambda g, skip, finer: searched.append((skip, finer)) or [],
         )
         assert found == []
     assert full == [None] * 3 and tracker.full_passes == 3  # frames 0, 2 and 4: every other frame
-    assert searched == [[]] * 3  # between them the search pass over the whole frame, nothing masked
+    # between them the search pass over the whole frame, nothing masked, one sampling step finer
+    assert searched == [([], True)] * 3
     # a source with no search pass has only the full frame to look with
     bare, seen = RegionTracker(), []
     detect_tracked(np.zeros((480, 640), np.uint8), bare, lambda g, rate: seen.append(rate) or [])
@@ -243,6 +245,28 @@ def test_a_marker_coming_into_an_empty_view_is_found_on_its_first_frame_without_
         b = {d.marker_id: d.corners for d in full.process(frame(view.image, i))}
         assert a.keys() == b.keys() == ({9} if i >= 3 else set())
         assert all(np.abs(a[m] - b[m]).max() < 0.2 for m in b)
+    assert tracked.tracker is not None and tracked.tracker.full_passes == 2 and tracked.tracker.discovered == 1
+
+
+def test_a_small_tag36h11_marker_coming_into_an_empty_640x480_view_is_found_on_its_first_frame():
+    # the sim's camera and markers: a 0.15 m tag36h11 marker 3 m ahead is ~29 px, 8 modules across; the view is
+    # empty, so the full frame comes on frames 0, 2 and 4, and the marker shows on frame 3, a search frame.
+    # Sampled at 320×240 it has under 2 px a module and is not read; one step finer it is
+    k = sv.default_intrinsics(640, 480)
+    tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15, "dictionary": "DICT_APRILTAG_36h11"})
+    full = ArucoSource({"marker_size_m": 0.15, "dictionary": "DICT_APRILTAG_36h11"})
+    rng = np.random.default_rng(0)
+    for i in range(6):
+        T = se3.transform(sv.R_FRONTAL, (0.02 * i if i >= 3 else 9.0, 0.0, 3.0))
+        view = sv.render_marker_view(
+            T, marker_id=9, marker_size_m=0.15, intrinsics=k, rng=rng, dictionary=cv2.aruco.DICT_APRILTAG_36h11
+        )
+        image = Frame(image=view.image, stamp=i / 30.0, intrinsics=k, frame_id="camera")
+        a = {d.marker_id: d.corners for d in tracked.process(image)}
+        b = {d.marker_id: d.corners for d in full.process(image)}
+        assert a.keys() == b.keys() == ({9} if i >= 3 else set())
+        assert all(np.abs(a[m] - b[m]).max() < 0.2 for m in b)
+    assert 27 < side_px(view.corners) < 31
     assert tracked.tracker is not None and tracked.tracker.full_passes == 2 and tracked.tracker.discovered == 1
 
 
@@ -372,19 +396,21 @@ def test_a_marker_that_jumps_away_from_three_still_ones_is_found_on_the_same_fra
 
 def test_a_small_marker_that_vanishes_and_shows_again_elsewhere_waits_one_frame_not_for_its_track_to_expire():
     # a followed target during a fast turn (aisle seed 5812 under `typical`): blurred out of one frame, then
-    # ~110 px from where its track coasts, and under the search pass's floor (29 px at 1280×720, floor 36): the
-    # coasting track is looked for only where it was, so the frame is treated as one with nothing tracked — the
-    # full frame every other frame — and the marker waits one frame, not the three its track coasts and more
+    # ~80 px from where its track coasts, and under the search pass's floor (~22 px at 1280×720; the floor is 36,
+    # and 24 on a frame after one where nothing was found): the coasting track is looked for only where it was,
+    # so the frame is treated as one with nothing tracked — the full frame every other frame — and the marker
+    # waits one frame, not the three its track coasts and more
     tracked = ArucoSource({"tracking": True, "marker_size_m": 0.15})
     full = ArucoSource({"marker_size_m": 0.15})
     rng = np.random.default_rng(4)
     first: dict[str, int] = {}
     for i in range(10):
         x = 0.01 * i if i < 4 else (5.0 if i == 4 else 0.6)  # tracked on 0–3, gone on 4, elsewhere from 5
-        T = se3.transform(sv.R_FRONTAL, (x, 0.0, 4.5))
+        T = se3.transform(sv.R_FRONTAL, (x, 0.0, 6.0))
         view = sv.render_marker_view(T, marker_id=9, marker_size_m=0.15, intrinsics=K, rng=rng)
         for name, source in (("tracked", tracked), ("full", full)):
             seen = any(d.marker_id == 9 for d in source.process(frame(view.image, i)))
             if i >= 5 and seen:
                 first.setdefault(name, i)
     assert first == {"full": 5, "tracked": 6}
+    assert 20 < side_px(view.corners) < 24
