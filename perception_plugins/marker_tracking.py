@@ -19,7 +19,8 @@ in a window round each predicted quad instead of the whole frame, and the whole 
 
 On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
 (the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
-that frame, so the bound above holds only for markers under the search's floor (~36 px at 1280×720). With
+that frame (and where that window does not find it again, the frame goes to the full detector), so the bound
+above holds only for markers under the search's floor (~36 px at 1280×720). With
 nothing found last frame — exploring, searching, the view empty of markers, or tracks only coasting — the full
 frame comes every
 IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
@@ -156,6 +157,7 @@ class RegionTracker:
     leaving: list[_Track] = field(default_factory=list)  # tracks this frame's windows left out (off the edge)
     excused: list[_Track] = field(default_factory=list)  # tracks missed this frame where the rest were found (excuse)
     excused_misses: int = 0  # tracked markers excused from a full-frame pass (excuse)
+    unconfirmed: int = 0  # full-frame passes run because the search pass saw a marker its window did not find
 
     def __post_init__(self) -> None:
         self.since_full = self.full_frame_every - 1  # the first frame is a full-frame pass
@@ -365,12 +367,15 @@ def detect_tracked(
         elif missed:
             found += _alone(grey, missed, wins, found, detect, shrink)
         due = tracker.window_passes % SEARCH_EVERY == 0 or not wins
+        unconfirmed = False
         if search is not None and due and tracker.all_found([f.marker_id for f in found]):
             boxes = [_box(f.quad) for f in followed]
-            new = _new_markers(grey, wins, found, search, detect, shrink, boxes, finer=tracker.idle)
+            new, unconfirmed = _new_markers(grey, wins, found, search, detect, shrink, boxes, finer=tracker.idle)
             tracker.discovered += len(new)
             found += new
-        if tracker.found(*as_arrays(found), full=False, extras=[f.extra for f in found]):
+        if unconfirmed:
+            tracker.unconfirmed += 1
+        elif tracker.found(*as_arrays(found), full=False, extras=[f.extra for f in found]):
             return found
     found = detect(grey, None)
     tracker.found(*as_arrays(found), full=True, extras=[f.extra for f in found])
@@ -438,24 +443,29 @@ def _new_markers(
     shrink: Shrink | None,
     followed: list[Box],
     finer: bool = False,
-) -> list[Found]:
+) -> tuple[list[Found], bool]:
     """Markers `search` finds in `grey` (one sampling step `finer` or not) outside the windows `wins` and the
     `followed` markers' boxes (found already) that are not among `found`, each detected again in its own
-    full-resolution window of `grey`."""
+    full-resolution window of `grey`; and whether one was not found again there (the frame then goes to the
+    full detector: on the sim's dark floor a 140 px target, shrunk in its window, lost its group to its white
+    quiet zone's contour, opencv_contrib#2913, and was reported on no frame until the next full pass)."""
     h, w = grey.shape[:2]
     new: list[Found] = []
+    unconfirmed = False
     for candidate in search(grey, [win.box for win in wins] + followed, finer):
         if _among(candidate, found + new):
             continue
         win = window_round(candidate.quad, np.zeros(2), w, h)
         if win is None:
             continue  # at the image's edge: the next full-frame pass has it
-        new += [
+        again = [
             f
             for f in _in_windows(grey, [win], detect, shrink)
             if f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad)
         ]
-    return new
+        unconfirmed = unconfirmed or not again
+        new += again
+    return new, unconfirmed
 
 
 def _box(quad: np.ndarray) -> Box:
