@@ -20,9 +20,8 @@ in a window round each predicted quad instead of the whole frame, and the whole 
 On every frame that is not a full-frame pass, a *search pass* looks over the whole frame at reduced resolution
 (the windows masked) for markers coming into view: one it finds is detected again in a window of its own, on
 that frame (and where that window does not find it again, the frame goes to the full detector), so the bound
-above holds only for markers under the search's floor (~36 px at 1280×720). With
-nothing found last frame — exploring, searching, the view empty of markers, or tracks only coasting — the full
-frame comes every
+above holds only for markers under the search's floor (~36 px at 1280×720). With nothing found last frame —
+exploring, searching, the view empty of markers, or tracks only coasting — the full frame comes every
 IDLE_FULL_FRAME_EVERY-th frame instead, and the search pass alone between: a full-frame pass on each such frame
 was two fifths of a rendered explore_dock run's frames, and every 10th left 14–17 px markers of a ChArUco board
 coming into a webcam's empty view unfound for up to 9 frames (recall 0.85 on caliscope's cal_cam_1 against 0.99).
@@ -367,16 +366,15 @@ def detect_tracked(
         elif missed:
             found += _alone(grey, missed, wins, found, detect, shrink)
         due = tracker.window_passes % SEARCH_EVERY == 0 or not wins
-        unconfirmed = False
+        new: list[Found] | None = []
         if search is not None and due and tracker.all_found([f.marker_id for f in found]):
             boxes = [_box(f.quad) for f in followed]
-            new, unconfirmed = _new_markers(grey, wins, found, search, detect, shrink, boxes, finer=tracker.idle)
-            tracker.discovered += len(new)
-            found += new
-        if unconfirmed:
+            new = _new_markers(grey, wins, found, search, detect, shrink, boxes, finer=tracker.idle)
+        if new is None:
             tracker.unconfirmed += 1
-        elif tracker.found(*as_arrays(found), full=False, extras=[f.extra for f in found]):
-            return found
+        elif tracker.found(*as_arrays(found + new), full=False, extras=[f.extra for f in found + new]):
+            tracker.discovered += len(new)
+            return found + new
     found = detect(grey, None)
     tracker.found(*as_arrays(found), full=True, extras=[f.extra for f in found])
     return found
@@ -443,15 +441,14 @@ def _new_markers(
     shrink: Shrink | None,
     followed: list[Box],
     finer: bool = False,
-) -> tuple[list[Found], bool]:
+) -> list[Found] | None:
     """Markers `search` finds in `grey` (one sampling step `finer` or not) outside the windows `wins` and the
     `followed` markers' boxes (found already) that are not among `found`, each detected again in its own
-    full-resolution window of `grey`; and whether one was not found again there (the frame then goes to the
-    full detector: on the sim's dark floor a 140 px target, shrunk in its window, lost its group to its white
+    full-resolution window of `grey`; None as soon as one is not found again there: the frame then goes to the
+    full detector (on the sim's dark floor a 140 px target, shrunk in its window, lost its group to its white
     quiet zone's contour, opencv_contrib#2913, and was reported on no frame until the next full pass)."""
     h, w = grey.shape[:2]
     new: list[Found] = []
-    unconfirmed = False
     for candidate in search(grey, [win.box for win in wins] + followed, finer):
         if _among(candidate, found + new):
             continue
@@ -463,9 +460,10 @@ def _new_markers(
             for f in _in_windows(grey, [win], detect, shrink)
             if f.marker_id == candidate.marker_id and _same_place(f.quad, candidate.quad)
         ]
-        unconfirmed = unconfirmed or not again
+        if not again:
+            return None  # the rest would be looked for in vain: the full detector has the frame
         new += again
-    return new, unconfirmed
+    return new
 
 
 def _box(quad: np.ndarray) -> Box:
